@@ -1,0 +1,18 @@
+"""wsnlib: the helper library behind the wsn-motion notebooks.
+
+Conventions, stated once for the whole package
+----------------------------------------------
+* Quaternions are numpy arrays ``[..., 4]``, scalar first ``[w, x, y, z]``.  A quaternion
+  ``q`` rotates a body-frame (sensor) vector into the earth frame: ``v_E = q ⊗ v_B ⊗ q*``.
+  The earth frame is ENU: x east, y north, z up.  This is the convention of BROAD's
+  ``opt_quat`` and of ``scipy.spatial.transform.Rotation`` (which stores the scalar last;
+  :mod:`wsnlib.quaternion` is the only place that reorders).
+* Signals: ``gyr`` rad/s, ``acc`` m/s² (specific force: +g along earth z at rest),
+  ``mag`` µT, time in seconds, ``fs`` in Hz.
+* Arrays have shape ``(..., T, 3)`` (vectors) or ``(..., T, 4)`` (quaternions); leading
+  dimensions are batches (Monte Carlo runs, parameter grids).
+* Packet loss is a boolean ``received`` mask of shape ``(..., T)``; rows are never deleted.
+* Every random draw comes from a ``numpy.random.Generator`` passed in as ``rng``.
+"""
+
+__version__ = "0.1.0"

@@ -1,0 +1,78 @@
+"""Input checks shared by every public function: clear ``ValueError`` naming the argument."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def as_float_array(value, name: str, last_dim: int | None = None, min_ndim: int = 1) -> np.ndarray:
+    """Return ``value`` as a finite float64 array, or raise ``ValueError`` naming ``name``.
+
+    Parameters
+    ----------
+    value : array_like
+    name : str
+        Argument name used in error messages.
+    last_dim : int, optional
+        Required size of the last axis (3 for vectors, 4 for quaternions).
+    min_ndim : int
+        Minimum number of dimensions.
+    """
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a numeric array, got {type(value).__name__}") from exc
+    if arr.ndim < min_ndim:
+        raise ValueError(f"{name} must have at least {min_ndim} dimension(s), got shape {arr.shape}")
+    if last_dim is not None and arr.shape[-1] != last_dim:
+        raise ValueError(f"{name} must have shape (..., {last_dim}), got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        bad = np.argwhere(~np.isfinite(arr))[0]
+        raise ValueError(f"{name} contains NaN or inf (first at index {tuple(int(i) for i in bad)})")
+    return arr
+
+
+def check_nonzero_norm(arr: np.ndarray, name: str, what: str) -> np.ndarray:
+    """Return ``‖arr‖`` along the last axis; raise if any vector has zero norm."""
+    norm = np.linalg.norm(arr, axis=-1)
+    if np.any(norm <= 0.0):
+        bad = np.argwhere(norm <= 0.0)[0]
+        raise ValueError(
+            f"{name} has a zero-norm vector at index {tuple(int(i) for i in bad)} ({what})"
+        )
+    return norm
+
+
+def check_positive(value, name: str) -> float:
+    """Return ``value`` as a float, raising ``ValueError`` unless it is finite and > 0."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a positive number, got {value!r}") from exc
+    if not math.isfinite(number) or number <= 0.0:
+        raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+    return number
+
+
+def check_nonnegative(value, name: str) -> float:
+    """Return ``value`` as a float, raising ``ValueError`` unless it is finite and >= 0."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a non-negative number, got {value!r}") from exc
+    if not math.isfinite(number) or number < 0.0:
+        raise ValueError(f"{name} must be a non-negative finite number, got {value!r}")
+    return number
+
+
+def as_bool_mask(value, name: str, shape: tuple[int, ...]) -> np.ndarray:
+    """Return a boolean mask broadcast to ``shape``; reject non-boolean dtypes."""
+    arr = np.asarray(value)
+    if arr.dtype != np.bool_:
+        raise ValueError(f"{name} must be a boolean mask, got dtype {arr.dtype}")
+    try:
+        return np.broadcast_to(arr, shape)
+    except ValueError as exc:
+        raise ValueError(f"{name} has shape {arr.shape}, which does not fit {shape}") from exc

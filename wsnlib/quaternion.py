@@ -1,0 +1,159 @@
+"""Vectorised unit-quaternion operations, scalar first ``[w, x, y, z]``.
+
+A quaternion ``q`` rotates a body-frame vector into the earth frame (ENU):
+``v_E = q ⊗ [0, v_B] ⊗ q*``.  Every function accepts arrays of shape ``(..., 4)`` and
+broadcasts over the leading dimensions.
+
+SLERP is eq. (2) of De Vito et al. (paper 001)::
+
+    SLERP(q_A, q_B, μ) = sin((1-μ)Ω)/sin Ω · q_A + sin(μΩ)/sin Ω · q_B,  cos Ω = q_A · q_B
+
+taken along the shorter arc (``q_B`` is negated when ``q_A · q_B < 0``, since ``q`` and ``-q``
+are the same rotation), and replaced by normalised linear interpolation when Ω → 0 where the
+sine ratio is 0/0.
+
+:func:`to_scipy` and :func:`from_scipy` are the only places in wsnlib that convert to the
+scalar-last layout of :class:`scipy.spatial.transform.Rotation`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from wsnlib._validation import as_float_array, check_nonzero_norm
+
+#: Below this angle (rad) between the two quaternions, SLERP falls back to normalised lerp.
+_SLERP_SMALL_ANGLE = 1e-6
+
+
+def identity(shape: tuple[int, ...] = ()) -> np.ndarray:
+    """Identity quaternions of shape ``shape + (4,)``."""
+    q = np.zeros(tuple(shape) + (4,))
+    q[..., 0] = 1.0
+    return q
+
+
+def normalize(q) -> np.ndarray:
+    """Scale quaternions to unit norm. Raises ``ValueError`` on a zero quaternion."""
+    q = as_float_array(q, "q", last_dim=4)
+    norm = check_nonzero_norm(q, "q", "a zero quaternion is not a rotation")
+    return q / norm[..., None]
+
+
+def conjugate(q) -> np.ndarray:
+    """Quaternion conjugate ``[w, -x, -y, -z]`` (the inverse rotation for unit quaternions)."""
+    q = np.asarray(q, dtype=float)
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def multiply(p, q) -> np.ndarray:
+    """Hamilton product ``p ⊗ q`` (apply ``q`` first, then ``p``), broadcasting."""
+    p = np.asarray(p, dtype=float)
+    q = np.asarray(q, dtype=float)
+    pw, px, py, pz = np.moveaxis(p, -1, 0)
+    qw, qx, qy, qz = np.moveaxis(q, -1, 0)
+    return np.stack(
+        [
+            pw * qw - px * qx - py * qy - pz * qz,
+            pw * qx + px * qw + py * qz - pz * qy,
+            pw * qy - px * qz + py * qw + pz * qx,
+            pw * qz + px * qy - py * qx + pz * qw,
+        ],
+        axis=-1,
+    )
+
+
+def rotate(q, v) -> np.ndarray:
+    """Rotate vectors ``v`` (``(..., 3)``, body frame) into the earth frame by unit ``q``."""
+    q = np.asarray(q, dtype=float)
+    v = np.asarray(v, dtype=float)
+    w = q[..., :1]
+    u = q[..., 1:]
+    # v' = v + 2w (u × v) + 2 u × (u × v), the expanded form of q ⊗ v ⊗ q*.
+    uv = np.cross(u, v)
+    return v + 2.0 * w * uv + 2.0 * np.cross(u, uv)
+
+
+def rotate_inverse(q, v) -> np.ndarray:
+    """Rotate earth-frame vectors into the body frame: ``q* ⊗ v ⊗ q``."""
+    return rotate(conjugate(q), v)
+
+
+def canonical(q) -> np.ndarray:
+    """Pick the representative with ``w >= 0`` (``q`` and ``-q`` are the same rotation)."""
+    q = np.asarray(q, dtype=float)
+    return np.where(q[..., :1] < 0.0, -q, q)
+
+
+def angle_between(q_a, q_b) -> np.ndarray:
+    """Rotation angle (rad, in ``[0, π]``) of ``q_a* ⊗ q_b``: how far apart two orientations are.
+
+    Uses ``2·atan2(‖vec‖, |w|)``, which stays accurate for small angles where ``arccos`` does not.
+    """
+    d = multiply(conjugate(q_a), q_b)
+    return 2.0 * np.arctan2(np.linalg.norm(d[..., 1:], axis=-1), np.abs(d[..., 0]))
+
+
+def from_axis_angle(axis, angle) -> np.ndarray:
+    """Quaternion for a rotation by ``angle`` (rad) about ``axis`` (``(..., 3)``, normalised here)."""
+    axis = as_float_array(axis, "axis", last_dim=3)
+    norm = check_nonzero_norm(axis, "axis", "a rotation axis needs a direction")
+    half = 0.5 * np.asarray(angle, dtype=float)
+    unit = axis / norm[..., None]
+    return np.concatenate([np.cos(half)[..., None], np.sin(half)[..., None] * unit], axis=-1)
+
+
+def from_rotation_vector(rotvec) -> np.ndarray:
+    """Quaternion ``exp(rotvec/2)`` for rotation vectors (rad) ``(..., 3)``; exact at zero."""
+    rotvec = np.asarray(rotvec, dtype=float)
+    angle = np.linalg.norm(rotvec, axis=-1)
+    half = 0.5 * angle
+    # sin(θ/2)/θ → 1/2 as θ → 0; np.sinc(x) = sin(πx)/(πx).
+    scale = 0.5 * np.sinc(half / np.pi)
+    return np.concatenate([np.cos(half)[..., None], scale[..., None] * rotvec], axis=-1)
+
+
+def slerp(q_a, q_b, mu) -> np.ndarray:
+    """Spherical linear interpolation, eq. (2) of paper 001, along the shorter arc.
+
+    Parameters
+    ----------
+    q_a, q_b : array_like, shape (..., 4)
+        Unit quaternions; ``mu = 0`` returns ``q_a`` and ``mu = 1`` returns ``q_b`` (or
+        ``-q_b`` when that is the nearer representative of the same rotation).
+    mu : array_like, shape (...)
+        Interpolation amount per sample, in ``[0, 1]``; broadcasts against the leading
+        dimensions of the quaternions.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 4)
+        Unit quaternions.
+    """
+    q_a = normalize(q_a)
+    q_b = normalize(q_b)
+    mu = as_float_array(mu, "mu", min_ndim=0)
+    if np.any((mu < 0.0) | (mu > 1.0)):
+        raise ValueError("mu must lie in [0, 1]")
+    dot = np.sum(q_a * q_b, axis=-1)
+    q_b = np.where(dot[..., None] < 0.0, -q_b, q_b)
+    dot = np.clip(np.abs(dot), 0.0, 1.0)
+    omega = np.arccos(dot)
+    small = omega < _SLERP_SMALL_ANGLE
+    sin_omega = np.where(small, 1.0, np.sin(omega))
+    weight_a = np.where(small, 1.0 - mu, np.sin((1.0 - mu) * omega) / sin_omega)
+    weight_b = np.where(small, mu, np.sin(mu * omega) / sin_omega)
+    out = weight_a[..., None] * q_a + weight_b[..., None] * q_b
+    return out / np.linalg.norm(out, axis=-1, keepdims=True)
+
+
+def to_scipy(q) -> Rotation:
+    """Convert ``[w, x, y, z]`` quaternions to a :class:`~scipy.spatial.transform.Rotation`."""
+    q = as_float_array(q, "q", last_dim=4)
+    return Rotation.from_quat(q[..., [1, 2, 3, 0]])
+
+
+def from_scipy(rotation: Rotation) -> np.ndarray:
+    """Convert a :class:`~scipy.spatial.transform.Rotation` to ``[w, x, y, z]`` quaternions."""
+    return rotation.as_quat()[..., [3, 0, 1, 2]]
