@@ -1,13 +1,52 @@
-"""Project folders, built from this package's location (never from the working directory)."""
+"""Project folders, built from this package's location (never from the working directory).
 
+Generated content (simulated raw recordings, figures, tables, executed notebooks) goes below
+``ROOT`` unless the environment variable ``WSNLIB_OUTPUT_DIR`` names another folder; the
+tests use that to run the batch into temporary folders without touching the checkout.
+Read the folders through the functions below (not module constants), so a change of the
+variable inside a running process is honoured.
+"""
+
+from __future__ import annotations
+
+import os
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 NOTEBOOKS = ROOT / "notebooks"
-DATA_RAW = ROOT / "data" / "raw"
-DATA_PROCESSED = ROOT / "data" / "processed"
-FIGURES = ROOT / "figures"
-EXECUTED = ROOT / "build" / "executed"
 
-#: Name of the Jupyter kernel that ``make`` registers for the project's virtual environment.
+#: Name of the Jupyter kernel that ``make`` registers inside the project's virtual environment.
 KERNEL_NAME = "wsn-motion"
+
+OUTPUT_ENV_VAR = "WSNLIB_OUTPUT_DIR"
+
+
+def output_root() -> Path:
+    """Folder below which generated content is written (``ROOT`` or ``$WSNLIB_OUTPUT_DIR``)."""
+    override = os.environ.get(OUTPUT_ENV_VAR)
+    return Path(override).resolve() if override else ROOT
+
+
+def data_raw() -> Path:
+    """Raw recordings (simulated ones are written here), created on first use."""
+    return _ensure(output_root() / "data" / "raw")
+
+
+def data_processed() -> Path:
+    """Tables computed by the notebooks, and the batch manifest."""
+    return _ensure(output_root() / "data" / "processed")
+
+
+def figures() -> Path:
+    """Figures saved by :func:`wsnlib.plotting.savefig`."""
+    return _ensure(output_root() / "figures")
+
+
+def executed_notebooks() -> Path:
+    """Executed copies of the notebooks (gitignored)."""
+    return _ensure(output_root() / "build" / "executed")
+
+
+def _ensure(path: Path) -> Path:
+    path.mkdir(parents=True, exist_ok=True)
+    return path

@@ -1,0 +1,40 @@
+# wsn-motion: `make figures` regenerates every figure and table, `make test` runs lint and tests.
+# Both bootstrap .venv from environment.lock on first use (only python3 is needed).
+
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+KERNEL := wsn-motion
+STAMP := $(VENV)/.installed
+
+.PHONY: figures quick test lint lock clean-outputs
+
+figures: $(STAMP)
+	$(PY) -m wsnlib.reproduce
+
+quick: $(STAMP)
+	$(PY) -m wsnlib.reproduce --quick
+
+test: $(STAMP)
+	$(VENV)/bin/ruff check .
+	$(PY) -m pytest
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check .
+
+# The environment: exact pinned versions with hashes, then wsnlib itself (editable), then a
+# named Jupyter kernel inside the venv (--sys-prefix), which papermill finds by name.
+$(STAMP): environment.lock pyproject.toml
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --require-hashes --no-deps -r environment.lock
+	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e .
+	$(PY) -m ipykernel install --sys-prefix --name $(KERNEL) --display-name "Python (wsn-motion)"
+	touch $(STAMP)
+
+# Regenerate environment.lock from requirements.in (needs uv: `python3 -m pip install uv`).
+lock:
+	uv pip compile requirements.in --generate-hashes --python-version 3.11 --universal \
+		--output-file environment.lock
+
+clean-outputs:
+	rm -rf build figures/*.png figures/*.pdf data/processed/*.csv data/processed/manifest.json data/raw/sim

@@ -1,0 +1,250 @@
+import numpy as np
+import pytest
+
+from wsnlib import loss
+
+_ONES = np.ones(3, dtype=bool)
+
+# ------------------------------------------------------------------ packets ↔ samples
+
+
+def test_packets_to_samples_repeats_each_flag():
+    packets = np.array([True, False, True])
+    samples = loss.packets_to_samples(packets, samples_per_packet=2)
+    assert samples.tolist() == [True, True, False, False, True, True]
+
+
+def test_packets_to_samples_partial_last_packet_and_batch():
+    packets = np.array([[True, True, False], [False, True, True]])
+    samples = loss.packets_to_samples(packets, samples_per_packet=6, n_samples=14)
+    assert samples.shape == (2, 14)
+    assert samples[0].tolist() == [True] * 12 + [False] * 2
+    assert samples[1].tolist() == [False] * 6 + [True] * 8
+    assert loss.n_packets_for(14, 6) == 3
+    assert loss.n_packets_for(12, 6) == 2
+    assert loss.n_packets_for(0, 6) == 0
+
+
+@pytest.mark.parametrize("n_samples", [11, 19, 5])
+def test_packets_to_samples_rejects_wrong_packet_count(n_samples):
+    with pytest.raises(ValueError, match="needs"):
+        loss.packets_to_samples(np.ones(3, dtype=bool), 6, n_samples=n_samples)
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"packet_received": np.ones(3)}, "boolean"),
+        ({"packet_received": _ONES, "samples_per_packet": 0}, "samples_per_packet"),
+        ({"packet_received": _ONES, "samples_per_packet": 2.5}, "samples_per_packet"),
+        ({"packet_received": np.ones(3, dtype=bool), "n_samples": -1}, "n_samples"),
+        ({"packet_received": np.bool_(True)}, "dimension"),
+    ],
+)
+def test_packets_to_samples_bad_inputs(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        loss.packets_to_samples(**kwargs)
+
+
+# ------------------------------------------------------------------ bursts
+
+
+def test_burst_loss_placement_and_end_cut():
+    mask = loss.burst_loss(10, 3, 4)
+    assert np.flatnonzero(~mask).tolist() == [3, 4, 5, 6]
+    assert np.flatnonzero(~loss.burst_loss(10, 8, 4)).tolist() == [8, 9]
+    assert loss.burst_loss(10, 10, 4).all()
+    assert loss.burst_loss(10, 0, 0).all()
+    assert not loss.burst_loss(5, 0, 5).any()
+
+
+def test_burst_mask_paper_case_next_and_exact():
+    n = 300
+    nxt = loss.burst_mask(n, 80, 4)
+    assert np.flatnonzero(~nxt).tolist() == list(range(84, 108))
+    # "next" is the same as building the burst on the packet grid.
+    packets = loss.burst_loss(loss.n_packets_for(n), 14, 4)
+    assert np.array_equal(nxt, loss.packets_to_samples(packets, 6, n))
+    exact = loss.burst_mask(n, 80, 4, align="exact")
+    assert np.flatnonzero(~exact).tolist() == list(range(80, 104))
+    assert loss.lost_run_length(exact).max() == 24
+    # On a packet boundary both alignments agree.
+    assert np.array_equal(loss.burst_mask(n, 78, 4), loss.burst_mask(n, 78, 4, align="exact"))
+
+
+def test_burst_mask_at_start_and_end():
+    start = loss.burst_mask(30, 0, 2)
+    assert np.flatnonzero(~start).tolist() == list(range(12))
+    end = loss.burst_mask(30, 25, 3, align="exact")
+    assert np.flatnonzero(~end).tolist() == list(range(25, 30))
+    assert loss.burst_mask(30, 25, 3).all()  # next boundary (30) is past the end
+    assert loss.burst_mask(30, 30, 3, align="exact").all()
+
+
+@pytest.mark.parametrize(
+    "args, kwargs, match",
+    [
+        ((30, 31, 1), {}, "start_sample"),
+        ((30, -1, 1), {}, "start_sample"),
+        ((30, 5, -1), {}, "n_packets"),
+        ((30, 5, 1, 0), {}, "samples_per_packet"),
+        ((30, 5, 1), {"align": "previous"}, "align"),
+        ((30.0, 5, 1), {}, "n_samples"),
+    ],
+)
+def test_burst_mask_bad_inputs(args, kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        loss.burst_mask(*args, **kwargs)
+
+
+def test_burst_loss_bad_inputs():
+    with pytest.raises(ValueError, match="start_packet"):
+        loss.burst_loss(5, 6, 1)
+    with pytest.raises(ValueError, match="n_lost"):
+        loss.burst_loss(5, 1, -2)
+
+
+# ------------------------------------------------------------------ random models
+
+
+def test_bernoulli_rate_shape_and_determinism():
+    a = loss.bernoulli_loss(20_000, 0.2, rng=np.random.default_rng(1), shape=(5,))
+    b = loss.bernoulli_loss(20_000, 0.2, rng=np.random.default_rng(1), shape=(5,))
+    c = loss.bernoulli_loss(20_000, 0.2, rng=np.random.default_rng(2), shape=(5,))
+    assert a.shape == (5, 20_000) and a.dtype == bool
+    assert np.array_equal(a, b)
+    assert not np.array_equal(a, c)
+    # 100k Bernoulli(0.2): standard error 0.0013
+    assert loss.loss_fraction(a).mean() == pytest.approx(0.2, abs=0.005)
+    assert loss.bernoulli_loss(50, 0.0, rng=np.random.default_rng(0)).all()
+    assert not loss.bernoulli_loss(50, 1.0, rng=np.random.default_rng(0)).any()
+
+
+@pytest.mark.parametrize("loss_rate, mean_burst", [(0.1, 3.0), (0.3, 1.5), (0.05, 1.0), (0.5, 8.0)])
+def test_gilbert_elliott_matches_rate_and_mean_burst(loss_rate, mean_burst):
+    rng = np.random.default_rng(2024)
+    mask = loss.gilbert_elliott(10_000, loss_rate, mean_burst, rng=rng, shape=(40,))
+    assert mask.shape == (40, 10_000)
+    # 400k packets; bursty losses inflate the variance, tolerance ~ 5 standard errors.
+    assert loss.loss_fraction(mask).mean() == pytest.approx(loss_rate, rel=0.05)
+    bursts = loss.burst_lengths(mask)
+    assert bursts.mean() == pytest.approx(mean_burst, rel=0.05)
+    # Stationary start: the first packet is lost with probability loss_rate.
+    first = loss.gilbert_elliott(1, loss_rate, mean_burst, rng=rng, shape=(20_000,))
+    assert 1.0 - first.mean() == pytest.approx(loss_rate, abs=0.02)
+
+
+def test_gilbert_elliott_determinism_and_edges():
+    a = loss.gilbert_elliott(500, 0.2, 4.0, rng=np.random.default_rng(7), shape=(3, 2))
+    b = loss.gilbert_elliott(500, 0.2, 4.0, rng=np.random.default_rng(7), shape=(3, 2))
+    c = loss.gilbert_elliott(500, 0.2, 4.0, rng=np.random.default_rng(8), shape=(3, 2))
+    assert a.shape == (3, 2, 500)
+    assert np.array_equal(a, b) and not np.array_equal(a, c)
+    assert loss.gilbert_elliott(100, 0.0, 3.0, rng=np.random.default_rng(0)).all()
+    assert loss.gilbert_elliott(0, 0.2, 3.0, rng=np.random.default_rng(0)).shape == (0,)
+    p_gb, p_bg = loss.gilbert_elliott_probabilities(0.2, 4.0)
+    assert p_bg == 0.25 and p_gb / (p_gb + p_bg) == pytest.approx(0.2)
+
+
+@pytest.mark.parametrize(
+    "loss_rate, mean_burst, match",
+    [
+        (1.0, 3.0, "loss_rate"),
+        (-0.1, 3.0, "loss_rate"),
+        (0.2, 0.5, "mean_burst"),
+        (0.2, float("nan"), "mean_burst"),
+        (0.6, 1.0, "loss_rate"),  # needs mean_burst >= 1.5
+        ("a", 2.0, "loss_rate"),
+    ],
+)
+def test_gilbert_elliott_bad_parameters(loss_rate, mean_burst, match):
+    with pytest.raises(ValueError, match=match):
+        loss.gilbert_elliott(10, loss_rate, mean_burst, rng=np.random.default_rng(0))
+
+
+def test_random_models_require_a_generator():
+    with pytest.raises(ValueError, match="rng"):
+        loss.bernoulli_loss(10, 0.1, rng=np.random.RandomState(0))
+    with pytest.raises(ValueError, match="rng"):
+        loss.gilbert_elliott(10, 0.1, 2.0, rng=None)
+    with pytest.raises(ValueError, match="shape"):
+        loss.bernoulli_loss(10, 0.1, rng=np.random.default_rng(0), shape=(-1,))
+
+
+# ------------------------------------------------------------------ trace files
+
+
+def test_loss_trace_formats(tmp_path):
+    lines = tmp_path / "lines.txt"
+    lines.write_text("# measured trace\nreceived\n1\n1\n0\n\n1\n")
+    assert loss.loss_trace_from_file(lines).tolist() == [True, True, False, True]
+    csv = tmp_path / "row.csv"
+    csv.write_text("1,0,0,1, true ,FALSE\n")
+    assert loss.loss_trace_from_file(csv).tolist() == [True, False, False, True, True, False]
+
+
+@pytest.mark.parametrize(
+    "content, match",
+    [
+        ("1\n2\n", "'2'"),
+        ("", "no packet flags"),
+        ("# only\n", "no packet flags"),
+        ("1\nreceived\n", "received"),
+    ],
+)
+def test_loss_trace_bad_content(tmp_path, content, match):
+    path = tmp_path / "trace.txt"
+    path.write_text(content)
+    with pytest.raises(ValueError, match=match):
+        loss.loss_trace_from_file(path)
+
+
+def test_loss_trace_missing_file(tmp_path):
+    with pytest.raises(ValueError, match="no such file"):
+        loss.loss_trace_from_file(tmp_path / "absent.txt")
+
+
+# ------------------------------------------------------------------ run lengths
+
+
+def test_lost_run_length_table():
+    received = np.array([False, False, True, False, False, False, True, True, False])
+    assert loss.lost_run_length(received).tolist() == [1, 2, 0, 1, 2, 3, 0, 0, 1]
+
+
+def test_lost_run_length_edges_and_batch():
+    batch = np.array([[True] * 5, [False] * 5, [True, True, True, False, False]])
+    lam = loss.lost_run_length(batch)
+    assert lam.dtype.kind == "i"
+    assert lam.tolist() == [[0] * 5, [1, 2, 3, 4, 5], [0, 0, 0, 1, 2]]
+    assert loss.lost_run_length(np.zeros((2, 0), dtype=bool)).shape == (2, 0)
+    assert loss.burst_lengths(batch).tolist() == [5, 2]
+    assert loss.burst_lengths(np.ones(4, dtype=bool)).size == 0
+    with pytest.raises(ValueError, match="boolean"):
+        loss.lost_run_length(np.array([1, 0, 1]))
+
+
+def test_lost_run_length_matches_loop(rng):
+    received = rng.random((4, 200)) > 0.3
+    expected = np.zeros(received.shape, dtype=int)
+    for row in range(4):
+        run = 0
+        for k in range(200):
+            run = 0 if received[row, k] else run + 1
+            expected[row, k] = run
+    assert np.array_equal(loss.lost_run_length(received), expected)
+
+
+def test_hold_last_forward_fills_and_backfills_the_start():
+    values = np.arange(6.0)[:, None] * np.ones((1, 2))
+    received = np.array([False, True, False, False, True, False])
+    held = loss.hold_last(values, received)
+    np.testing.assert_array_equal(held[:, 0], [1, 1, 1, 1, 4, 4])
+    # a batch of masks over one sequence
+    masks = np.stack([received, np.ones(6, bool)])
+    assert loss.hold_last(values, masks).shape == (2, 6, 2)
+    np.testing.assert_array_equal(loss.hold_last(values, masks)[1], values)
+    with np.testing.assert_raises(ValueError):
+        loss.hold_last(values, np.zeros(6, bool))
+    with np.testing.assert_raises(ValueError):
+        loss.hold_last(values, received[:5])

@@ -1,0 +1,229 @@
+"""Tests for wsnlib.quaternion: scipy as the reference, hypothesis for invariants."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+from scipy.spatial.transform import Rotation, Slerp
+
+from wsnlib import quaternion as Q
+
+# ---------------------------------------------------------------- strategies
+
+_finite = st.floats(-1.0, 1.0, allow_nan=False, allow_infinity=False)
+_raw_quat = arrays(float, 4, elements=_finite).filter(lambda v: np.linalg.norm(v) > 1e-3)
+unit_quats = _raw_quat.map(lambda v: v / np.linalg.norm(v))
+vectors = arrays(float, 3, elements=st.floats(-10.0, 10.0, allow_nan=False))
+mus = st.floats(0.0, 1.0, allow_nan=False)
+
+
+def random_quats(rng, shape):
+    q = rng.normal(size=tuple(shape) + (4,))
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+def same_rotation(q_a, q_b, atol=1e-12):
+    """q and -q are the same rotation: compare up to sign, per quaternion."""
+    sign = np.where(np.sum(q_a * q_b, axis=-1, keepdims=True) < 0.0, -1.0, 1.0)
+    np.testing.assert_allclose(q_a, sign * q_b, atol=atol, rtol=0)
+
+
+# ---------------------------------------------------------------- scipy round trips
+
+
+def test_scipy_round_trip(rng):
+    q = random_quats(rng, (5, 7))
+    back = Q.from_scipy(Q.to_scipy(q.reshape(-1, 4))).reshape(q.shape)
+    same_rotation(back, q)
+
+
+def test_scalar_first_layout():
+    # 90° about z: scipy stores [x, y, z, w]; wsnlib [w, x, y, z].
+    q = Q.from_scipy(Rotation.from_euler("z", 90, degrees=True))
+    same_rotation(q, np.array([np.sqrt(0.5), 0.0, 0.0, np.sqrt(0.5)]))
+    np.testing.assert_allclose(Q.rotate(q, [1.0, 0.0, 0.0]), [0.0, 1.0, 0.0], atol=1e-15)
+
+
+def test_from_scipy_to_scipy(rng):
+    r = Rotation.random(20, rng=rng)
+    np.testing.assert_allclose(
+        Q.to_scipy(Q.from_scipy(r)).as_matrix(), r.as_matrix(), atol=1e-12
+    )
+
+
+# ---------------------------------------------------------------- products and rotations
+
+
+def test_multiply_matches_scipy_composition(rng):
+    p, q = random_quats(rng, (30,)), random_quats(rng, (30,))
+    # p ⊗ q applies q first: scipy's r_p * r_q.
+    expected = Q.from_scipy(Q.to_scipy(p) * Q.to_scipy(q))
+    same_rotation(Q.multiply(p, q), expected)
+
+
+def test_multiply_broadcasts(rng):
+    p, q = random_quats(rng, (4, 1)), random_quats(rng, (1, 6))
+    out = Q.multiply(p, q)
+    assert out.shape == (4, 6, 4)
+    np.testing.assert_allclose(out[2, 3], Q.multiply(p[2, 0], q[0, 3]), atol=1e-15)
+
+
+def test_rotate_matches_scipy_apply(rng):
+    q = random_quats(rng, (40,))
+    v = rng.normal(size=(40, 3))
+    np.testing.assert_allclose(Q.rotate(q, v), Q.to_scipy(q).apply(v), atol=1e-12)
+    np.testing.assert_allclose(
+        Q.rotate_inverse(q, v), Q.to_scipy(q).apply(v, inverse=True), atol=1e-12
+    )
+
+
+def test_rotate_inverse_undoes_rotate(rng):
+    q = random_quats(rng, (10,))
+    v = rng.normal(size=(10, 3))
+    np.testing.assert_allclose(Q.rotate_inverse(q, Q.rotate(q, v)), v, atol=1e-12)
+
+
+def test_angle_between_matches_scipy_magnitude(rng):
+    q_a, q_b = random_quats(rng, (50,)), random_quats(rng, (50,))
+    expected = (Q.to_scipy(q_a).inv() * Q.to_scipy(q_b)).magnitude()
+    np.testing.assert_allclose(Q.angle_between(q_a, q_b), expected, atol=1e-12)
+
+
+def test_angle_between_small_angles_accurate():
+    angle = 1e-9
+    q = Q.from_axis_angle([0.0, 1.0, 0.0], angle)
+    assert Q.angle_between(Q.identity(), q) == pytest.approx(angle, rel=1e-9)
+
+
+def test_from_axis_angle_and_rotation_vector_match_scipy(rng):
+    rotvec = rng.normal(size=(20, 3))
+    same_rotation(Q.from_rotation_vector(rotvec), Q.from_scipy(Rotation.from_rotvec(rotvec)))
+    angle = np.linalg.norm(rotvec, axis=-1)
+    same_rotation(Q.from_axis_angle(rotvec, angle), Q.from_rotation_vector(rotvec))
+    np.testing.assert_array_equal(Q.from_rotation_vector(np.zeros(3)), [1.0, 0.0, 0.0, 0.0])
+
+
+def test_identity_conjugate_canonical(rng):
+    assert Q.identity((2, 3)).shape == (2, 3, 4)
+    q = random_quats(rng, (10,))
+    same_rotation(Q.multiply(q, Q.conjugate(q)), Q.identity((10,)))
+    c = Q.canonical(q)
+    assert np.all(c[:, 0] >= 0.0)
+    same_rotation(c, q)
+
+
+# ---------------------------------------------------------------- slerp
+
+
+@pytest.mark.parametrize("mu", [0.0, 0.1, 0.5, 0.77, 1.0])
+def test_slerp_matches_scipy(rng, mu):
+    q_a, q_b = random_quats(rng, (25,)), random_quats(rng, (25,))
+    out = Q.slerp(q_a, q_b, mu)
+    for i in range(len(q_a)):
+        ref = Slerp([0.0, 1.0], Q.to_scipy(np.stack([q_a[i], q_b[i]])))([mu])
+        same_rotation(out[i], Q.from_scipy(ref)[0])
+
+
+def test_slerp_per_sample_mu_and_batches(rng):
+    q_a, q_b = random_quats(rng, (3, 8)), random_quats(rng, (3, 8))
+    mu = rng.random((3, 8))
+    out = Q.slerp(q_a, q_b, mu)
+    assert out.shape == (3, 8, 4)
+    for i in range(3):
+        for j in range(8):
+            ref = Slerp([0.0, 1.0], Q.to_scipy(np.stack([q_a[i, j], q_b[i, j]])))([mu[i, j]])
+            same_rotation(out[i, j], Q.from_scipy(ref)[0])
+
+
+def test_slerp_mu_broadcasts_over_a_batch_of_masks(rng):
+    q_a, q_b = random_quats(rng, (8,)), random_quats(rng, (8,))
+    mu = rng.random((5, 8))
+    out = Q.slerp(q_a, q_b, mu)
+    assert out.shape == (5, 8, 4)
+    np.testing.assert_allclose(out[3], Q.slerp(q_a, q_b, mu[3]), atol=1e-15)
+
+
+def test_slerp_takes_shortest_path(rng):
+    q_a, q_b = random_quats(rng, (20,)), random_quats(rng, (20,))
+    mu = rng.random(20)
+    np.testing.assert_allclose(Q.slerp(q_a, -q_b, mu), Q.slerp(q_a, q_b, mu), atol=1e-12)
+    # Half way lies at half the rotation angle.
+    half = Q.slerp(q_a, q_b, 0.5)
+    np.testing.assert_allclose(
+        Q.angle_between(q_a, half), 0.5 * Q.angle_between(q_a, q_b), atol=1e-12
+    )
+
+
+@pytest.mark.parametrize("gap", [0.0, 1e-15, 1e-9, 1e-7, 2e-6])
+def test_slerp_near_identical_quaternions_finite(rng, gap):
+    q_a = random_quats(rng, (6,))
+    q_b = Q.multiply(q_a, Q.from_axis_angle([0.3, -1.0, 0.2], gap))
+    mu = np.linspace(0.0, 1.0, 6)
+    out = Q.slerp(q_a, q_b, mu)
+    assert np.all(np.isfinite(out))
+    np.testing.assert_allclose(np.linalg.norm(out, axis=-1), 1.0, atol=1e-15)
+    np.testing.assert_allclose(Q.angle_between(q_a, out), mu * gap, atol=1e-12)
+
+
+# ---------------------------------------------------------------- hypothesis invariants
+
+
+@settings(max_examples=60, deadline=None)
+@given(unit_quats, unit_quats)
+def test_product_is_unit(p, q):
+    assert np.linalg.norm(Q.multiply(p, q)) == pytest.approx(1.0, abs=1e-12)
+
+
+@settings(max_examples=60, deadline=None)
+@given(unit_quats, unit_quats, mus)
+def test_slerp_is_unit(q_a, q_b, mu):
+    assert np.linalg.norm(Q.slerp(q_a, q_b, mu)) == pytest.approx(1.0, abs=1e-12)
+
+
+@settings(max_examples=60, deadline=None)
+@given(unit_quats, unit_quats)
+def test_slerp_endpoints(q_a, q_b):
+    np.testing.assert_allclose(Q.slerp(q_a, q_b, 0.0), q_a, atol=1e-12)
+    end = Q.slerp(q_a, q_b, 1.0)
+    sign = 1.0 if np.dot(q_a, q_b) >= 0.0 else -1.0
+    np.testing.assert_allclose(end, sign * q_b, atol=1e-12)
+
+
+@settings(max_examples=60, deadline=None)
+@given(unit_quats, unit_quats, vectors)
+def test_sign_does_not_change_the_rotation(q_a, q_b, v):
+    np.testing.assert_allclose(Q.rotate(-q_a, v), Q.rotate(q_a, v), atol=1e-12)
+    angle = Q.angle_between(q_a, q_b)
+    assert Q.angle_between(-q_a, q_b) == pytest.approx(angle, abs=1e-12)
+    assert Q.angle_between(q_a, -q_b) == pytest.approx(angle, abs=1e-12)
+    assert 0.0 <= angle <= np.pi + 1e-12
+
+
+@settings(max_examples=60, deadline=None)
+@given(_raw_quat)
+def test_normalize_gives_unit(q):
+    assert np.linalg.norm(Q.normalize(q)) == pytest.approx(1.0, abs=1e-15)
+
+
+# ---------------------------------------------------------------- errors
+
+
+@pytest.mark.parametrize(
+    "call, name",
+    [
+        (lambda: Q.normalize([0.0, 0.0, 0.0, 0.0]), "q"),
+        (lambda: Q.normalize([1.0, np.nan, 0.0, 0.0]), "q"),
+        (lambda: Q.normalize([1.0, 0.0, 0.0]), "q"),
+        (lambda: Q.slerp([0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0], 0.5), "q"),
+        (lambda: Q.slerp([1.0, 0.0, 0.0, 0.0], [np.inf, 0.0, 0.0, 0.0], 0.5), "q"),
+        (lambda: Q.slerp([1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], 1.5), "mu"),
+        (lambda: Q.slerp([1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], -0.1), "mu"),
+        (lambda: Q.slerp([1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], np.nan), "mu"),
+        (lambda: Q.from_axis_angle([0.0, 0.0, 0.0], 1.0), "axis"),
+        (lambda: Q.to_scipy([1.0, 0.0]), "q"),
+    ],
+)
+def test_errors_name_the_argument(call, name):
+    with pytest.raises(ValueError, match=rf"\b{name}\b"):
+        call()

@@ -1,0 +1,169 @@
+"""Angles and error figures for orientation estimates under packet loss (paper 001, Sections II, IV).
+
+* Segment pitch: elevation of the segment axis (the node's body x axis, pointing distally)
+  above the horizontal plane, ``asin(z_E · (q ⊗ x_B ⊗ q*))``.
+* Elbow angle: the paper defines it as the difference between forearm and humerus pitch
+  (Section II, Fig. 1), ideally 0° during an arm extension with aligned segments.  The 3-D
+  angle between the two segment axes is offered too; the two agree for motion in a vertical
+  plane.
+* Smoothness: RMS angular jerk of an orientation sequence (third time derivative of the
+  rotation angle, from finite differences of the body angular velocity), in °/s³.  The
+  paper calls single-frame estimates "jerky" without a number; this is ours.
+
+Every function returns degrees or seconds, as its name says, and broadcasts over leading
+batch dimensions ``(..., T)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wsnlib import quaternion as quat_ops
+from wsnlib._validation import as_float_array, check_nonnegative, check_positive
+
+#: Body-frame axis along the segment (pointing distally), shared with :mod:`wsnlib.sim.arm`.
+SEGMENT_AXIS = np.array([1.0, 0.0, 0.0])
+
+
+def segment_pitch_deg(quat, axis=SEGMENT_AXIS) -> np.ndarray:
+    """Elevation (°) of the body-frame ``axis`` above the horizontal plane, ``(..., T, 4) → (..., T)``."""
+    quat = as_float_array(quat, "quat", last_dim=4)
+    direction = quat_ops.rotate(quat, np.asarray(axis, dtype=float))
+    direction /= np.linalg.norm(direction, axis=-1, keepdims=True)
+    return np.degrees(np.arcsin(np.clip(direction[..., 2], -1.0, 1.0)))
+
+
+def elbow_angle_deg(quat_humerus, quat_forearm, method: str = "pitch_difference") -> np.ndarray:
+    """Elbow joint angle (°) from the orientations of the humerus and forearm nodes.
+
+    Parameters
+    ----------
+    quat_humerus, quat_forearm : array_like, shape (..., T, 4)
+    method : {"pitch_difference", "axis_angle"}
+        ``"pitch_difference"`` is the paper's definition, forearm pitch minus humerus pitch
+        (signed).  ``"axis_angle"`` is the unsigned 3-D angle between the two segment axes.
+    """
+    if method == "pitch_difference":
+        return segment_pitch_deg(quat_forearm) - segment_pitch_deg(quat_humerus)
+    if method == "axis_angle":
+        a = quat_ops.rotate(as_float_array(quat_humerus, "quat_humerus", last_dim=4), SEGMENT_AXIS)
+        b = quat_ops.rotate(as_float_array(quat_forearm, "quat_forearm", last_dim=4), SEGMENT_AXIS)
+        cross = np.linalg.norm(np.cross(a, b), axis=-1)
+        return np.degrees(np.arctan2(cross, np.sum(a * b, axis=-1)))
+    raise ValueError(f"method must be 'pitch_difference' or 'axis_angle', got {method!r}")
+
+
+def orientation_error_deg(quat_est, quat_true) -> np.ndarray:
+    """Total orientation error (°): rotation angle between estimate and truth, ``(..., T)``."""
+    quat_est = as_float_array(quat_est, "quat_est", last_dim=4)
+    quat_true = as_float_array(quat_true, "quat_true", last_dim=4)
+    return np.degrees(quat_ops.angle_between(quat_est, quat_true))
+
+
+def max_abs_error(error, start: int = 0, where=None) -> np.ndarray:
+    """Largest ``|error|`` over time (last axis) from sample ``start`` on, ``(..., T) → (...)``.
+
+    Parameters
+    ----------
+    error : array_like, shape (..., T)
+    start : int
+        First sample considered.
+    where : array_like of bool, shape (..., T), optional
+        Only samples where this is True count (e.g. the ``received`` mask, to judge what an
+        estimator produces when it has data).  A sequence with no counted sample gives 0.
+    """
+    error = as_float_array(error, "error")
+    _check_start(start, error.shape[-1])
+    magnitude = np.abs(error)
+    if where is not None:
+        where = np.asarray(where)
+        if where.dtype != np.bool_:
+            raise ValueError(f"where must be a boolean mask, got dtype {where.dtype}")
+        magnitude = np.where(where, magnitude, 0.0)
+    return np.max(magnitude[..., start:], axis=-1)
+
+
+def time_above_s(error, threshold, fs, start: int = 0) -> np.ndarray:
+    """Total time (s) during which ``|error| > threshold`` from sample ``start`` on.
+
+    Parameters
+    ----------
+    error : array_like, shape (..., T)
+        Error trace, e.g. elbow angle error in degrees.
+    threshold : float
+        Same unit as ``error``.
+    fs : float
+        Sampling rate (Hz).
+    start : int
+        First sample counted (e.g. the sample at which a loss begins).
+    """
+    error = as_float_array(error, "error")
+    threshold = check_nonnegative(threshold, "threshold")
+    fs = check_positive(fs, "fs")
+    _check_start(start, error.shape[-1])
+    return np.count_nonzero(np.abs(error[..., start:]) > threshold, axis=-1) / fs
+
+
+def recovery_time_s(error, threshold, fs, start: int) -> np.ndarray:
+    """Time (s) from sample ``start`` until ``|error|`` falls below ``threshold`` for good.
+
+    It is the time of the last sample above the threshold, plus one sample period, minus
+    the time of ``start``; 0 when the error never exceeds the threshold from ``start`` on.
+    If the error is still above the threshold at the last sample, the result is ``inf``
+    (it did not recover within the record) — an explicit value, never NaN.
+
+    Parameters
+    ----------
+    error : array_like, shape (..., T)
+    threshold : float
+    fs : float
+        Sampling rate (Hz).
+    start : int
+        Reference sample, e.g. the first received sample after a burst of losses.
+    """
+    error = as_float_array(error, "error")
+    threshold = check_nonnegative(threshold, "threshold")
+    fs = check_positive(fs, "fs")
+    n = error.shape[-1]
+    _check_start(start, n)
+    above = np.abs(error[..., start:]) > threshold
+    any_above = above.any(axis=-1)
+    # Index of the last sample above the threshold (counted from ``start``).
+    last = (n - start - 1) - np.argmax(above[..., ::-1], axis=-1)
+    seconds = np.where(any_above, (last + 1) / fs, 0.0)
+    return np.where(above[..., -1], np.inf, seconds)
+
+
+def angular_jerk_rms_deg(quat, fs) -> np.ndarray:
+    """RMS angular jerk (°/s³) of an orientation sequence ``(..., T, 4) → (...)``.
+
+    Body angular velocity from consecutive quaternions, ``ω_t = rotvec(q_t* ⊗ q_{t+1})·fs``,
+    then jerk as the second finite difference of ω times ``fs²``.  Needs ``T >= 4``.
+    A smooth estimate scores low; a noisy single-frame estimate scores high.
+    """
+    quat = as_float_array(quat, "quat", last_dim=4, min_ndim=2)
+    fs = check_positive(fs, "fs")
+    if quat.shape[-2] < 4:
+        raise ValueError(f"quat needs at least 4 samples along time, got {quat.shape[-2]}")
+    delta = quat_ops.canonical(quat_ops.multiply(quat_ops.conjugate(quat[..., :-1, :]), quat[..., 1:, :]))
+    sin_half = np.linalg.norm(delta[..., 1:], axis=-1, keepdims=True)
+    angle = 2.0 * np.arctan2(sin_half, delta[..., :1])
+    axis = np.divide(delta[..., 1:], sin_half, out=np.zeros_like(delta[..., 1:]), where=sin_half > 0)
+    omega = axis * angle * fs
+    jerk = np.diff(omega, n=2, axis=-2) * fs**2
+    return np.degrees(np.sqrt(np.mean(np.sum(jerk**2, axis=-1), axis=-1)))
+
+
+def angle_jerk_rms_deg(angle_deg, fs) -> np.ndarray:
+    """RMS jerk (°/s³) of a scalar angle trace in degrees, ``(..., T) → (...)``; third difference."""
+    angle_deg = as_float_array(angle_deg, "angle_deg")
+    fs = check_positive(fs, "fs")
+    if angle_deg.shape[-1] < 4:
+        raise ValueError(f"angle_deg needs at least 4 samples, got {angle_deg.shape[-1]}")
+    jerk = np.diff(angle_deg, n=3, axis=-1) * fs**3
+    return np.sqrt(np.mean(jerk**2, axis=-1))
+
+
+def _check_start(start: int, n_samples: int) -> None:
+    if not isinstance(start, int | np.integer) or not 0 <= start < n_samples:
+        raise ValueError(f"start must be an integer sample index in [0, {n_samples}), got {start!r}")

@@ -1,0 +1,169 @@
+"""Plot style and figure saving shared by every notebook.
+
+:func:`use_style` must be called explicitly (importing this module changes nothing global).
+:func:`savefig` is the one way figures are written: PNG and PDF into the figures folder with
+fixed metadata, so that running the batch twice gives byte-identical files.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib as mpl
+import matplotlib.pyplot as plt
+import numpy as np
+
+from wsnlib import paths
+
+#: Colours per estimator, used consistently across notebooks (colour-blind safe, Okabe–Ito).
+METHOD_COLORS = {
+    "truth": "#000000",
+    "data fusion": "#0072B2",
+    "single frame": "#D55E00",
+    "hybrid": "#009E73",
+    "humerus": "#D55E00",
+    "forearm": "#0072B2",
+    "elbow": "#000000",
+}
+
+_STYLE = {
+    "figure.figsize": (7.0, 3.6),
+    "figure.dpi": 100,
+    "savefig.dpi": 150,
+    "savefig.bbox": "tight",
+    "font.size": 10,
+    "axes.grid": True,
+    "grid.alpha": 0.3,
+    "axes.spines.top": False,
+    "axes.spines.right": False,
+    "legend.frameon": False,
+    "lines.linewidth": 1.4,
+    # Embed fonts as Type 42 so PDFs are portable; hash salt fixed for reproducible SVG ids.
+    "pdf.fonttype": 42,
+    "svg.hashsalt": "wsn-motion",
+}
+
+# Matplotlib writes a creation date and version into files unless told otherwise.
+_PNG_METADATA = {"Software": None}
+_PDF_METADATA = {"Creator": None, "Producer": None, "CreationDate": None, "ModDate": None}
+
+
+def use_style() -> None:
+    """Apply the project's plot style to matplotlib's rcParams (call once per notebook)."""
+    mpl.rcParams.update(_STYLE)
+
+
+def savefig(fig: mpl.figure.Figure, name: str, formats: tuple[str, ...] = ("png", "pdf")) -> list[Path]:
+    """Save ``fig`` as ``<figures>/<name>.<fmt>`` for each format, reproducibly.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    name : str
+        File stem, e.g. ``"a01_fig02_humerus_pitch"``; letters, digits, ``_`` and ``-`` only.
+    formats : tuple of str
+        Any of ``"png"``, ``"pdf"``.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written.
+    """
+    if not name or not all(ch.isalnum() or ch in "_-" for ch in name):
+        raise ValueError(f"name must be a plain file stem (letters, digits, _ or -), got {name!r}")
+    written = []
+    for fmt in formats:
+        if fmt == "png":
+            metadata = _PNG_METADATA
+        elif fmt == "pdf":
+            metadata = _PDF_METADATA
+        else:
+            raise ValueError(f"formats may contain 'png' and 'pdf', got {fmt!r}")
+        path = paths.figures() / f"{name}.{fmt}"
+        fig.savefig(path, format=fmt, metadata=metadata)
+        written.append(path)
+    return written
+
+
+def _axes(ax):
+    if ax is None:
+        _, ax = plt.subplots()
+    return ax
+
+
+def plot_angle_traces(time_s, traces: dict, *, ax=None, ylabel="angle (°)", loss_spans=(), title=None):
+    """Plot several angle traces (degrees) against time, shading lost intervals.
+
+    Parameters
+    ----------
+    time_s : array_like, shape (T,)
+    traces : dict[str, array_like (T,)]
+        Label → trace; colours come from :data:`METHOD_COLORS` when the label is known.
+    loss_spans : iterable of (start_s, end_s)
+        Intervals drawn as grey bands (e.g. from :func:`loss_spans`).
+    """
+    ax = _axes(ax)
+    for start, end in loss_spans:
+        ax.axvspan(start, end, color="0.8", alpha=0.6, lw=0, label=None)
+    for label, trace in traces.items():
+        style = {"ls": "--"} if label == "truth" else {}
+        ax.plot(time_s, trace, label=label, color=METHOD_COLORS.get(label), **style)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel(ylabel)
+    if title:
+        ax.set_title(title)
+    ax.legend(loc="best")
+    return ax
+
+
+def loss_spans(time_s, received) -> list[tuple[float, float]]:
+    """Intervals ``(start_s, end_s)`` of consecutive lost samples in a 1-D ``received`` mask.
+
+    Each span runs from the first lost sample's time to the next received sample's time.
+    """
+    time_s = np.asarray(time_s, dtype=float)
+    lost = ~np.asarray(received, dtype=bool)
+    if lost.ndim != 1 or lost.shape != time_s.shape:
+        raise ValueError("received must be 1-D and match time_s")
+    edges = np.diff(np.concatenate([[0], lost.astype(np.int8), [0]]))
+    starts = np.flatnonzero(edges == 1)
+    ends = np.flatnonzero(edges == -1)
+    dt = time_s[1] - time_s[0] if time_s.size > 1 else 0.0
+    return [
+        (float(time_s[s]), float(time_s[e]) if e < time_s.size else float(time_s[-1] + dt))
+        for s, e in zip(starts, ends, strict=True)
+    ]
+
+
+def plot_band(x, samples, *, ax=None, label=None, color=None, quantiles=(0.1, 0.9)):
+    """Median line and a quantile band of Monte Carlo ``samples`` (runs along axis 0) over ``x``."""
+    ax = _axes(ax)
+    samples = np.asarray(samples, dtype=float)
+    lo, med, hi = np.quantile(samples, [quantiles[0], 0.5, quantiles[1]], axis=0)
+    (line,) = ax.plot(x, med, marker="o", ms=3, label=label, color=color)
+    ax.fill_between(x, lo, hi, color=line.get_color(), alpha=0.2, lw=0)
+    return ax
+
+
+def plot_tradeoff(x, y, labels, *, ax=None, xlabel=None, ylabel=None, color=None, logy=False):
+    """Scatter of a trade-off (e.g. recovery time vs jerk), each point annotated with its label.
+
+    Parameters
+    ----------
+    x, y : array_like, shape (N,)
+    labels : sequence of str, length N
+        Text written next to each point (e.g. ``"β=0.1"``).
+    """
+    ax = _axes(ax)
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    if not (x.shape == y.shape == (len(labels),)):
+        raise ValueError("x, y and labels must have the same length")
+    ax.plot(x, y, "o-", color=color)
+    for xi, yi, text in zip(x, y, labels, strict=True):
+        ax.annotate(text, (xi, yi), textcoords="offset points", xytext=(4, 4), fontsize=8)
+    if logy:
+        ax.set_yscale("log")
+    ax.set_xlabel(xlabel or "")
+    ax.set_ylabel(ylabel or "")
+    return ax
