@@ -16,7 +16,9 @@ from wsnlib.sim import (
     from_joint_angles,
     ideal_imu,
     minimum_jerk,
+    movement_set,
     pitch_ramp,
+    reach_and_flex,
     simulate_imu,
     simulate_recording,
 )
@@ -374,3 +376,22 @@ def test_scipy_cross_check_of_humerus_orientation():
     euler = np.stack([traj.heading + np.pi / 2, -traj.pitch, traj.axial], axis=-1)
     expected = Q.from_scipy(Rotation.from_euler("ZYX", euler))
     assert np.degrees(Q.angle_between(truth.quat[0], expected)).max() < 1e-9
+
+
+def test_reach_and_flex_reaches_its_end_posture_and_rates_are_consistent():
+    trajectory = reach_and_flex(fs=50.0, duration_s=5.0, start_s=1.0, rise_s=2.5)
+    truth = arm_kinematics(trajectory)
+    np.testing.assert_allclose(_pitch_deg(truth.quat[0])[-1], -20.0, atol=1e-6)
+    np.testing.assert_allclose(_elbow_deg(truth)[-1], 90.0, atol=1e-6)
+    # Numerical derivative of the closed-form angles equals the closed-form rates.
+    fd = np.gradient(trajectory.angles, trajectory.t, axis=0)
+    np.testing.assert_allclose(fd[5:-5], trajectory.rates[5:-5], atol=2e-3)
+
+
+def test_movement_set_has_equal_lengths_and_ordered_speeds():
+    moves = movement_set(fs=50.0, duration_s=8.0)
+    lengths = {m.n_samples for m in moves.values()}
+    assert lengths == {400}
+    names = ("extension fast", "extension medium", "extension slow")
+    peak = [np.max(np.abs(moves[name].rates[:, 1])) for name in names]
+    assert peak[0] > peak[1] > peak[2]

@@ -167,3 +167,36 @@ def plot_tradeoff(x, y, labels, *, ax=None, xlabel=None, ylabel=None, color=None
     ax.set_xlabel(xlabel or "")
     ax.set_ylabel(ylabel or "")
     return ax
+
+
+def plot_arm_angles(time_s, humerus_pitch, forearm_pitch, elbow, *, axes=None, received=None, title=None,
+                    truth_pitch=None):
+    """The paper's arm figure (001, Figs. 1, 6–8): segment pitches on top, elbow angle below.
+
+    Parameters
+    ----------
+    time_s : array_like, shape (T,)
+    humerus_pitch, forearm_pitch, elbow : array_like, shape (T,)
+        Degrees.
+    axes : pair of matplotlib Axes, optional
+        Created (two rows, shared time axis) when not given.
+    received : array_like of bool, shape (T,), optional
+        Loss mask of the humerus node; lost intervals are shaded.
+    truth_pitch : array_like, shape (T,), optional
+        True humerus pitch, drawn dashed.
+
+    Returns
+    -------
+    (Axes, Axes)
+    """
+    if axes is None:
+        _, axes = plt.subplots(2, 1, sharex=True, figsize=(7, 5))
+    ax_pitch, ax_elbow = axes
+    spans = loss_spans(time_s, received) if received is not None else ()
+    traces = {"humerus": humerus_pitch, "forearm": forearm_pitch}
+    if truth_pitch is not None:
+        traces["truth"] = truth_pitch
+    plot_angle_traces(time_s, traces, ax=ax_pitch, ylabel="pitch (°)", loss_spans=spans, title=title)
+    plot_angle_traces(time_s, {"elbow": elbow}, ax=ax_elbow, ylabel="elbow angle (°)", loss_spans=spans)
+    ax_pitch.set_xlabel("")
+    return ax_pitch, ax_elbow

@@ -22,7 +22,9 @@ from wsnlib.sim.arm import (
     arm_kinematics,
     from_joint_angles,
     minimum_jerk,
+    movement_set,
     pitch_ramp,
+    reach_and_flex,
 )
 from wsnlib.sim.imu import ImuSamples, ImuSpec, ideal_imu, simulate_imu, simulate_recording
 
@@ -40,7 +42,9 @@ __all__ = [
     "from_joint_angles",
     "ideal_imu",
     "minimum_jerk",
+    "movement_set",
     "pitch_ramp",
+    "reach_and_flex",
     "simulate_imu",
     "simulate_recording",
 ]

@@ -486,6 +486,77 @@ def from_joint_angles(t, heading=0.0, pitch=0.0, axial=0.0, elbow_flexion=0.0) -
     return ArmTrajectory(1.0 / step, t, angles, rates, accelerations, metadata)
 
 
+def reach_and_flex(
+    fs: float = 50.0,
+    duration_s: float = 6.0,
+    start_s: float = 1.0,
+    rise_s: float = 2.5,
+    pitch_end_deg: float = -20.0,
+    heading_end_deg: float = 30.0,
+    elbow_end_deg: float = 90.0,
+) -> ArmTrajectory:
+    """A three-joint movement: the arm rises and swings sideways while the elbow flexes.
+
+    From hanging (pitch −90°, heading 0°, elbow straight) to ``pitch_end_deg``,
+    ``heading_end_deg`` and ``elbow_end_deg`` of flexion, all joints following one
+    minimum-jerk profile over ``rise_s`` seconds — roughly bringing a hand towards the mouth.
+    Unlike the arm extension, the elbow angle is not 0, and the heading changes.
+
+    Parameters
+    ----------
+    fs, duration_s, start_s, rise_s : float
+        As in :func:`arm_extension`.
+    pitch_end_deg, heading_end_deg, elbow_end_deg : float
+        Final humerus pitch, heading and elbow flexion (degrees).
+
+    Returns
+    -------
+    ArmTrajectory
+        Closed-form angles, rates and accelerations.
+    """
+    fs, t = _time_axis(fs, duration_s)
+    check_nonnegative(start_s, "start_s")
+    check_positive(rise_s, "rise_s")
+    s, ds, dds = minimum_jerk(t, start_s, rise_s)
+    start = np.radians([0.0, -90.0, 0.0, 0.0])
+    span = np.radians([float(heading_end_deg), float(pitch_end_deg) + 90.0, 0.0, float(elbow_end_deg)])
+    angles = start + s[:, None] * span
+    rates = ds[:, None] * span
+    accelerations = dds[:, None] * span
+    metadata = {
+        "generator": "wsnlib.sim.arm.reach_and_flex",
+        "fs": fs,
+        "duration_s": float(duration_s),
+        "start_s": float(start_s),
+        "rise_s": float(rise_s),
+        "pitch_end_deg": float(pitch_end_deg),
+        "heading_end_deg": float(heading_end_deg),
+        "elbow_end_deg": float(elbow_end_deg),
+    }
+    return ArmTrajectory(fs, t, angles, rates, accelerations, metadata)
+
+
+def movement_set(fs: float = 50.0, duration_s: float = 8.0, start_s: float = 1.0) -> dict[str, ArmTrajectory]:
+    """Movements of equal length at different speeds, for Monte Carlo studies.
+
+    Three 90° arm extensions (raise in 1.5 s, 3 s and 5 s: fast, medium and slow; peak
+    angular rates ≈ 112, 56 and 34 °/s) and one :func:`reach_and_flex` (2.5 s).  Every
+    movement starts at ``start_s`` and all have ``round(duration_s · fs)`` samples, so their
+    IMU signals stack into one batch.
+
+    Returns
+    -------
+    dict[str, ArmTrajectory]
+        Name → trajectory, in a fixed order.
+    """
+    return {
+        "extension fast": arm_extension(fs, duration_s, start_s, rise_s=1.5),
+        "extension medium": arm_extension(fs, duration_s, start_s, rise_s=3.0),
+        "extension slow": arm_extension(fs, duration_s, start_s, rise_s=5.0),
+        "reach and flex": reach_and_flex(fs, duration_s, start_s, rise_s=2.5),
+    }
+
+
 # --------------------------------------------------------------------------------------------
 # Kinematics
 # --------------------------------------------------------------------------------------------
