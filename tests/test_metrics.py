@@ -84,3 +84,25 @@ def test_angle_jerk_matches_analytic_cubic():
     t = np.arange(100) / fs
     angle = 2.0 * t**3  # third derivative 12
     assert metrics.angle_jerk_rms_deg(angle, fs) == pytest.approx(12.0)
+
+
+def test_loss_figures_of_merit_and_summary_table():
+    fs = 50.0
+    err = np.zeros((3, 100))
+    err[:, 20:40] = 10.0           # a 20-sample excursion
+    received = np.ones(100, bool)
+    received[20:30] = False        # the first half of it is during the gap
+    foms = metrics.loss_figures_of_merit(err, fs=fs, received=received, threshold_deg=5.0, start=20,
+                                         recovery_start=30)
+    assert foms[metrics.MAX_ERROR] == pytest.approx([10.0] * 3)
+    assert foms[metrics.TIME_ABOVE] == pytest.approx([0.4] * 3)
+    assert foms[metrics.MEAN_ERROR] == pytest.approx([10.0 * 20 / 80] * 3)
+    assert foms[metrics.RECOVERY] == pytest.approx([0.2] * 3)
+    assert foms[metrics.JERK].shape == (3,)
+    assert metrics.RECOVERY not in metrics.loss_figures_of_merit(err, fs=fs, received=received)
+    table = metrics.summary_table({"a": foms, "b": {k: 2 * v for k, v in foms.items()}})
+    assert list(table.index) == ["a", "b"]
+    assert table.loc["b", (metrics.MAX_ERROR, "median")] == pytest.approx(20.0)
+    assert (metrics.TIME_ABOVE, "q90") in table.columns
+    with pytest.raises(ValueError, match="received"):
+        metrics.loss_figures_of_merit(err, fs=fs, received=received.astype(int))

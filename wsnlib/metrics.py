@@ -167,3 +167,90 @@ def angle_jerk_rms_deg(angle_deg, fs) -> np.ndarray:
 def _check_start(start: int, n_samples: int) -> None:
     if not isinstance(start, int | np.integer) or not 0 <= start < n_samples:
         raise ValueError(f"start must be an integer sample index in [0, {n_samples}), got {start!r}")
+
+
+#: Column names of :func:`loss_figures_of_merit`, with units.
+MAX_ERROR = "max error after loss (°)"
+MEAN_ERROR = "mean |error| (°)"
+TIME_ABOVE = "time above threshold (s)"
+RECOVERY = "recovery time (s)"
+JERK = "RMS jerk (°/s³)"
+
+
+def loss_figures_of_merit(error_deg, *, fs, received, threshold_deg=5.0, start: int = 0,
+                          recovery_start: int | None = None) -> dict[str, np.ndarray]:
+    """The figures of merit used across notebooks for an angle error trace under loss.
+
+    Parameters
+    ----------
+    error_deg : array_like, shape (..., T)
+        Error of an angle (e.g. elbow angle minus its true value), degrees.
+    fs : float
+        Sampling rate (Hz).
+    received : array_like of bool, shape (..., T)
+        Loss mask of the node(s) behind the estimate; the maximum error counts only received
+        samples (what the estimator produces when it has data).
+    threshold_deg : float
+        Threshold for the time-above and recovery figures.
+    start : int
+        First sample considered (e.g. where the loss begins).
+    recovery_start : int, optional
+        Sample from which recovery is timed (e.g. the first received sample after a burst).
+        Left out when None (it means nothing for scattered losses).
+
+    Returns
+    -------
+    dict[str, numpy.ndarray]
+        :data:`MAX_ERROR` (°, received samples from ``start``), :data:`MEAN_ERROR` (°, mean
+        ``|error|`` over all samples from ``start``), :data:`TIME_ABOVE` (s, all samples
+        from ``start``: during a gap the user still sees an estimate),
+        :data:`RECOVERY` (s, only with ``recovery_start``; ``inf`` if never) and :data:`JERK`
+        (°/s³, RMS third derivative of the error trace over the whole record), each of shape
+        ``(...)``.
+    """
+    error_deg = as_float_array(error_deg, "error_deg")
+    received = np.asarray(received)
+    if received.dtype != np.bool_:
+        raise ValueError(f"received must be a boolean mask, got dtype {received.dtype}")
+    result = {
+        MAX_ERROR: max_abs_error(error_deg, start=start, where=np.broadcast_to(received, error_deg.shape)),
+        MEAN_ERROR: np.mean(np.abs(error_deg[..., start:]), axis=-1),
+        TIME_ABOVE: time_above_s(error_deg, threshold_deg, fs, start=start),
+    }
+    if recovery_start is not None:
+        result[RECOVERY] = recovery_time_s(error_deg, threshold_deg, fs, start=recovery_start)
+    result[JERK] = angle_jerk_rms_deg(error_deg, fs)
+    return result
+
+
+def summary_table(results: dict[str, dict[str, np.ndarray]], quantiles=(0.1, 0.9)):
+    """Median and quantile range of Monte Carlo figures of merit, one row per estimator.
+
+    Parameters
+    ----------
+    results : dict[str, dict[str, array_like]]
+        Estimator name → figure name → values over realisations (any shape, flattened).
+    quantiles : (float, float)
+        Lower and upper quantile of the range columns.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``(figure, "median")``, ``(figure, "q10")``, ``(figure, "q90")`` (named after
+        the quantiles), index = estimator names, in the order given.
+    """
+    import pandas as pd
+
+    low, high = quantiles
+    rows = {}
+    for name, figures in results.items():
+        row = {}
+        for figure, values in figures.items():
+            values = np.ravel(np.asarray(values, dtype=float))
+            row[(figure, "median")] = float(np.median(values))
+            row[(figure, f"q{round(100 * low)}")] = float(np.quantile(values, low))
+            row[(figure, f"q{round(100 * high)}")] = float(np.quantile(values, high))
+        rows[name] = row
+    table = pd.DataFrame.from_dict(rows, orient="index")
+    table.columns = pd.MultiIndex.from_tuples(table.columns, names=["figure", "statistic"])
+    return table
