@@ -39,3 +39,12 @@ def test_bootstrap_is_reproducible_and_validates():
         tuning.bootstrap_knee(a, b[:, :5], rng=np.random.default_rng(3))
     with pytest.raises(ValueError, match="cost_a"):
         tuning.pareto_front([1.0, np.nan], [1.0, 2.0])
+
+
+def test_recommendation_round_trip(output_dir):
+    with pytest.raises(FileNotFoundError, match="03"):
+        tuning.read_recommendation()
+    tuning.write_recommendation({"schedule": "decay", "blend": "feedback", "rho": 2.0, "tau": 6.0})
+    assert tuning.read_recommendation() == {"schedule": "decay", "blend": "feedback", "rho": 2.0, "tau": 6.0}
+    with pytest.raises(ValueError, match="tau"):
+        tuning.write_recommendation({"schedule": "decay", "blend": "feedback", "rho": 2.0})

@@ -84,3 +84,40 @@ def bootstrap_knee(cost_a, cost_b, *, rng: np.random.Generator, n_boot: int = 10
         pick = rng.integers(0, n_real, size=n_real)
         knees[i] = knee_point(a[:, pick].mean(axis=1), b[:, pick].mean(axis=1))
     return knees
+
+
+#: File (in the processed-data folder) where notebook 03 stores its recommended hybrid setting.
+RECOMMENDATION_FILE = "a03_recommended_hybrid.csv"
+
+
+def write_recommendation(setting: dict) -> None:
+    """Store the recommended hybrid setting (one row: schedule, blend, rho, tau, …) for later notebooks."""
+    import pandas as pd
+
+    from wsnlib import paths
+
+    required = {"schedule", "blend", "rho", "tau"}
+    missing = required - set(setting)
+    if missing:
+        raise ValueError(f"setting lacks {sorted(missing)}")
+    pd.DataFrame([setting]).to_csv(paths.data_processed() / RECOMMENDATION_FILE, index=False)
+
+
+def read_recommendation() -> dict:
+    """The hybrid setting recommended by notebook 03 (``schedule``, ``blend``, ``rho``, ``tau``, …).
+
+    Raises
+    ------
+    FileNotFoundError
+        If notebook 03 has not run yet in this output folder.
+    """
+    import pandas as pd
+
+    from wsnlib import paths
+
+    path = paths.data_processed() / RECOMMENDATION_FILE
+    if not path.exists():
+        raise FileNotFoundError(f"{path} does not exist: run notebook 03_slerp_tuning first "
+                                "(python -m wsnlib.reproduce --only 03)")
+    row = pd.read_csv(path).iloc[0].to_dict()
+    return {key: (value.item() if hasattr(value, "item") else value) for key, value in row.items()}

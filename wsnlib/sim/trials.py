@@ -1,0 +1,159 @@
+"""Monte Carlo trials for the loss studies: movements × loss profiles × noise/loss seeds.
+
+A *trial* is one simulated recording of the two arm nodes (independent sensor noise) with one
+loss mask per node.  :func:`arm_loss_trials` stacks every (movement, loss profile, repetition)
+along one leading axis, so a whole study is one batched filter call.
+
+Loss profiles (paper 001):
+
+* ``LossProfile.burst(start_sample=80, n_packets=4)`` — Section IV: the humerus loses
+  ``n_packets`` consecutive packets right after ``start_sample`` samples; the forearm loses
+  nothing;
+* ``LossProfile.gilbert_elliott(loss_rate, mean_burst=3)`` — bursty random loss on *both*
+  nodes, independently (two radios), packets of 6 samples;
+* ``LossProfile.none()`` — everything received (the lossless reference).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from wsnlib import loss
+from wsnlib.sim.arm import ArmTrajectory, arm_kinematics
+from wsnlib.sim.imu import ImuSpec, simulate_imu
+
+
+@dataclass(frozen=True)
+class LossProfile:
+    """How packets are lost in a trial; build with the class methods.
+
+    Attributes
+    ----------
+    name : str
+        Label used in tables (e.g. ``"burst 4 packets"``, ``"GE 10 %"``).
+    kind : {"none", "burst", "gilbert_elliott"}
+    start_sample, n_packets : int
+        Burst position (samples) and length (packets); humerus only.
+    loss_rate : float
+        Gilbert–Elliott stationary packet loss rate, in [0, 1).
+    mean_burst : float
+        Gilbert–Elliott mean burst length (packets), ≥ 1.
+    samples_per_packet : int
+    """
+
+    name: str
+    kind: str
+    start_sample: int = 0
+    n_packets: int = 0
+    loss_rate: float = 0.0
+    mean_burst: float = 1.0
+    samples_per_packet: int = loss.SAMPLES_PER_PACKET
+
+    @classmethod
+    def none(cls) -> LossProfile:
+        return cls("no loss", "none")
+
+    @classmethod
+    def burst(cls, start_sample: int = 80, n_packets: int = 4,
+              samples_per_packet: int = loss.SAMPLES_PER_PACKET) -> LossProfile:
+        return cls(f"burst {n_packets} packets", "burst", start_sample=start_sample, n_packets=n_packets,
+                   samples_per_packet=samples_per_packet)
+
+    @classmethod
+    def gilbert_elliott(cls, loss_rate: float, mean_burst: float = 3.0,
+                        samples_per_packet: int = loss.SAMPLES_PER_PACKET) -> LossProfile:
+        if loss_rate == 0.0:
+            return cls("GE 0 %", "none", samples_per_packet=samples_per_packet)
+        return cls(f"GE {100 * loss_rate:g} %", "gilbert_elliott", loss_rate=loss_rate, mean_burst=mean_burst,
+                   samples_per_packet=samples_per_packet)
+
+    def masks(self, n_samples: int, n_trials: int, *, rng: np.random.Generator) -> np.ndarray:
+        """Received masks ``(n_trials, 2, n_samples)`` (node axis: humerus, forearm)."""
+        received = np.ones((n_trials, 2, n_samples), dtype=bool)
+        if self.kind == "none":
+            return received
+        if self.kind == "burst":
+            received[:, 0] = loss.burst_mask(n_samples, self.start_sample, self.n_packets, self.samples_per_packet)
+            return received
+        if self.kind == "gilbert_elliott":
+            n_packets = loss.n_packets_for(n_samples, self.samples_per_packet)
+            packets = loss.gilbert_elliott(n_packets, self.loss_rate, self.mean_burst, rng=rng, shape=(n_trials, 2))
+            return loss.packets_to_samples(packets, self.samples_per_packet, n_samples)
+        raise ValueError(f"kind must be 'none', 'burst' or 'gilbert_elliott', got {self.kind!r}")
+
+
+@dataclass(frozen=True)
+class Trials:
+    """Stacked Monte Carlo trials; axis 0 enumerates trials, axis 1 the nodes (humerus, forearm).
+
+    Attributes
+    ----------
+    gyr, acc, mag : numpy.ndarray, shape (R, 2, T, 3)
+        rad/s, m/s², µT, body frame.
+    quat_true : numpy.ndarray, shape (R, 2, T, 4)
+        Ground truth, ENU.
+    received : numpy.ndarray of bool, shape (R, 2, T)
+    labels : pandas.DataFrame
+        One row per trial: ``movement``, ``profile``, ``repetition``.
+    fs : float
+        Hz.
+    """
+
+    gyr: np.ndarray
+    acc: np.ndarray
+    mag: np.ndarray
+    quat_true: np.ndarray
+    received: np.ndarray
+    labels: pd.DataFrame
+    fs: float
+
+
+def arm_loss_trials(movements: dict[str, ArmTrajectory], profiles: list[LossProfile], n_repetitions: int, *,
+                    rng: np.random.Generator, spec: ImuSpec | None = None) -> Trials:
+    """Simulate every movement × loss profile × repetition, stacked along axis 0.
+
+    Every trial has its own sensor noise and its own loss draw; trials are ordered by
+    movement, then profile, then repetition.
+
+    Parameters
+    ----------
+    movements : dict[str, ArmTrajectory]
+        All with the same number of samples and sampling rate (e.g.
+        :func:`wsnlib.sim.arm.movement_set`).
+    profiles : list of LossProfile
+    n_repetitions : int
+        Trials per (movement, profile), ≥ 1.
+    rng : numpy.random.Generator
+    spec : ImuSpec, optional
+        Sensor model (datasheet defaults).
+
+    Returns
+    -------
+    Trials
+    """
+    if not movements or not profiles:
+        raise ValueError("movements and profiles must not be empty")
+    if not isinstance(n_repetitions, int | np.integer) or n_repetitions < 1:
+        raise ValueError(f"n_repetitions must be a positive integer, got {n_repetitions!r}")
+    lengths = {(m.n_samples, m.fs) for m in movements.values()}
+    if len(lengths) != 1:
+        raise ValueError(f"movements must share length and fs, got (T, fs) = {sorted(lengths)}")
+    (n_samples, fs), = lengths
+    per_movement = len(profiles) * n_repetitions
+    parts = {"gyr": [], "acc": [], "mag": [], "quat_true": [], "received": []}
+    labels = []
+    for name, trajectory in movements.items():
+        truth = arm_kinematics(trajectory)
+        gyr, acc, mag = simulate_imu(truth, spec, rng=rng, n_runs=per_movement)
+        parts["gyr"].append(gyr)
+        parts["acc"].append(acc)
+        parts["mag"].append(mag)
+        parts["quat_true"].append(np.broadcast_to(truth.quat, (per_movement,) + truth.quat.shape))
+        for profile in profiles:
+            parts["received"].append(profile.masks(n_samples, n_repetitions, rng=rng))
+            labels += [{"movement": name, "profile": profile.name, "repetition": r} for r in range(n_repetitions)]
+    stacked = {key: np.concatenate(value) for key, value in parts.items()}
+    return Trials(**stacked, labels=pd.DataFrame(labels), fs=float(fs))
