@@ -54,3 +54,16 @@ def test_import_changes_no_global_style():
     before = dict(matplotlib.rcParams)
     importlib.reload(plotting)
     assert dict(matplotlib.rcParams) == before
+
+
+def test_heatmap_and_pareto_draw_and_validate(output_dir):
+    fig, (ax_a, ax_b) = plt.subplots(1, 2)
+    plotting.plot_heatmap(np.arange(6.0).reshape(2, 3), [1, 2], [1, 2, 3], ax=ax_a)
+    with pytest.raises(ValueError, match="shape"):
+        plotting.plot_heatmap(np.zeros((3, 2)), [1, 2], [1, 2, 3], ax=ax_a)
+    x = np.array([1.0, 2.0, 3.0])
+    y = np.array([30.0, 20.0, 25.0])
+    plotting.plot_pareto(x, y, groups=["a", "b", "b"], front=[True, True, False], knee=1,
+                         references={"data fusion": (4.0, 10.0)}, ax=ax_b)
+    assert len(ax_b.collections) == 4   # two groups, the knee, one reference
+    plt.close(fig)

@@ -200,3 +200,77 @@ def plot_arm_angles(time_s, humerus_pitch, forearm_pitch, elbow, *, axes=None, r
     plot_angle_traces(time_s, {"elbow": elbow}, ax=ax_elbow, ylabel="elbow angle (°)", loss_spans=spans)
     ax_pitch.set_xlabel("")
     return ax_pitch, ax_elbow
+
+
+def plot_heatmap(values, row_values, col_values, *, ax=None, xlabel="", ylabel="", title=None, fmt="{:.2g}",
+                 cmap="viridis"):
+    """Heatmap of a 2-D grid of results, each cell annotated with its value.
+
+    Parameters
+    ----------
+    values : array_like, shape (n_rows, n_cols)
+    row_values, col_values : sequence
+        Parameter values along rows (y axis) and columns (x axis), shown as tick labels.
+    fmt : str
+        Format of the cell annotations.
+    """
+    ax = _axes(ax)
+    values = np.asarray(values, dtype=float)
+    if values.shape != (len(row_values), len(col_values)):
+        raise ValueError(f"values has shape {values.shape}, expected ({len(row_values)}, {len(col_values)})")
+    image = ax.imshow(values, origin="lower", aspect="auto", cmap=cmap)
+    ax.set_xticks(range(len(col_values)), [f"{v:g}" for v in col_values])
+    ax.set_yticks(range(len(row_values)), [f"{v:g}" for v in row_values])
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.grid(False)
+    if title:
+        ax.set_title(title, fontsize=9)
+    middle = np.nanmean(values)
+    for (i, j), value in np.ndenumerate(values):
+        ax.text(j, i, fmt.format(value), ha="center", va="center", fontsize=6,
+                color="white" if value < middle else "black")
+    ax.figure.colorbar(image, ax=ax, fraction=0.046, pad=0.04)
+    return ax
+
+
+def plot_pareto(cost_x, cost_y, *, groups=None, front=None, knee=None, references=None, ax=None, xlabel="",
+                ylabel="", logy=True):
+    """Candidates in a two-cost plane, the Pareto front as a line, the knee and reference points marked.
+
+    Parameters
+    ----------
+    cost_x, cost_y : array_like, shape (N,)
+        Lower is better for both.
+    groups : array_like of str, shape (N,), optional
+        Group label per candidate (one colour per group).
+    front : array_like of bool, shape (N,), optional
+        Pareto mask (e.g. :func:`wsnlib.tuning.pareto_front`).
+    knee : int, optional
+        Index of the recommended candidate (star).
+    references : dict[str, (float, float)], optional
+        Named reference points (e.g. data fusion, single frame), drawn as crosses.
+    """
+    ax = _axes(ax)
+    x = np.asarray(cost_x, dtype=float)
+    y = np.asarray(cost_y, dtype=float)
+    labels = np.asarray(groups) if groups is not None else np.full(x.shape, "candidates")
+    for group in dict.fromkeys(labels):
+        pick = labels == group
+        ax.scatter(x[pick], y[pick], s=12, alpha=0.6, label=str(group))
+    if front is not None:
+        front = np.asarray(front, dtype=bool)
+        order = np.argsort(x[front])
+        ax.plot(x[front][order], y[front][order], color="black", lw=1.0, label="Pareto front")
+    if knee is not None:
+        ax.scatter([x[knee]], [y[knee]], marker="*", s=180, color="gold", edgecolor="black", zorder=5,
+                   label="recommended (knee)")
+    for name, (rx, ry) in (references or {}).items():
+        ax.scatter([rx], [ry], marker="X", s=70, color=METHOD_COLORS.get(name, "grey"), edgecolor="black",
+                   zorder=5, label=name)
+    if logy:
+        ax.set_yscale("log")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.legend(fontsize=7, loc="best")
+    return ax
