@@ -48,3 +48,10 @@ def test_recommendation_round_trip(output_dir):
     assert tuning.read_recommendation() == {"schedule": "decay", "blend": "feedback", "rho": 2.0, "tau": 6.0}
     with pytest.raises(ValueError, match="tau"):
         tuning.write_recommendation({"schedule": "decay", "blend": "feedback", "rho": 2.0})
+
+
+def test_hybrid_options_pass_hold_window_only_for_hold():
+    setting = {"schedule": "decay", "blend": "output", "rho": 2, "tau": 6, "hold_window": 50}
+    assert tuning.hybrid_options(setting) == {"method": "hybrid", "rho": 2.0, "tau": 6.0, "schedule": "decay",
+                                              "blend": "output"}
+    assert tuning.hybrid_options({**setting, "schedule": "hold"})["hold_window"] == 50

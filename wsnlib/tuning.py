@@ -121,3 +121,15 @@ def read_recommendation() -> dict:
                                 "(python -m wsnlib.reproduce --only 03)")
     row = pd.read_csv(path).iloc[0].to_dict()
     return {key: (value.item() if hasattr(value, "item") else value) for key, value in row.items()}
+
+
+def hybrid_options(setting: dict) -> dict:
+    """Keyword arguments of :func:`wsnlib.orientation.estimate_orientation` for a recommended setting.
+
+    ``hold_window`` is passed only with the ``"hold"`` schedule (the only one that uses it).
+    """
+    options = {"method": "hybrid", "rho": float(setting["rho"]), "tau": float(setting["tau"]),
+               "schedule": setting["schedule"], "blend": setting["blend"]}
+    if setting["schedule"] == "hold":
+        options["hold_window"] = int(setting["hold_window"])
+    return options
