@@ -7,6 +7,13 @@ PY := $(VENV)/bin/python
 KERNEL := wsn-motion
 STAMP := $(VENV)/.installed
 
+# The BROAD trials: a checkout next to ../shared/ (as on CI) reads them from there unless
+# WSNLIB_BROAD_DIR says otherwise; without either, the loader downloads into data/raw/broad/.
+SHARED_BROAD := $(abspath ../shared/data/broad)
+ifneq ($(wildcard $(SHARED_BROAD)/*.mat),)
+export WSNLIB_BROAD_DIR ?= $(SHARED_BROAD)
+endif
+
 .PHONY: figures quick test lint lock clean-outputs
 
 figures: $(STAMP)

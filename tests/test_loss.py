@@ -248,3 +248,12 @@ def test_hold_last_forward_fills_and_backfills_the_start():
         loss.hold_last(values, np.zeros(6, bool))
     with np.testing.assert_raises(ValueError):
         loss.hold_last(values, received[:5])
+
+
+def test_burst_train_places_whole_packet_bursts_periodically():
+    received, ends = loss.burst_train(300, 10, 100, 2)
+    assert ends.tolist() == [24, 126, 222]      # bursts start at 12, 114, 210 (packet grid)
+    assert (~received).sum() == 3 * 12
+    assert all(received[e] and not received[e - 1] for e in ends)
+    with np.testing.assert_raises(ValueError):
+        loss.burst_train(300, 10, 12, 2)

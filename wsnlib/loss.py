@@ -501,3 +501,37 @@ def hold_last(values, received) -> np.ndarray:
     source = np.where(source < 0, first, source)
     values = np.broadcast_to(values, batch + values.shape[-2:])
     return np.take_along_axis(values, source[..., None], axis=-2)
+
+
+def burst_train(n_samples: int, start_sample: int, period_samples: int, n_packets: int,
+                samples_per_packet: int = SAMPLES_PER_PACKET) -> tuple[np.ndarray, np.ndarray]:
+    """Repeated bursts: ``n_packets`` lost every ``period_samples`` samples from ``start_sample`` on.
+
+    Each burst is placed like :func:`burst_mask` (on the packet grid, at or after its nominal
+    start); bursts that would not end before the record does are left out, so every burst has
+    a first received sample after it.
+
+    Returns
+    -------
+    received : numpy.ndarray of bool, shape (n_samples,)
+    burst_ends : numpy.ndarray of int, shape (B,)
+        Index of the first received sample after each burst (for
+        :func:`wsnlib.metrics.burst_response`).
+    """
+    n_samples = _check_count(n_samples, "n_samples")
+    period = _check_count(period_samples, "period_samples", minimum=1)
+    n_packets = _check_count(n_packets, "n_packets", minimum=1)
+    start = _check_count(start_sample, "start_sample")
+    length = n_packets * samples_per_packet
+    if period <= length:
+        raise ValueError(f"period_samples ({period}) must exceed the burst length ({length} samples)")
+    received = np.ones(n_samples, dtype=bool)
+    ends = []
+    for nominal in range(start, n_samples, period):
+        burst = burst_mask(n_samples, nominal, n_packets, samples_per_packet)
+        first_lost = int(np.argmin(burst))
+        if burst.all() or first_lost + length >= n_samples:
+            break
+        received &= burst
+        ends.append(first_lost + length)
+    return received, np.asarray(ends, dtype=np.int64)
