@@ -1,6 +1,8 @@
-"""Raw IMU recordings: the in-memory :class:`Recording` and its CSV + JSON file format.
+"""Raw IMU recordings: the in-memory :class:`Recording` and its CSV + JSON file format, and
+the loader of the BROAD benchmark trials (:func:`load_broad`, see the section at the end).
 
-This is the format the notebooks read, and the one a user converts real recordings into.
+The CSV + JSON format is what the notebooks read, and the one a user converts real
+recordings into.
 
 File format (format version 1)
 ------------------------------
@@ -52,18 +54,44 @@ Written with sorted keys and two-space indent.  If the sidecar is missing,
 first sample, and uses empty metadata.
 
 The signal conventions are those of :mod:`wsnlib` (see ``wsnlib/__init__.py``).
+
+BROAD (real recordings with optical ground truth)
+-------------------------------------------------
+:func:`load_broad` reads trials of the Berlin Robust Orientation Estimation Assessment
+Dataset:
+
+    D. Laidig, M. Caruso, A. Cereatti, T. Seel, "BROAD—A Benchmark for Robust Inertial
+    Orientation Estimation", *Data* 6(7):72, 2021, doi:10.3390/data6070072.
+    Data licensed CC BY 4.0 — credit the authors wherever results from it are shown.
+
+The files are the MATLAB versions (``data_mat/<trial>.mat``) of the public repository
+github.com/dlaidig/broad, pinned to commit :data:`BROAD_COMMIT`.  :data:`BROAD_REGISTRY` lists
+the six trials this project uses (plus the dataset's ``trials.json``) with their SHA-256.
+
+Folder, first match wins: the ``data_dir`` argument; else the environment variable
+``WSNLIB_BROAD_DIR``; else ``<ROOT>/data/raw/broad/`` (gitignored; ROOT is the checkout,
+:data:`wsnlib.paths.ROOT`).  A missing file is downloaded with pooch from
+``https://raw.githubusercontent.com/dlaidig/broad/<BROAD_COMMIT>/data_mat/<file>`` into that
+folder (unless ``download=False``) and kept only if its SHA-256 matches.  Every file, whether
+downloaded or already there, is hash-checked before it is read; a mismatch raises
+``ValueError`` naming the file and both hashes (a corrupt file is never half-read, and never
+silently replaced: delete it to download it again).  The verified hash is remembered per
+(path, size, modification time) within the process, so reloading does not rehash.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from wsnlib import paths
 from wsnlib._validation import as_float_array, check_positive
 
 FORMAT_NAME = "wsnlib-recording"
@@ -463,4 +491,331 @@ def read_recording(path) -> Recording:
         mag=block(SIGNAL_COLUMNS["mag"]),
         quat_true=quat,
         metadata=metadata,
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# BROAD benchmark trials (Laidig et al. 2021, CC BY 4.0); see the module docstring.
+# --------------------------------------------------------------------------------------------
+
+#: Commit of github.com/dlaidig/broad the files are pinned to.
+BROAD_COMMIT = "7e2f8189bb4a3ac91eae32c69b6bc87f08a6e2ad"
+
+#: Download address of a file of the dataset's ``data_mat/`` folder.
+BROAD_URL = "https://raw.githubusercontent.com/dlaidig/broad/{commit}/data_mat/{filename}"
+
+#: Environment variable naming the folder that holds the BROAD files.
+BROAD_DIR_ENV_VAR = "WSNLIB_BROAD_DIR"
+
+#: File name → SHA-256 of the BROAD files this project knows (six trials and ``trials.json``).
+BROAD_REGISTRY: dict[str, str] = {
+    "02_undisturbed_slow_rotation_B.mat": "2ab69f86aab5fcc018399068baaabc725bb4b53862aefbef70eaf0256da1930a",
+    "07_undisturbed_fast_rotation_B.mat": "bc1ed36ec3f8d279a3b81078d229549fd4c55ed8338e42c3bd83ab89146096b5",
+    "11_undisturbed_slow_translation_B.mat": "4a78ec3dd01988c065c53eb3157e34425237f0a4598fba95ab2cc19e2342fe72",
+    "16_undisturbed_fast_translation_B.mat": "fc97a89ca41c03b7f86793c20d8ce208fe085f8a1cc6e956cce03ebf3fa57c54",
+    "25_disturbed_tapping_B.mat": "38326275bd24d350ce188e8621b42e0598e2cc6b5f7eb8c652052afb8f4ae887",
+    "30_disturbed_stationary_magnet_C.mat": "a2749e93855ca115384c0d998dcdb088a2a6f1d46f743c5f37e5feb9b6ebb753",
+    "trials.json": "9f4a680062fd5b6b500653fe7f8e7dd774dedbf4fe573210328ec8d0d263c2fd",
+}
+
+#: Largest tolerated deviation of a reference quaternion's norm from 1.
+_BROAD_QUAT_NORM_TOL = 1e-6
+
+#: Verified files: (resolved path, size, mtime_ns) → SHA-256, so reloading does not rehash.
+_VERIFIED_HASHES: dict[tuple[str, int, int], str] = {}
+
+
+def broad_trials() -> list[str]:
+    """Names of the known BROAD trials (without ``.mat``), in trial-number order."""
+    return sorted(name[: -len(".mat")] for name in BROAD_REGISTRY if name.endswith(".mat"))
+
+
+def broad_dir(data_dir=None) -> Path:
+    """Folder of the BROAD files: ``data_dir``, else ``$WSNLIB_BROAD_DIR``, else ``<ROOT>/data/raw/broad``.
+
+    The folder is not created here (only a download creates it).
+    """
+    if data_dir is not None:
+        return Path(data_dir).expanduser().resolve()
+    override = os.environ.get(BROAD_DIR_ENV_VAR)
+    if override:
+        return Path(override).expanduser().resolve()
+    return paths.ROOT / "data" / "raw" / "broad"
+
+
+def _broad_trial_name(trial) -> str:
+    known = broad_trials()
+    if isinstance(trial, bool):
+        raise ValueError(f"trial must be a trial name or number, got {trial!r}; known trials: {known}")
+    if isinstance(trial, int | np.integer):
+        matches = [name for name in known if int(name.split("_", 1)[0]) == int(trial)]
+    elif isinstance(trial, str):
+        name = trial[: -len(".mat")] if trial.endswith(".mat") else trial
+        matches = [name] if name in known else []
+    else:
+        raise ValueError(f"trial must be a trial name or number, got {type(trial).__name__}; known trials: {known}")
+    if not matches:
+        raise ValueError(f"unknown BROAD trial {trial!r}; known trials: {known}")
+    return matches[0]
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _verify_file(path: Path, expected: str) -> None:
+    """Raise ``ValueError`` naming ``path`` and both hashes unless its SHA-256 is ``expected``."""
+    stat = path.stat()
+    key = (str(path.resolve()), stat.st_size, stat.st_mtime_ns)
+    if _VERIFIED_HASHES.get(key) == expected:
+        return
+    actual = _sha256(path)
+    if actual != expected:
+        raise ValueError(
+            f"{path}: SHA-256 is {actual}, expected {expected} (the file is corrupt, truncated or "
+            f"another version); delete it to download it again"
+        )
+    _VERIFIED_HASHES[key] = actual
+
+
+def broad_file(filename: str, data_dir=None, *, download: bool = True, downloader=None) -> Path:
+    """Path of a verified BROAD file, downloading it first if it is missing.
+
+    Parameters
+    ----------
+    filename : str
+        A key of :data:`BROAD_REGISTRY`, e.g. ``"02_undisturbed_slow_rotation_B.mat"``.
+    data_dir : str or pathlib.Path, optional
+        Folder; default see :func:`broad_dir`.
+    download : bool
+        If False, a missing file raises ``FileNotFoundError`` instead of being downloaded.
+    downloader : callable, optional
+        Passed on to :func:`pooch.retrieve`: called as ``downloader(url, output_file, pooch)``
+        and must write the file at ``url`` to the path ``output_file`` (default: pooch's HTTP
+        downloader).  The tests inject a local copier here.
+
+    Returns
+    -------
+    pathlib.Path
+        The file, whose SHA-256 matches the registry.
+
+    Raises
+    ------
+    ValueError
+        Unknown ``filename``; or a hash mismatch, of a file already present or of a download
+        (a failed download leaves no file behind).
+    FileNotFoundError
+        The file is missing and ``download`` is False.
+    OSError
+        The download itself failed (no network, HTTP error).
+    """
+    if filename not in BROAD_REGISTRY:
+        raise ValueError(f"unknown BROAD file {filename!r}; known files: {sorted(BROAD_REGISTRY)}")
+    expected = BROAD_REGISTRY[filename]
+    folder = broad_dir(data_dir)
+    path = folder / filename
+    if not path.exists():
+        url = BROAD_URL.format(commit=BROAD_COMMIT, filename=filename)
+        if not download:
+            raise FileNotFoundError(
+                f"{path} does not exist; download it from {url}, point ${BROAD_DIR_ENV_VAR} or "
+                f"data_dir at a folder holding it, or call with download=True"
+            )
+        _download(url, path, expected, downloader)
+    _verify_file(path, expected)
+    return path
+
+
+def _download(url: str, path: Path, expected: str, downloader) -> None:
+    import pooch
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        # pooch writes to a temporary file in the same folder, checks the hash and only then
+        # moves it into place; on a mismatch it deletes the temporary file.
+        pooch.retrieve(url, known_hash=f"sha256:{expected}", fname=path.name, path=path.parent,
+                       downloader=downloader, progressbar=False)
+    except ValueError as exc:
+        raise ValueError(
+            f"download of {path.name} from {url} failed the hash check (expected SHA-256 {expected}); "
+            f"nothing was written to {path}. Details: {exc}"
+        ) from exc
+    except OSError as exc:
+        raise OSError(
+            f"could not download {url} to {path}: {exc}. Without network, copy the file there "
+            f"by hand or set ${BROAD_DIR_ENV_VAR} to a folder holding it"
+        ) from exc
+
+
+def broad_trial_info(data_dir=None, *, download: bool = True, downloader=None) -> dict:
+    """The dataset's ``trials.json`` (groups, and per trial its description and groups), parsed."""
+    path = broad_file("trials.json", data_dir, download=download, downloader=downloader)
+    return json.loads(path.read_text(encoding="utf-8"))
+
+
+@dataclass(frozen=True, eq=False)
+class BroadTrial:
+    """One BROAD trial: IMU signals and the optical reference orientation, sampled together.
+
+    The arrays are read-only copies.  Credit: Laidig et al., BROAD, Data 6(7):72, 2021
+    (CC BY 4.0).
+
+    Attributes
+    ----------
+    name : str
+        Trial name, e.g. ``"02_undisturbed_slow_rotation_B"``.
+    fs : float
+        Sampling rate (Hz); 2000/7 ≈ 285.714 Hz in the files (stored to full double precision).
+    time_s : numpy.ndarray, shape (T,)
+        Sample times (s), ``k / fs`` (the files carry no time stamps).
+    gyr : numpy.ndarray, shape (T, 3)
+        Angular rate, IMU body frame (rad/s), file key ``imu_gyr``.
+    acc : numpy.ndarray, shape (T, 3)
+        Specific force, IMU body frame (m/s², +g upward at rest), file key ``imu_acc``.
+    mag : numpy.ndarray, shape (T, 3)
+        Magnetic field, IMU body frame (µT), file key ``imu_mag``.
+    quat_ref : numpy.ndarray, shape (T, 4)
+        Optical reference orientation ``[w, x, y, z]``, body → ENU, unit norm (file key
+        ``opt_quat``, already aligned to the IMU by the dataset's authors).  Rows are NaN
+        where the markers were lost; they are kept NaN (never interpolated).
+    movement : numpy.ndarray of bool, shape (T,)
+        Samples of the movement phase, the ones BROAD's errors are computed on.
+    info : str
+        The file's description text.
+    """
+
+    name: str
+    fs: float
+    time_s: np.ndarray = field(repr=False)
+    gyr: np.ndarray = field(repr=False)
+    acc: np.ndarray = field(repr=False)
+    mag: np.ndarray = field(repr=False)
+    quat_ref: np.ndarray = field(repr=False)
+    movement: np.ndarray = field(repr=False)
+    info: str = field(default="", repr=False)
+
+    #: Attribute → key in the .mat file, for error messages.
+    _FILE_KEYS = {"gyr": "imu_gyr", "acc": "imu_acc", "mag": "imu_mag", "quat_ref": "opt_quat",
+                  "movement": "movement"}
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name:
+            raise ValueError(f"name must be a non-empty string, got {self.name!r}")
+        where = f"BROAD trial {self.name!r}"
+        object.__setattr__(self, "fs", check_positive(self.fs, f"{where}: fs"))
+        time_s = self._frozen(as_float_array(self.time_s, f"{where}: time_s"))
+        if time_s.ndim != 1 or time_s.size < 2:
+            raise ValueError(f"{where}: time_s must be 1-D with at least 2 samples, got shape {time_s.shape}")
+        if np.any(np.diff(time_s) <= 0.0):
+            raise ValueError(f"{where}: time_s must be strictly increasing")
+        object.__setattr__(self, "time_s", time_s)
+        n = time_s.size
+        for attr in ("gyr", "acc", "mag"):
+            label = f"{where}: {attr} (file key {self._FILE_KEYS[attr]!r})"
+            arr = np.asarray(getattr(self, attr))
+            if arr.shape != (n, 3):
+                raise ValueError(f"{label} must have shape {(n, 3)}, got {arr.shape}")
+            object.__setattr__(self, attr, self._frozen(as_float_array(arr, label)))
+        label = f"{where}: quat_ref (file key 'opt_quat')"
+        quat = np.array(self.quat_ref, dtype=float)
+        if quat.shape != (n, 4):
+            raise ValueError(f"{label} must have shape {(n, 4)}, got {quat.shape}")
+        nan_rows = np.isnan(quat).any(axis=-1)
+        if np.any(np.isinf(quat)) or np.any(nan_rows & ~np.isnan(quat).all(axis=-1)):
+            raise ValueError(f"{label}: rows must be finite or entirely NaN (lost markers)")
+        norm_error = np.abs(np.linalg.norm(quat[~nan_rows], axis=-1) - 1.0)
+        if np.any(norm_error > _BROAD_QUAT_NORM_TOL):
+            sample = int(np.flatnonzero(~nan_rows)[np.argmax(norm_error)])
+            raise ValueError(f"{label}: not a unit quaternion at sample {sample}")
+        object.__setattr__(self, "quat_ref", self._frozen(quat))
+        movement = np.asarray(self.movement)
+        if movement.dtype != np.bool_ or movement.shape != (n,):
+            raise ValueError(
+                f"{where}: movement must be a boolean array of shape {(n,)}, got {movement.dtype} {movement.shape}"
+            )
+        object.__setattr__(self, "movement", self._frozen(movement))
+        if not isinstance(self.info, str):
+            raise ValueError(f"{where}: info must be a string")
+
+    @staticmethod
+    def _frozen(arr: np.ndarray) -> np.ndarray:
+        arr = np.array(arr, copy=True)
+        arr.setflags(write=False)
+        return arr
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples T."""
+        return self.time_s.size
+
+    @property
+    def reference_valid(self) -> np.ndarray:
+        """Boolean ``(T,)``: samples where the optical reference exists (not NaN)."""
+        return ~np.isnan(self.quat_ref[:, 0])
+
+
+def load_broad(trial, data_dir=None, *, download: bool = True, downloader=None) -> BroadTrial:
+    """Load one BROAD trial (Laidig et al. 2021, CC BY 4.0), downloading and verifying it if needed.
+
+    Parameters
+    ----------
+    trial : str or int
+        Trial name as in :func:`broad_trials` (with or without ``.mat``), or its number
+        (``2`` for ``"02_undisturbed_slow_rotation_B"``).
+    data_dir : str or pathlib.Path, optional
+        Folder of the files; default ``$WSNLIB_BROAD_DIR``, else ``<ROOT>/data/raw/broad``.
+    download : bool
+        Download a missing file (pooch, from the repository pinned to :data:`BROAD_COMMIT`).
+    downloader : callable, optional
+        Replaces pooch's HTTP downloader; see :func:`broad_file`.
+
+    Returns
+    -------
+    BroadTrial
+        Signals in the IMU body frame: ``gyr`` rad/s, ``acc`` m/s², ``mag`` µT, ``quat_ref``
+        ``[w, x, y, z]`` body → ENU (NaN rows where the optical markers were lost),
+        ``movement`` bool, at ``fs`` = 2000/7 ≈ 285.714 Hz.
+
+    Raises
+    ------
+    ValueError
+        Unknown trial (the message lists the known ones); SHA-256 mismatch (naming the file,
+        the expected and the actual hash); a missing key, a wrong shape or non-finite IMU
+        signals (naming the trial and the key).
+    FileNotFoundError, OSError
+        See :func:`broad_file`.
+    """
+    import scipy.io
+
+    name = _broad_trial_name(trial)
+    path = broad_file(f"{name}.mat", data_dir, download=download, downloader=downloader)
+    mat = scipy.io.loadmat(path)
+    missing = [key for key in ("imu_gyr", "imu_acc", "imu_mag", "opt_quat", "movement", "sampling_rate")
+               if key not in mat]
+    if missing:
+        raise ValueError(f"BROAD trial {name!r} ({path}) lacks the key(s) {missing}")
+    rate = np.asarray(mat["sampling_rate"], dtype=float)
+    if rate.size != 1:
+        raise ValueError(f"BROAD trial {name!r}: key 'sampling_rate' must be a scalar, got shape {rate.shape}")
+    fs = float(rate.reshape(()))
+    movement_raw = np.asarray(mat["movement"]).reshape(-1)
+    if not np.all((movement_raw == 0) | (movement_raw == 1)):
+        raise ValueError(f"BROAD trial {name!r}: key 'movement' must hold only 0 and 1")
+    n_samples = np.asarray(mat["imu_gyr"]).shape[0]
+    info = mat.get("info")
+    info_text = str(np.asarray(info).reshape(-1)[0]) if info is not None and np.asarray(info).size else ""
+    return BroadTrial(
+        name=name,
+        fs=fs,
+        time_s=np.arange(n_samples) / check_positive(fs, f"BROAD trial {name!r}: sampling_rate"),
+        gyr=mat["imu_gyr"],
+        acc=mat["imu_acc"],
+        mag=mat["imu_mag"],
+        quat_ref=mat["opt_quat"],
+        movement=movement_raw.astype(bool),
+        info=info_text,
     )

@@ -6,6 +6,9 @@
   (Section II, Fig. 1), ideally 0° during an arm extension with aligned segments.  The 3-D
   angle between the two segment axes is offered too; the two agree for motion in a vertical
   plane.
+* BROAD errors (:func:`broad_errors_deg`, :func:`broad_rmse_deg`): total, heading and
+  inclination error of the earth-frame error quaternion, as defined by the BROAD benchmark
+  (Laidig et al., Data 6(7):72, 2021) and its example code.
 * Smoothness: RMS angular jerk of an orientation sequence (third time derivative of the
   rotation angle, from finite differences of the body angular velocity), in °/s³.  The
   paper calls single-frame estimates "jerky" without a number; this is ours.
@@ -19,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from wsnlib import quaternion as quat_ops
-from wsnlib._validation import as_float_array, check_nonnegative, check_positive
+from wsnlib._validation import as_float_array, check_nonnegative, check_nonzero_norm, check_positive
 
 #: Body-frame axis along the segment (pointing distally), shared with :mod:`wsnlib.sim.arm`.
 SEGMENT_AXIS = np.array([1.0, 0.0, 0.0])
@@ -58,6 +61,138 @@ def orientation_error_deg(quat_est, quat_true) -> np.ndarray:
     quat_est = as_float_array(quat_est, "quat_est", last_dim=4)
     quat_true = as_float_array(quat_true, "quat_true", last_dim=4)
     return np.degrees(quat_ops.angle_between(quat_est, quat_true))
+
+
+# --- BROAD's error metrics ------------------------------------------------------------------
+# Laidig, Caruso, Cereatti, Seel, "BROAD—A Benchmark for Robust Inertial Orientation
+# Estimation", Data 6(7):72, 2021, doi:10.3390/data6070072, and its example code
+# (github.com/dlaidig/broad, example_code/broad_utils.py: calculateErrorQuatEarth,
+# calculateTotalError, calculateHeadingError, calculateInclinationError, calculateRMSE).
+
+#: Keys of :func:`broad_errors_deg` and :func:`broad_rmse_deg`.
+BROAD_ERROR_KEYS = ("total", "heading", "inclination")
+
+
+def _as_quat_with_gaps(value, name: str) -> np.ndarray:
+    """Quaternions ``(..., 4)`` in which a row holding NaN marks a missing sample.
+
+    Such rows become entirely NaN; inf is rejected, and so is a zero quaternion.
+    """
+    try:
+        arr = np.array(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a numeric array, got {type(value).__name__}") from exc
+    if arr.ndim < 1 or arr.shape[-1] != 4:
+        raise ValueError(f"{name} must have shape (..., 4), got shape {arr.shape}")
+    if np.any(np.isinf(arr)):
+        raise ValueError(f"{name} contains inf")
+    gap = np.isnan(arr).any(axis=-1)
+    arr[gap] = np.nan
+    if np.any(np.linalg.norm(arr[~gap], axis=-1) == 0.0):
+        raise ValueError(f"{name} has a zero quaternion, which is not a rotation")
+    return arr
+
+
+def broad_errors_deg(quat_est, quat_ref) -> dict[str, np.ndarray]:
+    """BROAD's total, heading and inclination errors (°) per sample, ``(..., T, 4) → (..., T)``.
+
+    As in BROAD's ``broad_utils.py``: both inputs are normalised, the error quaternion is
+    expressed in the earth frame, ``q_e = q_est ⊗ q_ref*`` (``calculateErrorQuatEarth``), and
+    with ``q_e = [w, x, y, z]`` (z is the vertical of ENU)
+
+    * total = ``2·acos(|w|)``, the rotation angle of ``q_e``;
+    * heading = ``2·atan(|z / w|)``, the angle of the rotation about the vertical axis in
+      ``q_e`` (its twist about earth z);
+    * inclination = ``2·acos(√(w² + z²))``, the remaining rotation about a horizontal axis
+      (the tilt error).
+
+    They are evaluated in the equivalent ``atan2`` forms, ``2·atan2(‖(x, y, z)‖, |w|)``,
+    ``2·atan2(|z|, |w|)`` and ``2·atan2(‖(x, y)‖, ‖(w, z)‖)``, which stay accurate near 0 where
+    ``acos`` loses digits; they agree with BROAD's formulas except at ``w = z = 0`` (an error of
+    exactly 180° about a horizontal axis), where BROAD's heading is 0/0 and ours is 0.
+
+    Parameters
+    ----------
+    quat_est : array_like, shape (..., T, 4)
+        Estimated orientation ``[w, x, y, z]``, body → ENU; must be finite (an estimate that
+        is NaN is an error to report, not a sample to skip).
+    quat_ref : array_like, shape (..., T, 4)
+        Reference orientation; rows holding NaN (BROAD: optical markers lost) are expected.
+        Broadcasts against ``quat_est``.
+
+    Returns
+    -------
+    dict[str, numpy.ndarray]
+        ``"total"``, ``"heading"``, ``"inclination"``: degrees in ``[0, 180]``, shape
+        ``(..., T)``; NaN exactly where the reference is NaN.
+    """
+    est = as_float_array(quat_est, "quat_est", last_dim=4)
+    est = est / check_nonzero_norm(est, "quat_est", "a zero quaternion is not a rotation")[..., None]
+    ref = _as_quat_with_gaps(quat_ref, "quat_ref")
+    ref = ref / np.linalg.norm(ref, axis=-1, keepdims=True)
+    try:
+        np.broadcast_shapes(est.shape, ref.shape)
+    except ValueError as exc:
+        raise ValueError(f"quat_est {est.shape} and quat_ref {ref.shape} do not broadcast") from exc
+    w, x, y, z = np.moveaxis(quat_ops.multiply(est, quat_ops.conjugate(ref)), -1, 0)
+    abs_w, abs_z = np.abs(w), np.abs(z)
+    errors = {
+        "total": 2.0 * np.arctan2(np.sqrt(x * x + y * y + z * z), abs_w),
+        "heading": 2.0 * np.arctan2(abs_z, abs_w),
+        "inclination": 2.0 * np.arctan2(np.hypot(x, y), np.hypot(w, z)),
+    }
+    return {key: np.degrees(value) for key, value in errors.items()}
+
+
+def broad_rmse_deg(quat_est, quat_ref, movement) -> dict[str, np.ndarray]:
+    """BROAD's RMSE (°) of the total, heading and inclination errors over the movement phase.
+
+    What BROAD's ``calculateRMSE`` does: the errors of :func:`broad_errors_deg` on the samples
+    where ``movement`` is True, RMS with NaN excluded (their ``rmse`` uses ``np.nanmean``), so
+    samples whose reference is NaN simply do not count — they are not interpolated.  No heading
+    offset is removed: BROAD evaluates every algorithm, 6D or 9D, in the ENU frame of the
+    reference (its example only turns the Madgwick/Mahony output from their north-west-up earth
+    frame into ENU by a fixed 90° rotation about the vertical), so an estimator without
+    magnetometer shows its heading drift.
+
+    Parameters
+    ----------
+    quat_est, quat_ref : array_like, shape (..., T, 4)
+        As in :func:`broad_errors_deg`.
+    movement : array_like of bool, shape (T,) or (..., T)
+        Samples that count; broadcast against the errors.
+
+    Returns
+    -------
+    dict[str, numpy.ndarray]
+        ``"total"``, ``"heading"``, ``"inclination"``: RMSE in degrees, shape ``(...)``.
+
+    Raises
+    ------
+    ValueError
+        If, for some batch element, no sample is both in ``movement`` and has a reference
+        (never a silent NaN); on a non-boolean ``movement`` or the input errors of
+        :func:`broad_errors_deg`.
+    """
+    errors = broad_errors_deg(quat_est, quat_ref)
+    shape = errors["total"].shape
+    movement = np.asarray(movement)
+    if movement.dtype != np.bool_:
+        raise ValueError(f"movement must be a boolean mask, got dtype {movement.dtype}")
+    try:
+        movement = np.broadcast_to(movement, shape)
+    except ValueError as exc:
+        raise ValueError(f"movement has shape {movement.shape}, which does not fit the errors' {shape}") from exc
+    valid = movement & ~np.isnan(errors["total"])
+    count = np.count_nonzero(valid, axis=-1)
+    if np.any(count == 0):
+        bad = tuple(int(i) for i in np.argwhere(count == 0)[0])
+        where = f" (batch index {bad})" if bad else ""
+        raise ValueError(
+            f"no sample is both in the movement phase and has a reference (non-NaN quat_ref){where}; "
+            f"the RMSE is undefined"
+        )
+    return {key: np.sqrt(np.sum(np.where(valid, value, 0.0) ** 2, axis=-1) / count) for key, value in errors.items()}
 
 
 def max_abs_error(error, start: int = 0, where=None) -> np.ndarray:
@@ -254,3 +389,69 @@ def summary_table(results: dict[str, dict[str, np.ndarray]], quantiles=(0.1, 0.9
     table = pd.DataFrame.from_dict(rows, orient="index")
     table.columns = pd.MultiIndex.from_tuples(table.columns, names=["figure", "statistic"])
     return table
+
+
+def burst_response(error_lossy_deg, error_lossless_deg, burst_ends, fs, *, window_s: float = 2.0,
+                   threshold_deg: float = 1.0, min_valid_fraction: float = 0.5) -> dict[str, np.ndarray]:
+    """How much a loss burst adds to the error, burst by burst, against the same run without loss.
+
+    For each burst, the *increase* ``e_lossy − e_lossless`` is examined over the ``window_s``
+    seconds that follow the burst's end (the first received sample after it):
+
+    * ``mean_increase_deg``: mean increase over the window;
+    * ``peak_increase_deg``: largest increase in the window;
+    * ``recovery_s``: time until the increase falls below ``threshold_deg`` for the rest of
+      the window (0 if it never exceeds it; ``inf`` if it is still above at the window's last
+      valid sample).
+
+    Error traces may hold NaN where the reference is missing (e.g. optical markers lost); those
+    samples are skipped.  A burst whose window has fewer than ``min_valid_fraction`` valid
+    samples, or whose window runs past the record's end, is dropped and counted in ``dropped``,
+    so every returned value is a number.
+
+    Parameters
+    ----------
+    error_lossy_deg, error_lossless_deg : array_like, shape (..., T)
+        Error magnitudes (°) with and without loss; broadcast together.
+    burst_ends : array_like of int, shape (B,)
+        Index of the first received sample after each burst.
+    fs : float
+        Sampling rate (Hz).
+    window_s, threshold_deg, min_valid_fraction : float
+
+    Returns
+    -------
+    dict
+        ``mean_increase_deg``, ``peak_increase_deg``, ``recovery_s``: arrays ``(..., B_kept)``;
+        ``kept``: indices of the kept bursts; ``dropped``: how many were dropped.
+    """
+    lossy = np.asarray(error_lossy_deg, dtype=float)
+    lossless = np.asarray(error_lossless_deg, dtype=float)
+    increase = lossy - lossless
+    fs = check_positive(fs, "fs")
+    window = int(round(check_positive(window_s, "window_s") * fs))
+    threshold_deg = check_nonnegative(threshold_deg, "threshold_deg")
+    ends = np.asarray(burst_ends)
+    if ends.ndim != 1 or not np.issubdtype(ends.dtype, np.integer):
+        raise ValueError("burst_ends must be a 1-D array of sample indices")
+    n = increase.shape[-1]
+    in_range = (ends >= 0) & (ends + window <= n)
+    segments = np.stack([increase[..., e:e + window] for e in ends[in_range]], axis=-2) if in_range.any() \
+        else np.empty(increase.shape[:-1] + (0, window))
+    valid = np.isfinite(segments)
+    enough = valid.mean(axis=-1) >= min_valid_fraction                       # (..., B)
+    keep = np.all(enough, axis=tuple(range(enough.ndim - 1))) if enough.ndim > 1 else enough
+    kept = np.flatnonzero(in_range)[keep]
+    segments, valid = segments[..., keep, :], valid[..., keep, :]
+    filled = np.where(valid, segments, 0.0)
+    count = valid.sum(axis=-1)
+    mean_increase = filled.sum(axis=-1) / np.maximum(count, 1)
+    peak_increase = np.where(valid, segments, -np.inf).max(axis=-1, initial=-np.inf)
+    above = valid & (segments > threshold_deg)
+    last = (window - 1) - np.argmax(above[..., ::-1], axis=-1)
+    recovery = np.where(above.any(axis=-1), (last + 1) / fs, 0.0)
+    last_valid = (window - 1) - np.argmax(valid[..., ::-1], axis=-1)
+    still_above = np.take_along_axis(above, last_valid[..., None], axis=-1)[..., 0]
+    recovery = np.where(still_above, np.inf, recovery)
+    return {"mean_increase_deg": mean_increase, "peak_increase_deg": peak_increase, "recovery_s": recovery,
+            "kept": kept, "dropped": int(ends.size - kept.size)}

@@ -3,18 +3,28 @@
 All take body-frame signals ``(..., T, 3)`` and return ENU quaternions ``(..., T, 4)``
 (see :mod:`wsnlib` for the conventions).  :mod:`.loss_handling` adds paper 001's hybrid
 SLERP (eqs. (3)–(4)) and the loss-handling alternatives of its Sec. V.
+:mod:`.peers` wraps two peer filters, x-io Fusion and VQF, with the same loss semantics.
 """
 
-from wsnlib.orientation.loss_handling import effective_lost_run, estimate_orientation, slerp_weight
+from wsnlib.orientation.loss_handling import (
+    blend_with_single_frame,
+    effective_lost_run,
+    estimate_orientation,
+    slerp_weight,
+)
 from wsnlib.orientation.madgwick import madgwick, madgwick_step
+from wsnlib.orientation.peers import fusion_ahrs, vqf_orientation
 from wsnlib.orientation.triad import tilt_quaternion, triad
 
 __all__ = [
+    "blend_with_single_frame",
     "effective_lost_run",
     "estimate_orientation",
+    "fusion_ahrs",
     "madgwick",
     "madgwick_step",
     "slerp_weight",
     "tilt_quaternion",
     "triad",
+    "vqf_orientation",
 ]

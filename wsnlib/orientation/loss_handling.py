@@ -35,6 +35,8 @@ Two questions the paper leaves open
    received sample.  With ``"output"`` the display returns to Madgwick's state, however
    far it still lags, as soon as λ_eff is back to 0; with ``"feedback"`` the state itself
    is pulled towards TRIAD while λ_eff > 0.
+   :func:`blend_with_single_frame` applies the output blend to any filter's output (the
+   peer filters of :mod:`wsnlib.orientation.peers` use it).
 
 Held output
 -----------
@@ -622,31 +624,8 @@ def estimate_orientation(
         q_d = _run(initial(batch), sig["gyr"], sig["acc"], mag_tf, _time_first(update), dt_steps, beta_dt)
         if method != "hybrid":
             return _finish(q_d, lam, rho, tau, return_weight)
-        # Output blend.  The state is held on lost samples, so the output at t is eq. (4) with
-        # q_d[t] and the q_s, μ of the last received sample s(t) <= t (t itself before any):
-        # SLERP(q_s[s], q_d[t], μ[s]) where a blend happened at s, q_d[t] elsewhere.  Only
-        # those positions are computed, all at once.
-        index = np.arange(n_t)
-        src = np.maximum.accumulate(np.where(mask, index, -1), axis=-1)
-        src = np.where(src < 0, index, src)
-        blend_at = mask & (lam > 0.0)
-        q_s = _triad_where(signals, blend_at, data_batch)  # (*data, T, 4)
-        src, blend_at = (x.reshape(_pad(x.shape[:-1], nd) + (n_t,)) for x in (src, blend_at))
-        held = np.take_along_axis(blend_at, src, axis=-1)
-        result = np.empty(out_batch + (n_t, 4))
-        result[...] = q_d
-        where = np.nonzero(np.broadcast_to(held, out_batch + (n_t,)))
-        if where[0].size:
-            at_src = where[:-1] + (np.broadcast_to(src, out_batch + (n_t,))[where],)
-            q_s = np.broadcast_to(q_s, out_batch + (n_t, 4))[at_src]
-            q_d = np.broadcast_to(q_d, out_batch + (n_t, 4))[where]
-            mu = _weight(
-                np.broadcast_to(lam, out_batch + (n_t,))[at_src],
-                np.broadcast_to(rho, out_batch)[where[:-1]],
-                np.broadcast_to(tau, out_batch)[where[:-1]],
-            )
-            result[where] = _slerp_first(q_s.T, q_d.T, mu).T
-        return _finish(result, lam, rho, tau, return_weight)
+        blended = _output_blend(q_d, signals, mask, lam, rho, tau, data_batch, out_batch)
+        return _finish(blended, lam, rho, tau, return_weight)
 
     if method == "gyro_interpolation":
         gyr_tf = _time_first(_filled_gyr(signals["gyr"], mask), 3)
@@ -694,6 +673,143 @@ def _triad_where(signals, where: np.ndarray, data_batch) -> np.ndarray:
         mag = np.broadcast_to(signals["mag"], data_batch + (n_t, 3))[index]
         q_s[index] = triad(acc, mag)
     return q_s
+
+
+def blend_with_single_frame(
+    quat_d,
+    acc,
+    mag,
+    received=None,
+    *,
+    rho=2.0,
+    tau=6.0,
+    schedule: str = "decay",
+    hold_window=None,
+    leading_gap: bool = False,
+) -> np.ndarray:
+    """Paper 001's hybrid as an output stage on any data-fusion output: eqs. (3)–(4).
+
+    ``q_f = SLERP(q_s, q_d, μ)`` with ``μ = slerp_weight(λ_eff, ρ, τ)`` on every received
+    sample where λ_eff > 0 (:func:`effective_lost_run`), ``q_s`` = TRIAD of that sample's
+    ``acc`` and ``mag``, ``q_d`` = ``quat_d`` there; elsewhere ``quat_d`` unchanged.  On a
+    lost sample the output is eq. (4) with the held ``q_d`` and the ``q_s``, μ of the last
+    received sample, i.e. the previous output whenever ``quat_d`` holds its previous value
+    there, as every filter of wsnlib does.  This is ``estimate_orientation(...,
+    method="hybrid", blend="output")`` with Madgwick's filter replaced by whatever produced
+    ``quat_d`` (e.g. :mod:`wsnlib.orientation.peers`): with ``quat_d`` the output of
+    :func:`wsnlib.orientation.madgwick` (same mask, ``q0=None``) the two agree to rounding.
+
+    Parameters
+    ----------
+    quat_d : array_like, shape (..., T, 4)
+        Data-fusion estimate (ENU, body → earth), finite and non-zero (normalised here).
+    acc, mag : array_like, shape (..., T, 3)
+        Specific force (m/s²) and magnetic field (µT) in the body frame, for TRIAD; only
+        received samples are read (lost ones may hold NaN).
+    received : array_like of bool, shape (..., T), optional
+        True = received; ``None``: all received (then λ_eff = 0 and ``quat_d`` comes back).
+    rho, tau : float or array_like
+        ρ, τ of eq. (3), finite and > 0; arrays broadcast against the leading dimensions, as
+        in :func:`estimate_orientation`.
+    schedule : {"decay", "hold", "instant"}
+        λ_eff after a gap (:func:`effective_lost_run`).
+    hold_window : int or array_like of int, optional
+        For ``schedule="hold"`` only (default 50 received samples).
+    leading_gap : bool
+        Whether a gap before a batch element's first received sample counts.  ``False``
+        (default): the filter had not started, λ_eff is 0 up to that sample, as in
+        :func:`estimate_orientation` with ``q0=None``; ``True``: it counts like any gap,
+        as there with ``q0`` given.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., T, 4)
+        Blended ENU unit quaternions; ``...`` is the broadcast of the leading dimensions of
+        all array arguments.  Blended samples keep the sign (hemisphere) of ``quat_d``.
+
+    Raises
+    ------
+    ValueError
+        Naming the argument: wrong shapes or mismatched T, leading dimensions that do not
+        broadcast, NaN/inf or a zero quaternion in ``quat_d``, NaN/inf or a zero vector in a
+        received ``acc``/``mag`` sample, a non-boolean ``received``, an unknown
+        ``schedule``, ρ or τ not finite and > 0, a bad ``hold_window``.  ``acc`` parallel to
+        ``mag`` on a blended sample fails in TRIAD.
+    """
+    schedule = _check_choice(schedule, "schedule", SCHEDULES)
+    rho = _positive_array(rho, "rho")
+    tau = _positive_array(tau, "tau")
+    window = _check_hold_window(hold_window, schedule)
+    quat_d = as_float_array(quat_d, "quat_d", last_dim=4, min_ndim=2)
+    quat_d = quat_d / check_nonzero_norm(quat_d, "quat_d", "a zero quaternion is not a rotation")[..., None]
+    signals = {"acc": _as_signal(acc, "acc"), "mag": _as_signal(mag, "mag")}
+    n_t = quat_d.shape[-2]
+    for name, arr in signals.items():
+        if arr.shape[-2] != n_t:
+            raise ValueError(f"{name} has {arr.shape[-2]} samples (axis -2), quat_d has {n_t}")
+    if received is None:
+        mask = np.ones(n_t, dtype=bool)
+    else:
+        mask = _check_received(received)
+        if mask.shape[-1] != n_t:
+            raise ValueError(f"received must have shape (..., {n_t}), got {mask.shape}")
+    shapes = {name: arr.shape[:-2] for name, arr in signals.items()} | {"received": mask.shape[:-1]}
+    data_batch = _broadcast_batch(shapes)
+    shapes["quat_d"] = quat_d.shape[:-2]
+    base_batch = _broadcast_batch(shapes)
+    params = {"rho": rho.shape, "tau": tau.shape}
+    if window is not None:
+        params["hold_window"] = window.shape
+    _broadcast_batch(shapes | params)
+    signals = {name: _usable(arr, name, mask, unit=True) for name, arr in signals.items()}
+    gap_mask = mask if leading_gap else mask | ~np.logical_or.accumulate(mask, axis=-1)
+    lam = _effective_lost_run(gap_mask, schedule, window)
+    out_batch = np.broadcast_shapes(base_batch, lam.shape[:-1], rho.shape, tau.shape)
+    if n_t == 0:
+        return np.empty(out_batch + (0, 4))
+    nd = len(out_batch)
+    data_batch = _pad(data_batch, nd)
+    signals = {name: arr.reshape(_pad(arr.shape[:-2], nd) + arr.shape[-2:]) for name, arr in signals.items()}
+    lam = lam.reshape(_pad(lam.shape[:-1], nd) + (n_t,))
+    return _output_blend(quat_d, signals, mask, lam, rho, tau, data_batch, out_batch)
+
+
+def _output_blend(q_d, signals, mask, lam, rho, tau, data_batch, out_batch) -> np.ndarray:
+    """Eq. (4) as an output stage (``blend="output"``), no validation.
+
+    ``q_d`` ``(*base, T, 4)``: the data-fusion output, held on lost samples; ``signals``:
+    ``"acc"`` and ``"mag"`` ``(*data, T, 3)`` usable on received samples; ``mask``
+    ``(..., T)``; ``lam`` λ_eff ``(..., T)`` and ``data_batch`` padded to ``len(out_batch)``
+    dimensions; ``rho``, ``tau`` arrays broadcasting to ``out_batch``.  Returns
+    ``(*out_batch, T, 4)``.
+    """
+    n_t = mask.shape[-1]
+    nd = len(out_batch)
+    # The state is held on lost samples, so the output at t is eq. (4) with q_d[t] and the
+    # q_s, μ of the last received sample s(t) <= t (t itself before any):
+    # SLERP(q_s[s], q_d[t], μ[s]) where a blend happened at s, q_d[t] elsewhere.  Only
+    # those positions are computed, all at once.
+    index = np.arange(n_t)
+    src = np.maximum.accumulate(np.where(mask, index, -1), axis=-1)
+    src = np.where(src < 0, index, src)
+    blend_at = mask & (lam > 0.0)
+    q_s = _triad_where(signals, blend_at, data_batch)  # (*data, T, 4)
+    src, blend_at = (x.reshape(_pad(x.shape[:-1], nd) + (n_t,)) for x in (src, blend_at))
+    held = np.take_along_axis(blend_at, src, axis=-1)
+    result = np.empty(out_batch + (n_t, 4))
+    result[...] = q_d
+    where = np.nonzero(np.broadcast_to(held, out_batch + (n_t,)))
+    if where[0].size:
+        at_src = where[:-1] + (np.broadcast_to(src, out_batch + (n_t,))[where],)
+        q_s = np.broadcast_to(q_s, out_batch + (n_t, 4))[at_src]
+        q_d = np.broadcast_to(q_d, out_batch + (n_t, 4))[where]
+        mu = _weight(
+            np.broadcast_to(lam, out_batch + (n_t,))[at_src],
+            np.broadcast_to(rho, out_batch)[where[:-1]],
+            np.broadcast_to(tau, out_batch)[where[:-1]],
+        )
+        result[where] = _slerp_first(q_s.T, q_d.T, mu).T
+    return result
 
 
 def _finish(quat: np.ndarray, lam, rho, tau, return_weight: bool):
