@@ -1,0 +1,28 @@
+import numpy as np
+
+from wsnlib import loss, metrics
+from wsnlib.orientation import madgwick
+from wsnlib.orientation.compare import OUR_METHODS, PEER_ESTIMATORS, SINGLE_FRAME, run_estimators
+from wsnlib.sim import arm_extension, arm_kinematics, simulate_imu
+
+
+def test_every_estimator_runs_on_the_same_masks(rng):
+    truth = arm_kinematics(arm_extension(duration_s=5.0))
+    gyr, acc, mag = (x[0, 0] for x in simulate_imu(truth, rng=rng, n_runs=1))
+    n = gyr.shape[0]
+    masks = np.stack([np.ones(n, bool), loss.burst_mask(n, 80, 4)])
+    setting = {"rho": 3.0, "tau": 6.0, "schedule": "decay", "blend": "feedback"}
+    out = run_estimators(gyr, acc, mag, fs=50.0, beta=0.041, received=masks, hybrid=setting)
+    assert list(out) == list(OUR_METHODS) + [SINGLE_FRAME] + list(PEER_ESTIMATORS)
+    assert all(q.shape == (2, n, 4) for q in out.values())
+    plain = madgwick(gyr, acc, mag, fs=50.0, beta=0.041)
+    for name in OUR_METHODS:           # no loss: every option is plain Madgwick
+        np.testing.assert_allclose(out[name][0], plain, atol=1e-12)
+    for library in ("Fusion", "VQF"):  # no loss: the hybrid changes nothing
+        np.testing.assert_allclose(out[f"{library} + hybrid (feedback)"][0], out[library][0], atol=1e-9)
+    # After the burst, the hybrids are nearer the truth than their plain filters.
+    first_after = int(np.argmin(masks[1])) + 24
+    for library in ("Fusion", "VQF"):
+        err = {k: metrics.orientation_error_deg(out[k][1, first_after], truth.quat[0, first_after])
+               for k in (library, f"{library} + hybrid (feedback)")}
+        assert err[f"{library} + hybrid (feedback)"] < err[library]
