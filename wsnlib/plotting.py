@@ -24,6 +24,18 @@ METHOD_COLORS = {
     "humerus": "#D55E00",
     "forearm": "#0072B2",
     "elbow": "#000000",
+    # Loss-handling options (notebooks 04-05); hold_last is plain data fusion.
+    "hold_last": "#0072B2",
+    "dt_extension": "#56B4E9",
+    "gyro_interpolation": "#E69F00",
+    "adaptive_beta": "#CC79A7",
+    # Peer filters (notebook 05).
+    "Fusion": "#7F7F7F",
+    "Fusion + hybrid (output)": "#BCBD22",
+    "Fusion + hybrid (feedback)": "#8C564B",
+    "VQF": "#9467BD",
+    "VQF + hybrid (output)": "#17BECF",
+    "VQF + hybrid (feedback)": "#E377C2",
 }
 
 _STYLE = {
@@ -203,14 +215,16 @@ def plot_arm_angles(time_s, humerus_pitch, forearm_pitch, elbow, *, axes=None, r
 
 
 def plot_heatmap(values, row_values, col_values, *, ax=None, xlabel="", ylabel="", title=None, fmt="{:.2g}",
-                 cmap="viridis"):
+                 cmap="viridis", xrotation=0):
     """Heatmap of a 2-D grid of results, each cell annotated with its value.
 
     Parameters
     ----------
     values : array_like, shape (n_rows, n_cols)
     row_values, col_values : sequence
-        Parameter values along rows (y axis) and columns (x axis), shown as tick labels.
+        Values or names along rows (y axis) and columns (x axis), shown as tick labels.
+    xrotation : float
+        Rotation (degrees) of the column labels, for long names.
     fmt : str
         Format of the cell annotations.
     """
@@ -219,8 +233,9 @@ def plot_heatmap(values, row_values, col_values, *, ax=None, xlabel="", ylabel="
     if values.shape != (len(row_values), len(col_values)):
         raise ValueError(f"values has shape {values.shape}, expected ({len(row_values)}, {len(col_values)})")
     image = ax.imshow(values, origin="lower", aspect="auto", cmap=cmap)
-    ax.set_xticks(range(len(col_values)), [f"{v:g}" for v in col_values])
-    ax.set_yticks(range(len(row_values)), [f"{v:g}" for v in row_values])
+    ax.set_xticks(range(len(col_values)), [_tick_label(v) for v in col_values], rotation=xrotation,
+                  ha="right" if xrotation else "center")
+    ax.set_yticks(range(len(row_values)), [_tick_label(v) for v in row_values])
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.grid(False)
@@ -232,6 +247,10 @@ def plot_heatmap(values, row_values, col_values, *, ax=None, xlabel="", ylabel="
                 color="white" if value < middle else "black")
     ax.figure.colorbar(image, ax=ax, fraction=0.046, pad=0.04)
     return ax
+
+
+def _tick_label(value) -> str:
+    return f"{value:g}" if isinstance(value, int | float | np.number) else str(value)
 
 
 def plot_pareto(cost_x, cost_y, *, groups=None, front=None, knee=None, references=None, ax=None, xlabel="",
