@@ -143,7 +143,7 @@ def test_corrupt_existing_file_is_refused_not_replaced(tmp_path, damage):
         datasets.load_broad(TRIAL, tmp_path, downloader=fake)
     message = str(info.value)
     assert str(path) in message and datasets.BROAD_REGISTRY[TRIAL_FILE] in message
-    assert datasets._sha256(path) in message  # the actual hash too
+    assert datasets.sha256_of(path) in message  # the actual hash too
     assert fake.urls == [] and path.read_bytes() == bytes(data)
 
 
@@ -152,8 +152,8 @@ def test_hash_is_cached_per_path_size_and_mtime(tmp_path, monkeypatch):
     path = tmp_path / "trials.json"
     shutil.copyfile(SOURCE_DIR / "trials.json", path)
     calls = []
-    real = datasets._sha256
-    monkeypatch.setattr(datasets, "_sha256", lambda p: calls.append(p) or real(p))
+    real = datasets.sha256_of
+    monkeypatch.setattr(datasets, "sha256_of", lambda p: calls.append(p) or real(p))
     datasets.broad_file("trials.json", tmp_path, download=False)
     datasets.broad_file("trials.json", tmp_path, download=False)
     assert len(calls) == 1

@@ -81,7 +81,6 @@ silently replaced: delete it to download it again).  The verified hash is rememb
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import os
@@ -92,6 +91,7 @@ import numpy as np
 import pandas as pd
 
 from wsnlib import paths
+from wsnlib._files import sha256_of
 from wsnlib._validation import as_float_array, check_positive
 
 FORMAT_NAME = "wsnlib-recording"
@@ -559,21 +559,13 @@ def _broad_trial_name(trial) -> str:
     return matches[0]
 
 
-def _sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
 def _verify_file(path: Path, expected: str) -> None:
     """Raise ``ValueError`` naming ``path`` and both hashes unless its SHA-256 is ``expected``."""
     stat = path.stat()
     key = (str(path.resolve()), stat.st_size, stat.st_mtime_ns)
     if _VERIFIED_HASHES.get(key) == expected:
         return
-    actual = _sha256(path)
+    actual = sha256_of(path)
     if actual != expected:
         raise ValueError(
             f"{path}: SHA-256 is {actual}, expected {expected} (the file is corrupt, truncated or "

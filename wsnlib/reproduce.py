@@ -22,7 +22,6 @@ from __future__ import annotations
 import argparse
 import ast
 import fnmatch
-import hashlib
 import json
 import os
 import sys
@@ -30,6 +29,7 @@ import time
 from pathlib import Path
 
 from wsnlib import paths
+from wsnlib._files import sha256_of
 
 MANIFEST_NAME = "manifest.json"
 
@@ -40,15 +40,6 @@ def list_notebooks(pattern: str | None = None) -> list[Path]:
     if pattern:
         found = [nb for nb in found if fnmatch.fnmatch(nb.stem, f"*{pattern}*")]
     return found
-
-
-def sha256_of(path: Path) -> str:
-    """Hex SHA-256 of a file's bytes."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def parse_value(text: str):

@@ -51,7 +51,14 @@ import numpy as np
 
 from wsnlib._validation import as_float_array, check_nonzero_norm, check_positive
 from wsnlib.loss import lost_run_length
-from wsnlib.orientation.madgwick import _as_signal, _broadcast_batch, _initial_estimate, _update, _usable
+from wsnlib.orientation.madgwick import (
+    _as_signal,
+    _broadcast_batch,
+    _check_inputs,
+    _initial_estimate,
+    _update,
+    _usable,
+)
 from wsnlib.orientation.triad import triad
 
 #: Loss-handling methods of :func:`estimate_orientation`.
@@ -540,27 +547,11 @@ def estimate_orientation(
         raise ValueError("mag is required for method='hybrid': TRIAD (q_s) needs the magnetometer")
 
     # ---- signals, mask and q0: madgwick()'s checks, with its helpers
-    signals = {"gyr": _as_signal(gyr, "gyr"), "acc": _as_signal(acc, "acc")}
-    if mag is not None:
-        signals["mag"] = _as_signal(mag, "mag")
+    signals, mask, q0, shapes = _check_inputs(gyr, acc, mag, received, q0)
     n_t = signals["gyr"].shape[-2]
-    for name, arr in signals.items():
-        if arr.shape[-2] != n_t:
-            raise ValueError(f"{name} has {arr.shape[-2]} samples (axis -2), gyr has {n_t}")
-    shapes = {name: arr.shape[:-2] for name, arr in signals.items()}
-    if received is None:
+    if mask is None:
         mask = np.ones(n_t, dtype=bool)
-    else:
-        mask = np.asarray(received)
-        if mask.dtype != np.bool_:
-            raise ValueError(f"received must be a boolean mask, got dtype {mask.dtype}")
-        if mask.ndim < 1 or mask.shape[-1] != n_t:
-            raise ValueError(f"received must have shape (..., {n_t}), got {mask.shape}")
     shapes["received"] = mask.shape[:-1]
-    if q0 is not None:
-        q0 = as_float_array(q0, "q0", last_dim=4)
-        q0 = q0 / check_nonzero_norm(q0, "q0", "a zero quaternion is not a rotation")[..., None]
-        shapes["q0"] = q0.shape[:-1]
     data_batch = _broadcast_batch(shapes)
     params = {"beta": beta.shape, "beta_max": beta_max.shape, "rho": rho.shape, "tau": tau.shape}
     if window is not None:

@@ -391,6 +391,35 @@ def _usable(arr: np.ndarray, name: str, received, unit: bool) -> np.ndarray:
     return arr
 
 
+def _check_inputs(gyr, acc, mag, received, q0=None):
+    """Shared argument checks of the whole-recording filters (madgwick, loss handling, peers).
+
+    Returns the signals ``{"gyr", "acc"[, "mag"]}`` as float arrays ``(..., T, 3)`` (finiteness
+    is checked later, on received samples only), ``received`` as a boolean array or None,
+    ``q0`` normalised or None, and the leading (batch) shape of each argument, by name.
+    """
+    signals = {"gyr": _as_signal(gyr, "gyr"), "acc": _as_signal(acc, "acc")}
+    if mag is not None:
+        signals["mag"] = _as_signal(mag, "mag")
+    n_t = signals["gyr"].shape[-2]
+    for name, arr in signals.items():
+        if arr.shape[-2] != n_t:
+            raise ValueError(f"{name} has {arr.shape[-2]} samples (axis -2), gyr has {n_t}")
+    shapes = {name: arr.shape[:-2] for name, arr in signals.items()}
+    if received is not None:
+        received = np.asarray(received)
+        if received.dtype != np.bool_:
+            raise ValueError(f"received must be a boolean mask, got dtype {received.dtype}")
+        if received.ndim < 1 or received.shape[-1] != n_t:
+            raise ValueError(f"received must have shape (..., {n_t}), got {received.shape}")
+        shapes["received"] = received.shape[:-1]
+    if q0 is not None:
+        q0 = as_float_array(q0, "q0", last_dim=4)
+        q0 = q0 / check_nonzero_norm(q0, "q0", "a zero quaternion is not a rotation")[..., None]
+        shapes["q0"] = q0.shape[:-1]
+    return signals, received, q0, shapes
+
+
 def madgwick(
     gyr, acc, mag=None, *, fs: float, beta: float, received=None, q0=None
 ) -> np.ndarray:
@@ -441,26 +470,8 @@ def madgwick(
     """
     fs = check_positive(fs, "fs")
     beta = check_nonnegative(beta, "beta")
-    signals = {"gyr": _as_signal(gyr, "gyr"), "acc": _as_signal(acc, "acc")}
-    if mag is not None:
-        signals["mag"] = _as_signal(mag, "mag")
+    signals, received, q0, shapes = _check_inputs(gyr, acc, mag, received, q0)
     n_t = signals["gyr"].shape[-2]
-    for name, arr in signals.items():
-        if arr.shape[-2] != n_t:
-            raise ValueError(f"{name} has {arr.shape[-2]} samples (axis -2), gyr has {n_t}")
-    shapes = {name: arr.shape[:-2] for name, arr in signals.items()}
-
-    if received is not None:
-        received = np.asarray(received)
-        if received.dtype != np.bool_:
-            raise ValueError(f"received must be a boolean mask, got dtype {received.dtype}")
-        if received.ndim < 1 or received.shape[-1] != n_t:
-            raise ValueError(f"received must have shape (..., {n_t}), got {received.shape}")
-        shapes["received"] = received.shape[:-1]
-    if q0 is not None:
-        q0 = as_float_array(q0, "q0", last_dim=4)
-        q0 = q0 / check_nonzero_norm(q0, "q0", "a zero quaternion is not a rotation")[..., None]
-        shapes["q0"] = q0.shape[:-1]
     batch = _broadcast_batch(shapes)
 
     out = np.empty(batch + (n_t, 4))

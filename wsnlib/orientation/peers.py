@@ -77,7 +77,7 @@ from wsnlib.orientation.loss_handling import (
     _weight,
     blend_with_single_frame,
 )
-from wsnlib.orientation.madgwick import _as_signal, _broadcast_batch, _usable
+from wsnlib.orientation.madgwick import _broadcast_batch, _check_inputs, _usable
 from wsnlib.orientation.triad import triad
 
 #: Values of the ``hybrid`` argument besides ``None``.
@@ -104,23 +104,10 @@ _G = 9.80665
 def _prepare(gyr, acc, mag, fs, received):
     """Checked, broadcast signals ``(*batch, T, 3)`` and mask ``(*batch, T)``."""
     fs = check_positive(fs, "fs")
-    signals = {"gyr": _as_signal(gyr, "gyr"), "acc": _as_signal(acc, "acc")}
-    if mag is not None:
-        signals["mag"] = _as_signal(mag, "mag")
+    signals, mask, _, shapes = _check_inputs(gyr, acc, mag, received)
     n_t = signals["gyr"].shape[-2]
-    for name, arr in signals.items():
-        if arr.shape[-2] != n_t:
-            raise ValueError(f"{name} has {arr.shape[-2]} samples (axis -2), gyr has {n_t}")
-    shapes = {name: arr.shape[:-2] for name, arr in signals.items()}
-    if received is None:
+    if mask is None:
         mask = np.ones(n_t, dtype=bool)
-    else:
-        mask = np.asarray(received)
-        if mask.dtype != np.bool_:
-            raise ValueError(f"received must be a boolean mask, got dtype {mask.dtype}")
-        if mask.ndim < 1 or mask.shape[-1] != n_t:
-            raise ValueError(f"received must have shape (..., {n_t}), got {mask.shape}")
-        shapes["received"] = mask.shape[:-1]
     batch = _broadcast_batch(shapes)
     for name, arr in signals.items():
         _usable(arr, name, mask, unit=name != "gyr")  # NaN/inf (zero acc, mag) in received samples
