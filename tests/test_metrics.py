@@ -253,3 +253,42 @@ def test_broad_metrics_reject_bad_inputs():
         metrics.broad_rmse_deg(q, q, np.ones(10))
     with pytest.raises(ValueError, match="movement has shape"):
         metrics.broad_rmse_deg(q, q, np.ones(9, bool))
+
+
+# --- position error and precision/accuracy (paper 002, Section 4.2) ---------------------------
+
+
+def test_position_error_is_euclidean_and_zero_for_a_perfect_estimate(rng):
+    true = rng.normal(size=(4, 30, 3))
+    assert np.array_equal(metrics.position_error(true, true), np.zeros((4, 30)))
+    est = true + np.array([0.03, -0.04, 0.0])
+    assert metrics.position_error(est, true) == pytest.approx(np.full((4, 30), 0.05))
+    # broadcasting: one true trajectory against a batch of estimates
+    assert metrics.position_error(est, true[0]).shape == (4, 30)
+    with pytest.raises(ValueError, match="est"):
+        metrics.position_error(np.zeros((5, 2)), np.zeros((5, 3)))
+    with pytest.raises(ValueError, match="true"):
+        metrics.position_error(np.zeros((5, 3)), np.full((5, 3), np.nan))
+    with pytest.raises(ValueError, match="broadcast"):
+        metrics.position_error(np.zeros((5, 3)), np.zeros((4, 3)))
+
+
+def test_precision_at_accuracy_is_the_empirical_cdf(rng):
+    errors = np.array([0.02, 0.10, 0.05, 0.10, 0.30])
+    accuracy = np.array([0.0, 0.01, 0.02, 0.05, 0.099, 0.10, 0.2, 0.30, 1.0])
+    precision = metrics.precision_at_accuracy(errors, accuracy)
+    assert precision == pytest.approx([0.0, 0.0, 0.2, 0.4, 0.4, 0.8, 0.8, 1.0, 1.0])
+    # monotone, 0 below the smallest error, 1 at and above the largest
+    many = rng.gamma(2.0, 0.05, size=(3, 200))
+    grid = np.linspace(0.0, 1.0, 501)
+    curve = metrics.precision_at_accuracy(many, grid)
+    assert np.all(np.diff(curve) >= 0.0)
+    assert metrics.precision_at_accuracy(many, np.nextafter(many.min(), 0.0)) == 0.0
+    assert metrics.precision_at_accuracy(many, many.max()) == 1.0
+    assert metrics.precision_at_accuracy(many, np.inf) == 1.0
+    with pytest.raises(ValueError, match="errors"):
+        metrics.precision_at_accuracy([], grid)
+    with pytest.raises(ValueError, match="errors"):
+        metrics.precision_at_accuracy([0.1, np.nan], grid)
+    with pytest.raises(ValueError, match="accuracies"):
+        metrics.precision_at_accuracy(errors, [np.nan])
