@@ -13,6 +13,11 @@ SHARED_BROAD := $(abspath ../shared/data/broad)
 ifneq ($(wildcard $(SHARED_BROAD)/*.mat),)
 export WSNLIB_BROAD_DIR ?= $(SHARED_BROAD)
 endif
+# The PABR BLE subset likewise (no download: a missing folder is an error naming the variable).
+SHARED_PABR := $(abspath ../shared/data/pabr)
+ifneq ($(wildcard $(SHARED_PABR)/cnf),)
+export WSNLIB_PABR_DIR ?= $(SHARED_PABR)
+endif
 
 .PHONY: figures quick test lint lock clean-outputs
 
