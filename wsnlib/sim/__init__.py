@@ -9,6 +9,12 @@ Typical use::
     recording = simulate_recording(trajectory, rng=rng)        # wsnlib.datasets.Recording
 
 See the module docstrings for the body-frame convention and the datasheet sources.
+
+Paper 002's radio testbed (:mod:`.body` geometry and motions, :mod:`.radio` RSS)::
+
+    users = make_users(5, rng=rng)
+    train = training_session(users[0], rng=rng)                     # long RSS table
+    online = online_dynamic_session(users[0].moved(rng), rng=rng)   # another day
 """
 
 from wsnlib.sim.arm import (
@@ -26,9 +32,65 @@ from wsnlib.sim.arm import (
     pitch_ramp,
     reach_and_flex,
 )
+from wsnlib.sim.body import (
+    ANCHOR_NAMES,
+    MOVEMENTS,
+    POSTURE_DIRECTIONS,
+    POSTURES,
+    TABLE1_POSITIONS_CM,
+    TARGET_NAMES,
+    ArmKinematics,
+    ArmMotion,
+    BodyShape,
+    User,
+    arc,
+    concatenate,
+    hold,
+    make_users,
+    movement,
+    paper_user,
+    posture_direction,
+    transition,
+    user_from_height,
+)
 from wsnlib.sim.imu import ImuSamples, ImuSpec, ideal_imu, simulate_imu, simulate_recording
+from wsnlib.sim.radio import (
+    RadioChannel,
+    concat_rss,
+    link_budget,
+    online_dynamic_session,
+    online_static_session,
+    simulate_rss,
+    training_session,
+)
 
 __all__ = [
+    "ANCHOR_NAMES",
+    "MOVEMENTS",
+    "POSTURE_DIRECTIONS",
+    "POSTURES",
+    "TABLE1_POSITIONS_CM",
+    "TARGET_NAMES",
+    "ArmKinematics",
+    "ArmMotion",
+    "BodyShape",
+    "RadioChannel",
+    "User",
+    "arc",
+    "concat_rss",
+    "concatenate",
+    "hold",
+    "link_budget",
+    "make_users",
+    "movement",
+    "online_dynamic_session",
+    "online_static_session",
+    "paper_user",
+    "posture_direction",
+    "simulate_rss",
+    "training_session",
+    "transition",
+    "user_from_height",
     "ANGLE_NAMES",
     "JOINT_NAMES",
     "NODE_NAMES",
