@@ -362,3 +362,16 @@ def test_batch_function_errors(rng):
         pknn_from_loglik(-terms, np.array([True, True]), MAP_Y[:2], 1)
     with pytest.raises(ValueError, match="inf"):
         pknn_from_loglik(np.full((4, 3, 2), -np.inf), np.array([True, True]), MAP_Y, 1)
+
+
+def test_fit_predict_by_group_uses_each_groups_own_map():
+    from wsnlib.fingerprint import KNNFingerprint, fit_predict_by_group
+
+    X_train = np.array([[-50.0, -60.0], [-70.0, -40.0], [-50.0, -60.0], [-70.0, -40.0]])
+    y_train = np.array([[0.0, 0, 0], [1.0, 0, 0], [5.0, 0, 0], [6.0, 0, 0]])
+    groups_train = np.array(["a", "a", "b", "b"])
+    X = np.array([[-51.0, -59.0], [-51.0, -59.0]])
+    pred = fit_predict_by_group(KNNFingerprint(n_neighbors=1), X_train, y_train, groups_train, X, np.array(["a", "b"]))
+    np.testing.assert_allclose(pred[:, 0], [0.0, 5.0])
+    with pytest.raises(ValueError, match="groups"):
+        fit_predict_by_group(KNNFingerprint(n_neighbors=1), X_train, y_train, groups_train, X, np.array(["a", "c"]))

@@ -30,7 +30,9 @@ Conventions
   per-anchor methods (:meth:`KNNFingerprint.anchor_terms`,
   :meth:`ProbabilisticKNN.anchor_log_likelihoods`) return every anchor and the module
   functions :func:`knn_from_terms` / :func:`pknn_from_loglik` evaluate many anchor subsets
-  from one fit (exhaustive subset searches: see :func:`anchor_subsets`).
+  from one fit (exhaustive subset searches: see :func:`anchor_subsets`), and
+  :func:`knn_grid_from_terms` / :func:`pknn_grid_from_loglik` every ``k`` (and Shepard
+  exponent) of a grid at once, from one sort of the neighbours (:mod:`wsnlib.optimize`).
 * Ties (equal distances or posteriors) are broken in favour of the lower fingerprint index.
 
 Deterministic kNN, eqs. (1)–(2)
@@ -316,6 +318,20 @@ def _subset_chunks(n_subsets: int, n_vectors: int, n_fp: int):
         yield slice(start, min(start + step, n_subsets))
 
 
+def _subset_sums(masks: np.ndarray, terms: np.ndarray) -> np.ndarray:
+    """``Σ_a mask[s, a] · terms[n, l, a]`` → (s, n, L), added in anchor order.
+
+    A fixed order of additions gives every subset the same bits whatever the batch it is
+    computed in (a matrix product's order depends on the shapes), so the estimators, the
+    batch functions and any chunking agree exactly, ties included.
+    """
+    weights = masks.astype(float)
+    out = np.zeros((masks.shape[0],) + terms.shape[:2])
+    for a in range(terms.shape[2]):
+        out += weights[:, a, None, None] * terms[:, :, a]
+    return out
+
+
 def _knn_batch(terms, masks, positions, k, power, metric):
     """Estimates, neighbour distances and indices for subsets ``masks`` (S, A)."""
     n_vectors, n_fp, _ = terms.shape
@@ -324,7 +340,7 @@ def _knn_batch(terms, masks, positions, k, power, metric):
     dist_k = np.empty((n_subsets, n_vectors, k))
     idx_k = np.empty((n_subsets, n_vectors, k), dtype=np.intp)
     for chunk in _subset_chunks(n_subsets, n_vectors, n_fp):
-        dist = np.tensordot(masks[chunk].astype(float), terms, axes=([1], [2]))  # (s, n, L)
+        dist = _subset_sums(masks[chunk], terms)  # (s, n, L)
         if metric == "euclidean":
             dist = np.sqrt(np.maximum(dist, 0.0))
         idx = _nearest(dist, k)
@@ -361,6 +377,107 @@ def knn_from_terms(terms, subset_mask, positions, n_neighbors=3, power=1, metric
     k = _check_n_neighbors(n_neighbors, terms.shape[1])
     est = _knn_batch(terms, masks, positions, k, power, metric)[0]
     return est[0] if single else est
+
+
+def _check_grid_ints(values, name: str, n_fingerprints: int) -> tuple[int, ...]:
+    values = tuple(np.atleast_1d(np.asarray(values, dtype=object)).tolist())
+    if not values:
+        raise ValueError(f"{name} must hold at least one value")
+    checked = tuple(_check_n_neighbors(v, n_fingerprints) for v in values)
+    if len(set(checked)) != len(checked):
+        raise ValueError(f"{name} holds duplicate values: {list(checked)}")
+    return checked
+
+
+def _cumulative_estimates(weights, pos_sorted, ks):
+    """Weighted means of the first ``k`` neighbours for every ``k`` in ``ks``: (K, S, n, D).
+
+    ``weights`` (kmax, S, n) and ``pos_sorted`` (kmax, S, n, D) are in neighbour order,
+    neighbour first (contiguous running sums); a zero total weight (every weight
+    underflowed) falls back to the nearest position.
+    """
+    wanted = {k: i for i, k in enumerate(ks)}
+    nearest = pos_sorted[0]
+    out = np.empty((len(ks),) + nearest.shape)
+    num = weights[0][..., None] * nearest
+    den = weights[0].copy()
+    for k in range(1, max(ks) + 1):
+        if k > 1:
+            num += weights[k - 1][..., None] * pos_sorted[k - 1]
+            den += weights[k - 1]
+        if k not in wanted:
+            continue
+        i = wanted[k]
+        if k == 1:  # exactly the nearest position, as eqs. (1) and (3) reduce to
+            out[i] = nearest
+            continue
+        zero = den == 0.0
+        with np.errstate(invalid="ignore", divide="ignore"):
+            np.divide(num, den[..., None], out=out[i])
+        if np.any(zero):
+            out[i][zero] = nearest[zero]
+    return out
+
+
+
+
+def _neighbour_first(values: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """``values`` (s, n, L) at ``idx`` (s, n, k), as a contiguous (k, s, n) array."""
+    return np.ascontiguousarray(np.moveaxis(np.take_along_axis(values, idx, axis=-1), -1, 0))
+
+
+def knn_grid_from_terms(terms, subset_mask, positions, n_neighbors=(1, 2, 3, 4, 5), powers=(1, 2, 3, 4, 5, 6),
+                        metric="euclidean"):
+    """kNN estimates (eqs. (1)–(2)) for every anchor subset × ``k`` × Shepard exponent at once.
+
+    The neighbours of each (subset, vector) are sorted once and the estimates for all ``k``
+    come from cumulative sums of the Shepard weights, one pass per exponent; the result
+    equals :func:`knn_from_terms` per (``k``, ``p``) up to rounding (same neighbour order and
+    ties, to the lower fingerprint index).
+
+    Parameters
+    ----------
+    terms : array_like, shape (n, L, A)
+        Per-anchor distance terms from :meth:`KNNFingerprint.anchor_terms`.
+    subset_mask : array_like of bool, shape (S, A) or (A,)
+        Anchor subsets, one per row.
+    positions : array_like, shape (L, D)
+        Fingerprint positions (``KNNFingerprint.positions_``).
+    n_neighbors : sequence of int, length K
+        The values of ``k`` (each in ``1..L``, no duplicates).
+    powers : sequence of float, length P
+        The Shepard exponents ``p_s`` (> 0).  With ``k = 1`` they all give the nearest
+        fingerprint position (``[:, k==1, p]`` is the same for every ``p``).
+    metric : {"euclidean", "manhattan"}
+        The metric the terms were computed for.
+
+    Returns
+    -------
+    ndarray, shape (S, K, P, n, D) (or (K, P, n, D) for a 1-D ``subset_mask``)
+    """
+    metric = _check_metric(metric)
+    terms, positions = _check_terms(terms, "terms", positions)
+    masks, single = _as_subset_masks(subset_mask, terms.shape[2])
+    ks = _check_grid_ints(n_neighbors, "n_neighbors", terms.shape[1])
+    powers = tuple(np.atleast_1d(np.asarray(powers, dtype=object)).tolist())
+    if not powers:
+        raise ValueError("powers must hold at least one value")
+    powers = tuple(_check_power(p) for p in powers)
+    kmax = max(ks)
+    n_vectors, n_fp, _ = terms.shape
+    out = np.empty((masks.shape[0], len(ks), len(powers), n_vectors, positions.shape[1]))
+    for chunk in _subset_chunks(masks.shape[0], n_vectors, n_fp):
+        dist = _subset_sums(masks[chunk], terms)                               # (s, n, L)
+        if metric == "euclidean":
+            dist = np.sqrt(np.maximum(dist, 0.0))
+        idx = _nearest(dist, kmax)
+        d = _neighbour_first(dist, idx)                                        # (kmax, s, n)
+        pos = positions[np.moveaxis(idx, -1, 0)]                               # (kmax, s, n, D)
+        for j, power in enumerate(powers):
+            with np.errstate(over="ignore"):
+                weights = 1.0 / (d**power + SHEPARD_EPS)                      # eq. (2)
+            out[chunk, :, j] = np.moveaxis(_cumulative_estimates(weights, pos, ks), 0, 1)  # eq. (1)
+    return out[0] if single else out
 
 
 class KNNFingerprint(_FingerprintEstimator):
@@ -459,7 +576,7 @@ def _pknn_batch(loglik, masks, positions, k):
     logpost_k = np.empty((n_subsets, n_vectors, k))
     idx_k = np.empty((n_subsets, n_vectors, k), dtype=np.intp)
     for chunk in _subset_chunks(n_subsets, n_vectors, n_fp):
-        ll = np.tensordot(masks[chunk].astype(float), loglik, axes=([1], [2]))  # (s, n, L): log P(r | s_l)
+        ll = _subset_sums(masks[chunk], loglik)  # (s, n, L): log P(r | s_l)
         logpost = ll - logsumexp(ll, axis=-1, keepdims=True)  # eq. (4), uniform prior cancels
         idx = _nearest(-logpost, k)
         lp = np.take_along_axis(logpost, idx, axis=-1)
@@ -495,6 +612,45 @@ def pknn_from_loglik(loglik, subset_mask, positions, n_neighbors=3):
     k = _check_n_neighbors(n_neighbors, loglik.shape[1])
     est = _pknn_batch(loglik, masks, positions, k)[0]
     return est[0] if single else est
+
+
+def pknn_grid_from_loglik(loglik, subset_mask, positions, n_neighbors=(1, 2, 3, 4, 5)):
+    """p-kNN estimates (eqs. (3)–(4)) for every anchor subset × ``k`` at once.
+
+    The posteriors of each (subset, vector) are ranked once and the estimates for all ``k``
+    come from cumulative sums of the posterior weights; equal to :func:`pknn_from_loglik`
+    per ``k`` up to rounding (same ranking and ties).
+
+    Parameters
+    ----------
+    loglik : array_like, shape (n, L, A)
+        ``log P(r_a | s_l)`` from :meth:`ProbabilisticKNN.anchor_log_likelihoods`.
+    subset_mask : array_like of bool, shape (S, A) or (A,)
+    positions : array_like, shape (L, D)
+    n_neighbors : sequence of int, length K
+        The values of ``k`` (each in ``1..L``, no duplicates).
+
+    Returns
+    -------
+    ndarray, shape (S, K, n, D) (or (K, n, D) for a 1-D ``subset_mask``)
+    """
+    loglik, positions = _check_terms(loglik, "loglik", positions)
+    if np.any(np.isinf(loglik)):
+        raise ValueError("loglik contains inf (log-PMFs must be floored)")
+    masks, single = _as_subset_masks(subset_mask, loglik.shape[2])
+    ks = _check_grid_ints(n_neighbors, "n_neighbors", loglik.shape[1])
+    kmax = max(ks)
+    n_vectors, n_fp, _ = loglik.shape
+    out = np.empty((masks.shape[0], len(ks), n_vectors, positions.shape[1]))
+    for chunk in _subset_chunks(masks.shape[0], n_vectors, n_fp):
+        ll = _subset_sums(masks[chunk], loglik)                                # (s, n, L)
+        logpost = ll - logsumexp(ll, axis=-1, keepdims=True)                   # eq. (4)
+        idx = _nearest(-logpost, kmax)
+        lp = _neighbour_first(logpost, idx)                                    # (kmax, s, n), best first
+        weights = np.exp(lp - lp[:1])                                          # ∝ posteriors, first = 1
+        pos = positions[np.moveaxis(idx, -1, 0)]                               # (kmax, s, n, D)
+        out[chunk] = np.moveaxis(_cumulative_estimates(weights, pos, ks), 0, 1)  # eq. (3)
+    return out[0] if single else out
 
 
 class ProbabilisticKNN(_FingerprintEstimator):
@@ -714,3 +870,47 @@ class ProbabilisticKNN(_FingerprintEstimator):
     def predict(self, X) -> np.ndarray:
         """Estimated positions (n, D) of the complete online vectors ``X`` (n, A), eq. (3)."""
         return self._neighbors(X)[0]
+
+
+def fit_predict_by_group(estimator, X_train, y_train, groups_train, X, groups) -> np.ndarray:
+    """Fit one copy of ``estimator`` per group (e.g. per user and target) and predict that group's rows.
+
+    Fingerprinting is per user and per target node (paper 002, Sec. 4.1): each has its own
+    radio map.  This fits :func:`sklearn.base.clone` of ``estimator`` on each group's training
+    vectors and predicts the online vectors of the same group.
+
+    Parameters
+    ----------
+    estimator : KNNFingerprint or ProbabilisticKNN (unfitted; only its parameters are used)
+    X_train : array_like, shape (n_train, A)
+    y_train : array_like, shape (n_train, D)
+    groups_train : array_like, shape (n_train,)
+        Group key per training vector (any hashable, e.g. ``"U1/T1"``).
+    X : array_like, shape (n, A)
+        Online vectors (complete: no NaN).
+    groups : array_like, shape (n,)
+        Group key per online vector; every key must occur in ``groups_train``.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, D)
+    """
+    from sklearn.base import clone
+
+    X_train = np.asarray(X_train, dtype=float)
+    y_train = np.asarray(y_train, dtype=float)
+    groups_train = np.asarray(groups_train)
+    X = np.asarray(X, dtype=float)
+    groups = np.asarray(groups)
+    if len(groups_train) != len(X_train) or len(y_train) != len(X_train):
+        raise ValueError("X_train, y_train and groups_train must have the same length")
+    if len(groups) != len(X):
+        raise ValueError("X and groups must have the same length")
+    missing = set(np.unique(groups)) - set(np.unique(groups_train))
+    if missing:
+        raise ValueError(f"groups without training vectors: {sorted(map(str, missing))}")
+    out = np.empty((len(X), y_train.shape[1]))
+    for key in np.unique(groups):
+        rows, train_rows = groups == key, groups_train == key
+        out[rows] = clone(estimator).fit(X_train[train_rows], y_train[train_rows]).predict(X[rows])
+    return out
