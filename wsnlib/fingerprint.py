@@ -390,44 +390,42 @@ def _check_grid_ints(values, name: str, n_fingerprints: int) -> tuple[int, ...]:
 
 
 def _cumulative_estimates(weights, pos_sorted, ks):
-    """Weighted means of the first ``k`` neighbours for every ``k`` in ``ks``: (K, S, n, D).
+    """Weighted means of the first ``k`` neighbours for every ``k`` in ``ks``: (D, K, S, n).
 
-    ``weights`` (kmax, S, n) and ``pos_sorted`` (kmax, S, n, D) are in neighbour order,
-    neighbour first (contiguous running sums); a zero total weight (every weight
-    underflowed) falls back to the nearest position.
+    ``weights`` (kmax, S, n) and ``pos_sorted`` (D, kmax, S, n) are in neighbour order,
+    nearest first, coordinates leading (long contiguous inner loops); a zero total weight
+    (every weight underflowed) falls back to the nearest position.
     """
     wanted = {k: i for i, k in enumerate(ks)}
-    nearest = pos_sorted[0]
-    out = np.empty((len(ks),) + nearest.shape)
-    num = weights[0][..., None] * nearest
+    nearest = pos_sorted[:, 0]
+    out = np.empty((pos_sorted.shape[0], len(ks)) + weights.shape[1:])
+    num = weights[0] * nearest
     den = weights[0].copy()
     for k in range(1, max(ks) + 1):
         if k > 1:
-            num += weights[k - 1][..., None] * pos_sorted[k - 1]
+            num += weights[k - 1] * pos_sorted[:, k - 1]
             den += weights[k - 1]
         if k not in wanted:
             continue
         i = wanted[k]
         if k == 1:  # exactly the nearest position, as eqs. (1) and (3) reduce to
-            out[i] = nearest
+            out[:, i] = nearest
             continue
-        zero = den == 0.0
         with np.errstate(invalid="ignore", divide="ignore"):
-            np.divide(num, den[..., None], out=out[i])
+            np.divide(num, den, out=out[:, i])
+        zero = den == 0.0
         if np.any(zero):
-            out[i][zero] = nearest[zero]
+            out[:, i][:, zero] = nearest[:, zero]
     return out
 
 
-
-
 def _neighbour_first(values: np.ndarray, idx: np.ndarray) -> np.ndarray:
-    """``values`` (s, n, L) at ``idx`` (s, n, k), as a contiguous (k, s, n) array."""
-    return np.ascontiguousarray(np.moveaxis(np.take_along_axis(values, idx, axis=-1), -1, 0))
+    """``values`` (s, n, L) at neighbour indices ``idx`` (k, s, n): (k, s, n)."""
+    return np.take_along_axis(values, np.moveaxis(idx, 0, -1), axis=-1).transpose(2, 0, 1).copy()
 
 
 def knn_grid_from_terms(terms, subset_mask, positions, n_neighbors=(1, 2, 3, 4, 5), powers=(1, 2, 3, 4, 5, 6),
-                        metric="euclidean"):
+                        metric="euclidean", *, coordinates_first=False):
     """kNN estimates (eqs. (1)–(2)) for every anchor subset × ``k`` × Shepard exponent at once.
 
     The neighbours of each (subset, vector) are sorted once and the estimates for all ``k``
@@ -450,6 +448,9 @@ def knn_grid_from_terms(terms, subset_mask, positions, n_neighbors=(1, 2, 3, 4, 
         fingerprint position (``[:, k==1, p]`` is the same for every ``p``).
     metric : {"euclidean", "manhattan"}
         The metric the terms were computed for.
+    coordinates_first : bool
+        Return the coordinate axis first, ``(D, S, K, P, n)`` (no transpose; for callers
+        that process the coordinates separately, such as :mod:`wsnlib.optimize`).
 
     Returns
     -------
@@ -465,19 +466,22 @@ def knn_grid_from_terms(terms, subset_mask, positions, n_neighbors=(1, 2, 3, 4, 
     powers = tuple(_check_power(p) for p in powers)
     kmax = max(ks)
     n_vectors, n_fp, _ = terms.shape
-    out = np.empty((masks.shape[0], len(ks), len(powers), n_vectors, positions.shape[1]))
+    out = np.empty((positions.shape[1], masks.shape[0], len(ks), len(powers), n_vectors))
+    coords = np.ascontiguousarray(positions.T)                                  # (D, L)
     for chunk in _subset_chunks(masks.shape[0], n_vectors, n_fp):
         dist = _subset_sums(masks[chunk], terms)                               # (s, n, L)
         if metric == "euclidean":
             dist = np.sqrt(np.maximum(dist, 0.0))
-        idx = _nearest(dist, kmax)
+        idx = np.moveaxis(_nearest(dist, kmax), -1, 0)                         # (kmax, s, n)
         d = _neighbour_first(dist, idx)                                        # (kmax, s, n)
-        pos = positions[np.moveaxis(idx, -1, 0)]                               # (kmax, s, n, D)
+        pos = coords[:, idx]                                                   # (D, kmax, s, n)
         for j, power in enumerate(powers):
             with np.errstate(over="ignore"):
                 weights = 1.0 / (d**power + SHEPARD_EPS)                      # eq. (2)
-            out[chunk, :, j] = np.moveaxis(_cumulative_estimates(weights, pos, ks), 0, 1)  # eq. (1)
-    return out[0] if single else out
+            out[:, chunk, :, j] = np.moveaxis(_cumulative_estimates(weights, pos, ks), 2, 1)  # eq. (1)
+    if not coordinates_first:
+        out = np.moveaxis(out, 0, -1)
+    return out[..., 0, :, :, :] if single and coordinates_first else (out[0] if single else out)
 
 
 class KNNFingerprint(_FingerprintEstimator):
@@ -614,7 +618,7 @@ def pknn_from_loglik(loglik, subset_mask, positions, n_neighbors=3):
     return est[0] if single else est
 
 
-def pknn_grid_from_loglik(loglik, subset_mask, positions, n_neighbors=(1, 2, 3, 4, 5)):
+def pknn_grid_from_loglik(loglik, subset_mask, positions, n_neighbors=(1, 2, 3, 4, 5), *, coordinates_first=False):
     """p-kNN estimates (eqs. (3)–(4)) for every anchor subset × ``k`` at once.
 
     The posteriors of each (subset, vector) are ranked once and the estimates for all ``k``
@@ -629,6 +633,8 @@ def pknn_grid_from_loglik(loglik, subset_mask, positions, n_neighbors=(1, 2, 3, 
     positions : array_like, shape (L, D)
     n_neighbors : sequence of int, length K
         The values of ``k`` (each in ``1..L``, no duplicates).
+    coordinates_first : bool
+        Return ``(D, S, K, n)`` instead (see :func:`knn_grid_from_terms`).
 
     Returns
     -------
@@ -641,16 +647,18 @@ def pknn_grid_from_loglik(loglik, subset_mask, positions, n_neighbors=(1, 2, 3, 
     ks = _check_grid_ints(n_neighbors, "n_neighbors", loglik.shape[1])
     kmax = max(ks)
     n_vectors, n_fp, _ = loglik.shape
-    out = np.empty((masks.shape[0], len(ks), n_vectors, positions.shape[1]))
+    out = np.empty((positions.shape[1], masks.shape[0], len(ks), n_vectors))
+    coords = np.ascontiguousarray(positions.T)                                  # (D, L)
     for chunk in _subset_chunks(masks.shape[0], n_vectors, n_fp):
         ll = _subset_sums(masks[chunk], loglik)                                # (s, n, L)
         logpost = ll - logsumexp(ll, axis=-1, keepdims=True)                   # eq. (4)
-        idx = _nearest(-logpost, kmax)
+        idx = np.moveaxis(_nearest(-logpost, kmax), -1, 0)                     # (kmax, s, n)
         lp = _neighbour_first(logpost, idx)                                    # (kmax, s, n), best first
         weights = np.exp(lp - lp[:1])                                          # ∝ posteriors, first = 1
-        pos = positions[np.moveaxis(idx, -1, 0)]                               # (kmax, s, n, D)
-        out[chunk] = np.moveaxis(_cumulative_estimates(weights, pos, ks), 0, 1)  # eq. (3)
-    return out[0] if single else out
+        out[:, chunk] = np.moveaxis(_cumulative_estimates(weights, coords[:, idx], ks), 2, 1)  # eq. (3)
+    if not coordinates_first:
+        out = np.moveaxis(out, 0, -1)
+    return out[:, 0] if single and coordinates_first else (out[0] if single else out)
 
 
 class ProbabilisticKNN(_FingerprintEstimator):
