@@ -1,0 +1,33 @@
+import numpy as np
+import pytest
+
+from wsnlib.posture_study import study_inputs
+from wsnlib.sim.campaign import simulate_dynamic_campaign
+
+
+@pytest.fixture(scope="module")
+def campaign():
+    return simulate_dynamic_campaign(2, rng=np.random.default_rng(5), hold_s=3.0)
+
+
+def test_rows_are_paired_causally_and_per_movement(campaign):
+    inputs = study_inputs(campaign)
+    assert set(inputs.target1) == set(inputs.target2) == {"U1", "U2"}
+    for user, t1 in inputs.target1.items():
+        t2 = inputs.target2[user]
+        assert t1.online_rss.shape == t2.online_rss.shape
+        np.testing.assert_array_equal(t1.movement, t2.movement)
+        assert set(np.unique(t1.movement)) == set(range(1, 9))
+        assert inputs.kinect[user].shape == (len(t1.movement), 2, 3)
+        assert t1.segment == 0 and t2.segment == 1
+        assert np.all(np.abs(t1.pitch) <= np.pi / 2)
+
+
+def test_pitch_follows_the_truth_roughly(campaign):
+    inputs = study_inputs(campaign, pitch_method="lowpass", cutoff_hz=5.0)
+    data = campaign.data.select(user="U1", target="T1")
+    t1 = inputs.target1["U1"]
+    # Every paired row's true position is one of the T1 rows', and its pitch is near the true pitch there.
+    true_pitch = np.arcsin(np.clip(t1.true_positions[:, 2] / np.linalg.norm(t1.true_positions, axis=1), -1, 1))
+    assert np.median(np.abs(np.degrees(t1.pitch - true_pitch))) < 5.0
+    assert len(data) >= len(t1.movement)

@@ -1,0 +1,96 @@
+"""From a simulated dynamic campaign to the inputs of paper 002's evaluation (Sections 4.2, 5).
+
+The recursive estimate of target 2 (forearm) starts from the elbow estimated with target 1
+(upper arm), so the two targets' rows must be paired in time.  Each target node sends its own
+packets (~30/s, not simultaneously), so for every target-2 vector of a movement we take the
+latest target-1 vector of the same movement at or before it (causal: the base station has
+that one when the target-2 packet arrives); target-2 vectors with no target-1 vector before
+them in their movement are dropped.
+
+Pitch is computed from each target's accelerometer stream as a whole (all labels, in time
+order, at the packet rate), so that gating holds values across samples the way a running
+system would, and then read at the paired rows.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from wsnlib.optimize import SearchData
+from wsnlib.posture import pitch_from_acc
+from wsnlib.rss import rss_vectors
+
+
+@dataclass(frozen=True)
+class StudyInputs:
+    """Paired per-user inputs for :func:`wsnlib.optimize.paper_tables` and the Kinect baseline.
+
+    Attributes
+    ----------
+    target1, target2 : dict[str, SearchData]
+        Per user, rows paired in time (same count and movement per row).
+    kinect : dict[str, numpy.ndarray]
+        Per user, Kinect-estimated target positions ``(n, 2, 3)`` (m) at the same rows.
+    time_s : dict[str, numpy.ndarray]
+        Per user, time of each row (the target-2 packet, s).
+    """
+
+    target1: dict
+    target2: dict
+    kinect: dict
+    time_s: dict
+
+
+def _pitch_stream(rows, method: str, fs: float, **options) -> np.ndarray:
+    order = np.argsort(rows.time_s, kind="stable")
+    pitch = np.empty(len(rows))
+    pitch[order] = pitch_from_acc(rows.acc[order], method=method, fs=fs, **options)
+    return pitch
+
+
+def study_inputs(campaign, *, pitch_method: str = "gating", fs: float = 30.0, **pitch_options) -> StudyInputs:
+    """Build paired :class:`~wsnlib.optimize.SearchData` for both targets of every user.
+
+    Parameters
+    ----------
+    campaign : wsnlib.sim.campaign.DynamicCampaign
+    pitch_method : str
+        ``method`` of :func:`wsnlib.posture.pitch_from_acc` (``"gating"`` is the paper's).
+    fs : float
+        Rate of the accelerometer samples aligned to the packets (Hz).
+    **pitch_options
+        Passed to :func:`~wsnlib.posture.pitch_from_acc` (``xi``, ``cutoff_hz`` …).
+
+    Returns
+    -------
+    StudyInputs
+    """
+    data = campaign.data
+    training = rss_vectors(campaign.training_rss)
+    chains = campaign.chains
+    target1, target2, kinect, times = {}, {}, {}, {}
+    for user in dict.fromkeys(data.user):
+        rows = {t: data.select(user=user, target=t) for t in ("T1", "T2")}
+        pitch = {t: _pitch_stream(r, pitch_method, fs, **pitch_options) for t, r in rows.items()}
+        pick1, pick2 = [], []
+        for movement in sorted(set(rows["T2"].movement[rows["T2"].movement > 0])):
+            idx1 = np.flatnonzero(rows["T1"].movement == movement)
+            idx2 = np.flatnonzero(rows["T2"].movement == movement)
+            idx1 = idx1[np.argsort(rows["T1"].time_s[idx1], kind="stable")]
+            idx2 = idx2[np.argsort(rows["T2"].time_s[idx2], kind="stable")]
+            latest = np.searchsorted(rows["T1"].time_s[idx1], rows["T2"].time_s[idx2], side="right") - 1
+            keep = latest >= 0
+            pick1.append(idx1[latest[keep]])
+            pick2.append(idx2[keep])
+        pick1, pick2 = np.concatenate(pick1), np.concatenate(pick2)
+        shared = {"movement": rows["T2"].movement[pick2], "chain": chains[user]}
+        for key, target, pick, segment in (("T1", target1, pick1, 0), ("T2", target2, pick2, 1)):
+            train = training.select(user=user, target=key)
+            target[user] = SearchData(online_rss=rows[key].rss[pick], true_positions=rows[key].position[pick],
+                                      pitch=pitch[key][pick], segment=segment, training_rss=train.rss,
+                                      training_positions=train.position, **shared)
+        kinect[user] = np.stack([rows["T1"].kinect[pick1], rows["T2"].kinect[pick2]], axis=1)
+        times[user] = rows["T2"].time_s[pick2]
+    return StudyInputs(target1=target1, target2=target2, kinect=kinect, time_s=times)
