@@ -31,3 +31,22 @@ def test_pitch_follows_the_truth_roughly(campaign):
     true_pitch = np.arcsin(np.clip(t1.true_positions[:, 2] / np.linalg.norm(t1.true_positions, axis=1), -1, 1))
     assert np.median(np.abs(np.degrees(t1.pitch - true_pitch))) < 5.0
     assert len(data) >= len(t1.movement)
+
+
+def test_selected_errors_reproduce_the_tables(campaign):
+    from wsnlib import optimize
+    from wsnlib.posture_study import kinect_errors, selected_errors
+
+    inputs = study_inputs(campaign)
+    grid = optimize.SearchGrid(metrics=("euclidean",), knn_neighbors=(1, 3), powers=(1,), pknn_neighbors=(1,))
+    tables = optimize.paper_tables(inputs.target1, inputs.target2, grid=grid)
+    errors = selected_errors(inputs, tables, approach="deterministic", per_movement=False)
+    # Table 3's PE is the users' average of per-movement means, averaged over movements.
+    row = tables.selection3[(tables.selection3["approach"] == "deterministic") & (tables.selection3["target"] == 1)]
+    users = list(inputs.target1)
+    sizes = [inputs.target1[u].movement.size for u in users]
+    per_user = np.split(errors["T1"], np.cumsum(sizes)[:-1])
+    movement = np.split(errors["movement"], np.cumsum(sizes)[:-1])
+    expected = np.mean([np.mean([e[m == k].mean() for k in range(1, 9)]) for e, m in zip(per_user, movement, strict=True)])
+    assert expected == pytest.approx(float(row["pe_cm"].iloc[0]), rel=1e-9)
+    assert kinect_errors(inputs)["T2"].shape == errors["T2"].shape

@@ -1037,13 +1037,13 @@ def union_of_subsets(*selections, approach: str = "deterministic") -> tuple[int,
 # --------------------------------------------------------------------------------------
 
 
-def proximal_from_selection(data: SearchData, selection, *, approach: str | None = None) -> np.ndarray:
-    """Distal joint (the elbow, eq. (10)) of ``data``'s segment per row, under a selection.
+def evaluate_selection(data: SearchData, selection, *, approach: str | None = None) -> dict[str, np.ndarray]:
+    """:func:`evaluate_setting` under a selection: one setting, or one per movement (Table 2).
 
     Parameters
     ----------
     data : SearchData
-        One user's target-1 data.
+        One user's data for one target.
     selection : Setting, or DataFrame from :func:`select_settings`
         A single setting (global, Table 3), or per-movement rows (Table 2): each row of
         ``data`` then uses the setting chosen for its movement.  With a DataFrame, rows of
@@ -1052,11 +1052,11 @@ def proximal_from_selection(data: SearchData, selection, *, approach: str | None
 
     Returns
     -------
-    ndarray, shape (n, 3)
-        The estimated joint (m), to pass as target 2's ``proximal``.
+    dict
+        As :func:`evaluate_setting`, each row evaluated with its movement's setting.
     """
     if isinstance(selection, Setting):
-        return evaluate_setting(data, selection)["joints"]
+        return evaluate_setting(data, selection)
     if not isinstance(selection, pd.DataFrame) or selection.empty:
         raise ValueError("selection must be a Setting or a non-empty select_settings() DataFrame")
     if approach is not None:
@@ -1066,21 +1066,31 @@ def proximal_from_selection(data: SearchData, selection, *, approach: str | None
     if "movement" not in selection.columns:
         if len(selection) != 1:
             raise ValueError("a global selection must have one row per approach")
-        return evaluate_setting(data, Setting.from_row(selection.iloc[0]))["joints"]
-    joints = np.full((data.movement.size, 3), np.nan)
+        return evaluate_setting(data, Setting.from_row(selection.iloc[0]))
     chosen = {m: Setting.from_row(row) for m, row in selection.set_index("movement", drop=False).iterrows()}
     missing = sorted(set(np.unique(data.movement).tolist()) - set(chosen))
     if missing:
         raise ValueError(f"selection has no setting for movements {missing}")
-    cache: dict[Setting, np.ndarray] = {}
+    out: dict[str, np.ndarray] = {}
+    cache: dict[Setting, dict] = {}
     for movement, setting in chosen.items():
         rows = data.movement == movement
         if not rows.any():
             continue
         if setting not in cache:
-            cache[setting] = evaluate_setting(data, setting)["joints"]
-        joints[rows] = cache[setting][rows]
-    return joints
+            cache[setting] = evaluate_setting(data, setting)
+        for key, values in cache[setting].items():
+            out.setdefault(key, np.full(values.shape, np.nan))[rows] = values[rows]
+    return out
+
+
+def proximal_from_selection(data: SearchData, selection, *, approach: str | None = None) -> np.ndarray:
+    """Distal joint (the elbow, eq. (10)) of ``data``'s segment per row, under a selection.
+
+    ``selection`` and ``approach`` as in :func:`evaluate_selection`.  Returns ``(n, 3)`` (m),
+    to pass as target 2's ``proximal``.
+    """
+    return evaluate_selection(data, selection, approach=approach)["joints"]
 
 
 @dataclasses.dataclass

@@ -94,3 +94,49 @@ def study_inputs(campaign, *, pitch_method: str = "gating", fs: float = 30.0, **
         kinect[user] = np.stack([rows["T1"].kinect[pick1], rows["T2"].kinect[pick2]], axis=1)
         times[user] = rows["T2"].time_s[pick2]
     return StudyInputs(target1=target1, target2=target2, kinect=kinect, time_s=times)
+
+
+def selected_errors(inputs: StudyInputs, tables, *, approach: str, per_movement: bool) -> dict[str, np.ndarray]:
+    """Per-sample position errors (cm) of the selected settings (Table 2 or 3), users pooled.
+
+    Target 2 is evaluated with the elbow of target 1 under the same selection, as in
+    :func:`wsnlib.optimize.paper_tables`.
+
+    Parameters
+    ----------
+    inputs : StudyInputs
+    tables : wsnlib.optimize.PaperTables
+    approach : {"deterministic", "probabilistic"}
+    per_movement : bool
+        True: Table 2's per-movement settings (Fig. 6(a)); False: Table 3's (Fig. 6(b)).
+
+    Returns
+    -------
+    dict
+        ``"T1"``, ``"T2"``: errors (cm) of every paired row of every user; ``"movement"``:
+        the movement of each row.
+    """
+    from wsnlib.optimize import evaluate_selection
+
+    selection = tables.selection2 if per_movement else tables.selection3
+    selection = selection[selection["approach"] == approach]
+    pick = {t: selection[selection["target"] == n].drop(columns="target") for n, t in ((1, "T1"), (2, "T2"))}
+    errors = {"T1": [], "T2": [], "movement": []}
+    for user, data1 in inputs.target1.items():
+        first = evaluate_selection(data1, pick["T1"])
+        second = evaluate_selection(inputs.target2[user].with_proximal(first["joints"]), pick["T2"])
+        errors["T1"].append(100 * first["pe_m"])
+        errors["T2"].append(100 * second["pe_m"])
+        errors["movement"].append(data1.movement)
+    return {key: np.concatenate(values) for key, values in errors.items()}
+
+
+def kinect_errors(inputs: StudyInputs) -> dict[str, np.ndarray]:
+    """Per-sample position errors (cm) of the Kinect-like baseline at the same rows, users pooled."""
+    errors = {"T1": [], "T2": [], "movement": []}
+    for user, positions in inputs.kinect.items():
+        for index, target in enumerate(("T1", "T2")):
+            truth = (inputs.target1 if index == 0 else inputs.target2)[user].true_positions
+            errors[target].append(100 * np.linalg.norm(positions[:, index] - truth, axis=-1))
+        errors["movement"].append(inputs.target1[user].movement)
+    return {key: np.concatenate(values) for key, values in errors.items()}
