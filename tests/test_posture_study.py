@@ -47,6 +47,7 @@ def test_selected_errors_reproduce_the_tables(campaign):
     sizes = [inputs.target1[u].movement.size for u in users]
     per_user = np.split(errors["T1"], np.cumsum(sizes)[:-1])
     movement = np.split(errors["movement"], np.cumsum(sizes)[:-1])
-    expected = np.mean([np.mean([e[m == k].mean() for k in range(1, 9)]) for e, m in zip(per_user, movement, strict=True)])
+    per_movement_means = [[e[m == k].mean() for k in range(1, 9)] for e, m in zip(per_user, movement, strict=True)]
+    expected = np.mean(np.mean(per_movement_means, axis=1))
     assert expected == pytest.approx(float(row["pe_cm"].iloc[0]), rel=1e-9)
     assert kinect_errors(inputs)["T2"].shape == errors["T2"].shape
