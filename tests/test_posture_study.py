@@ -51,3 +51,12 @@ def test_selected_errors_reproduce_the_tables(campaign):
     expected = np.mean(np.mean(per_movement_means, axis=1))
     assert expected == pytest.approx(float(row["pe_cm"].iloc[0]), rel=1e-9)
     assert kinect_errors(inputs)["T2"].shape == errors["T2"].shape
+
+
+def test_pitch_errors_are_small_at_rest(campaign):
+    from wsnlib.posture_study import pitch_errors_deg
+
+    errors = pitch_errors_deg(campaign.data, method="none")
+    at_rest = errors[errors["movement"] == 0]
+    assert set(errors["target"]) == {"T1", "T2"}
+    assert np.median(np.abs(at_rest["error_deg"])) < 2.0

@@ -140,3 +140,26 @@ def kinect_errors(inputs: StudyInputs) -> dict[str, np.ndarray]:
             errors[target].append(100 * np.linalg.norm(positions[:, index] - truth, axis=-1))
         errors["movement"].append(inputs.target1[user].movement)
     return {key: np.concatenate(values) for key, values in errors.items()}
+
+
+def pitch_errors_deg(data, *, method: str, fs: float = 30.0, **options):
+    """Accelerometer pitch minus true pitch (°) for every aligned row of a dynamic campaign.
+
+    Pitch is computed per (user, target) stream in time order, as in :func:`study_inputs`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``user``, ``target``, ``movement`` (0 outside movements), ``label``,
+        ``error_deg``.
+    """
+    import pandas as pd
+
+    frames = []
+    for user in dict.fromkeys(data.user):
+        for target in ("T1", "T2"):
+            rows = data.select(user=user, target=target)
+            error = np.degrees(_pitch_stream(rows, method, fs, **options) - rows.pitch_true_rad)
+            frames.append(pd.DataFrame({"user": user, "target": target, "movement": rows.movement,
+                                        "label": rows.label, "error_deg": error}))
+    return pd.concat(frames, ignore_index=True)
