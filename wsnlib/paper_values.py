@@ -1,0 +1,37 @@
+"""Numbers the papers report, quoted so that notebooks can print them beside ours.
+
+Only quotations live here (never results of ours).  Paper 002: M. Giuberti, M. Martalò,
+G. Ferrari, "A hybrid radio/accelerometric approach to arm posture recognition", Tables 2
+and 3 and Section 5 (position errors in cm).
+"""
+
+from __future__ import annotations
+
+import pandas as pd
+
+#: Table 2 of paper 002: PE (cm) per target and movement, deterministic, probabilistic, Kinect.
+PAPER002_TABLE2_PE_CM = pd.DataFrame(
+    {
+        "target": [1] * 8 + [2] * 8,
+        "movement": list(range(1, 9)) * 2,
+        "deterministic": [1.2, 4, 1.3, 4.5, 1.3, 4.2, 0.4, 4.4, 3.3, 15, 3.6, 12.5, 3.6, 13.9, 1.2, 12.7],
+        "probabilistic": [2.6, 6.7, 1.3, 7.4, 3.4, 6.3, 0.4, 6.3, 10.7, 21.9, 4.5, 19.9, 9.4, 22.8, 2.4, 15.1],
+        "kinect": [8.4, 7.1, 7.5, 11.4, 8.1, 6.9, 7.8, 7.7, 18.1, 12, 15.6, 25.9, 17.2, 12.5, 17.1, 17.6],
+    }
+).set_index(["target", "movement"])
+
+#: Table 2's last row: average PE (cm) over both targets and all movements.
+PAPER002_TABLE2_AVERAGE_CM = {"deterministic": 5.4, "probabilistic": 8.8, "kinect": 12.6}
+
+#: Table 3 of paper 002: PE (cm) per target with one setting for all movements.
+PAPER002_TABLE3_PE_CM = pd.DataFrame(
+    {"target": [1, 2], "deterministic": [4.2, 14], "probabilistic": [6.1, 17.9], "kinect": [8.1, 17.1]}
+).set_index("target")
+
+#: Table 3's last row: average PE (cm).
+PAPER002_TABLE3_AVERAGE_CM = {"deterministic": 9.1, "probabilistic": 12.0, "kinect": 12.6}
+
+#: Table 3's optimal anchor subsets and the deployable union the paper derives (Section 5).
+PAPER002_TABLE3_SUBSETS = {("deterministic", 1): "{3, 5, 6, 7}", ("deterministic", 2): "{2, 3, 6}",
+                           ("probabilistic", 1): "{6, 7}", ("probabilistic", 2): "{2, 3, 4, 7}"}
+PAPER002_DEPLOYABLE_DETERMINISTIC = "{2, 3, 5, 6, 7}"
