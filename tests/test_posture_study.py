@@ -60,3 +60,15 @@ def test_pitch_errors_are_small_at_rest(campaign):
     at_rest = errors[errors["movement"] == 0]
     assert set(errors["target"]) == {"T1", "T2"}
     assert np.median(np.abs(at_rest["error_deg"])) < 2.0
+
+
+def test_true_joints_of_the_straight_arm_contain_both_targets(campaign):
+    from wsnlib.posture_study import true_joints_straight_arm
+
+    inputs = study_inputs(campaign)
+    joints = true_joints_straight_arm(inputs, "U1")
+    t2 = inputs.target2["U1"].true_positions
+    # Target 2 lies on the segment from the true elbow to the true wrist (collinear, in between).
+    a, b = joints["elbow"], joints["wrist"]
+    cross = np.linalg.norm(np.cross(b - a, t2 - a), axis=1) / np.linalg.norm(b - a, axis=1)
+    assert np.median(cross) < 0.02

@@ -163,3 +163,16 @@ def pitch_errors_deg(data, *, method: str, fs: float = 30.0, **options):
             frames.append(pd.DataFrame({"user": user, "target": target, "movement": rows.movement,
                                         "label": rows.label, "error_deg": error}))
     return pd.concat(frames, ignore_index=True)
+
+
+def true_joints_straight_arm(inputs: StudyInputs, user: str) -> dict[str, np.ndarray]:
+    """True elbow and wrist (m) at the paired rows, for a straight arm (all of paper 002's movements).
+
+    With the elbow extended, both targets lie on the line from the shoulder, so the elbow is
+    the target-1 direction at the upper-arm length and the wrist the same direction at the
+    whole arm's length.
+    """
+    data1 = inputs.target1[user]
+    lengths = data1.chain.segment_lengths_m
+    direction = data1.true_positions / np.linalg.norm(data1.true_positions, axis=1, keepdims=True)
+    return {"elbow": direction * lengths[0], "wrist": direction * (lengths[0] + lengths[1])}
