@@ -5,12 +5,24 @@ import importlib.util
 from wsnlib import paths
 
 
+def _load(name):
+    spec = importlib.util.spec_from_file_location(name, paths.ROOT / "benchmarks" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
 def test_benchmark_runs_in_quick_mode_and_agrees_with_ahrs():
-    spec = importlib.util.spec_from_file_location("bench_madgwick", paths.ROOT / "benchmarks" / "bench_madgwick.py")
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
+    bench = _load("bench_madgwick")
     results = bench.run(quick=True, log=lambda *args: None)
     assert all(rate > 0 for rate in results["ours"].values())
     assert results["ahrs"] > 0 and results["masked"]["steps_per_s"] > 0
     assert results["ahrs_max_abs_diff"] < 1e-9
     assert "PASS" in bench.report(results) or "MISS" in bench.report(results)
+
+
+def test_search_benchmark_runs_in_quick_mode():
+    bench = _load("bench_search")
+    results = bench.run(quick=True, log=lambda *args: None)
+    text = bench.report(results)
+    assert "PASS" in text or "MISS" in text
