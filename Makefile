@@ -1,5 +1,6 @@
-# wsn-motion: `make figures` regenerates every figure and table, `make test` runs lint and tests.
-# Both bootstrap .venv from environment.lock on first use (only python3 is needed).
+# wsn-motion: `make figures` regenerates every figure and table, `make test` runs lint and tests,
+# `make book` (after `make figures`) renders the executed notebooks as HTML in build/book/.
+# They bootstrap .venv from environment.lock on first use (only python3 is needed).
 
 PYTHON ?= python3
 VENV := .venv
@@ -19,7 +20,7 @@ ifneq ($(wildcard $(SHARED_PABR)/cnf),)
 export WSNLIB_PABR_DIR ?= $(SHARED_PABR)
 endif
 
-.PHONY: figures quick test lint lock clean-outputs
+.PHONY: figures quick test lint lock clean-outputs book lab browser book-test
 
 figures: $(STAMP)
 	$(PY) -m wsnlib.reproduce
@@ -33,6 +34,34 @@ test: $(STAMP)
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
+
+# A static HTML site from the executed notebooks in build/executed/ (run `make figures` first):
+# build/book/index.html.  Renders what is there; it does not run the notebooks again.
+book: $(STAMP)
+	$(PY) -m wsnlib.book
+
+# JupyterLab from the venv, on the notebooks (pick the "Python (wsn-motion)" kernel).
+lab: $(STAMP)
+	$(VENV)/bin/jupyter lab --notebook-dir=notebooks
+
+# Headless Chromium and its WebDriver from Debian's packages, for the browser test of the
+# book; installed here (a set-up step, root needed), never downloaded by the tests.
+browser:
+	@if [ -x /usr/bin/chromium ] && [ -x /usr/bin/chromedriver ]; then \
+		echo "chromium and chromedriver are installed"; \
+	elif [ "$$(id -u)" = 0 ]; then \
+		apt-get update && DEBIAN_FRONTEND=noninteractive apt-get install -y chromium chromium-driver; \
+	else \
+		echo "make browser: /usr/bin/chromium or /usr/bin/chromedriver is missing; as root run" >&2; \
+		echo "  apt-get update && apt-get install -y chromium chromium-driver" >&2; \
+		exit 1; \
+	fi
+
+# The browser test of build/book/ (run `make book` first): every page reachable from the
+# index loads without a broken link, a missing image or a console error; screenshots go to
+# build/book-screenshots/.
+book-test: $(STAMP) browser
+	$(PY) -m pytest -m browser tests/test_book_browser.py
 
 # The environment: exact pinned versions with hashes, then wsnlib itself (editable), then a
 # named Jupyter kernel inside the venv (--sys-prefix), which papermill finds by name.

@@ -459,6 +459,17 @@ def test_hybrid_feedback_and_output_differ_only_after_a_gap(arm):
     )
 
 
+
+@pytest.mark.parametrize("blend", ["output", "feedback"])
+def test_hybrid_on_one_unbatched_recording_equals_its_row_of_a_batch(arm, blend):
+    _, gyr, acc, mag = arm
+    mask = burst_mask(300, 80, 4)
+    kwargs = {"fs": FS, "beta": 0.1, "method": "hybrid", "blend": blend, "received": mask}
+    batched = estimate_orientation(gyr, acc, mag, **kwargs)
+    one = estimate_orientation(gyr[1], acc[1], mag[1], **kwargs)  # (T, 3) signals: no batch dimension
+    assert one.shape == (300, 4)
+    np.testing.assert_allclose(one, batched[1], atol=1e-12)
+
 @pytest.mark.parametrize(
     "case",
     [

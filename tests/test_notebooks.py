@@ -1,6 +1,8 @@
 """Every notebook: committed clean, parameterised, and executed in quick mode — twice.
 
 The second run goes to another folder; every table and figure must come out byte-identical.
+The solutions notebooks (``notebooks/solutions/``) are held to the same rules, except that
+they need not write a figure.
 """
 
 import json
@@ -14,9 +16,10 @@ import pytest
 from wsnlib import paths, reproduce
 
 NOTEBOOKS = reproduce.list_notebooks()
+EVERY_NOTEBOOK = reproduce.list_batch()  # the notebooks and the solutions notebooks
 
 
-@pytest.mark.parametrize("notebook", NOTEBOOKS, ids=lambda p: p.stem)
+@pytest.mark.parametrize("notebook", EVERY_NOTEBOOK, ids=reproduce.notebook_name)
 def test_notebook_is_committed_without_outputs(notebook):
     nb = nbformat.read(notebook, as_version=4)
     for cell in nb.cells:
@@ -25,7 +28,7 @@ def test_notebook_is_committed_without_outputs(notebook):
             assert cell.execution_count is None, f"{notebook.name}: a code cell has an execution count"
 
 
-@pytest.mark.parametrize("notebook", NOTEBOOKS, ids=lambda p: p.stem)
+@pytest.mark.parametrize("notebook", EVERY_NOTEBOOK, ids=reproduce.notebook_name)
 def test_notebook_has_a_parameters_cell_with_quick_and_seed(notebook):
     nb = nbformat.read(notebook, as_version=4)
     tagged = [c for c in nb.cells if "parameters" in c.metadata.get("tags", [])]
@@ -58,8 +61,12 @@ def _run_batch(output_dir):
 def test_batch_runs_in_quick_mode_and_is_reproducible(tmp_path):
     first = _run_batch(tmp_path / "run1")
     second = _run_batch(tmp_path / "run2")
+    ran = [entry["notebook"] for entry in first["notebooks"]]
+    assert ran == [reproduce.notebook_name(nb) for nb in EVERY_NOTEBOOK]
     for entry in first["notebooks"]:
         assert entry["status"] == "ok", entry
+        if entry["notebook"].startswith(f"{reproduce.SOLUTIONS}/"):
+            continue  # a solutions notebook may write nothing
         assert entry["outputs"], f"{entry['notebook']} wrote no figure or table"
         kinds = {o["path"].split("/")[0] for o in entry["outputs"]}
         assert "figures" in kinds, f"{entry['notebook']} wrote no figure"

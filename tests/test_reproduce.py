@@ -1,11 +1,24 @@
 """The batch runner: parameter parsing, notebook discovery and failure reporting."""
 
 import json
+import os
 
 import nbformat
 import pytest
 
 from wsnlib import paths, reproduce
+
+
+def _write_notebook(path, *sources):
+    """A notebook for the project kernel: a ``parameters`` cell, then one code cell per source."""
+    nb = nbformat.v4.new_notebook()
+    nb.metadata["kernelspec"] = {"name": paths.KERNEL_NAME, "language": "python", "display_name": "x"}
+    nb.metadata["language_info"] = {"name": "python"}
+    params = nbformat.v4.new_code_cell("quick = False\nseed = 0")
+    params.metadata["tags"] = ["parameters"]
+    nb.cells = [params, *(nbformat.v4.new_code_cell(source) for source in sources)]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    nbformat.write(nb, path)
 
 
 @pytest.mark.parametrize(("text", "value"), [("3", 3), ("0.5", 0.5), ("True", True),
@@ -21,34 +34,59 @@ def test_notebooks_are_listed_in_order():
     assert reproduce.list_notebooks("no-such-notebook") == []
 
 
+def test_solutions_run_after_the_notebooks_with_their_own_entries(output_dir, tmp_path, monkeypatch):
+    nb_dir = tmp_path / "nbs"
+    figure = "import matplotlib.pyplot as plt\nplt.plot([0, 1])"
+    _write_notebook(nb_dir / "02_second.ipynb", figure)
+    _write_notebook(nb_dir / "01_first.ipynb", "import os\nprint(os.environ['WSNLIB_BATCH'])", figure)
+    _write_notebook(nb_dir / "solutions" / "01_first_solutions.ipynb",
+                    "from wsnlib import paths\n(paths.data_processed() / 'answer.csv').write_text('a\\n1\\n')")
+    (nb_dir / "solutions" / "notes.ipynb").write_text("{}")  # not numbered: not run
+    monkeypatch.setattr(paths, "NOTEBOOKS", nb_dir)
+    monkeypatch.delenv("WSNLIB_BATCH", raising=False)
+
+    assert [reproduce.notebook_name(nb) for nb in reproduce.list_batch("01")] == [
+        "01_first.ipynb", "solutions/01_first_solutions.ipynb"]
+    assert [reproduce.notebook_name(nb) for nb in reproduce.list_batch("solutions")] == [
+        "solutions/01_first_solutions.ipynb"]
+
+    assert reproduce.main(["--quick"]) == 0
+
+    manifest = json.loads((output_dir / "data" / "processed" / "manifest.json").read_text())
+    entries = {e["notebook"]: e for e in manifest["notebooks"]}
+    assert list(entries) == ["01_first.ipynb", "02_second.ipynb", "solutions/01_first_solutions.ipynb"]
+    assert all(e["status"] == "ok" for e in entries.values())
+    assert [o["path"] for o in entries["solutions/01_first_solutions.ipynb"]["outputs"]] == [
+        "data/processed/answer.csv"]
+    executed = output_dir / "build" / "executed"
+    assert (executed / "solutions" / "01_first_solutions.ipynb").is_file()
+    # The kernel saw WSNLIB_BATCH and the inline backend: the figure is in the executed copy.
+    first = nbformat.read(executed / "01_first.ipynb", as_version=4)
+    assert first.cells[-2].outputs[0]["text"].strip() == "1"
+    assert any("image/png" in o.get("data", {}) for o in first.cells[-1].outputs)
+    assert "WSNLIB_BATCH" not in os.environ  # set for the batch only
+
+
 def test_a_failing_cell_stops_the_batch_and_is_recorded(output_dir, tmp_path, monkeypatch):
     nb_dir = tmp_path / "nbs"
-    nb_dir.mkdir()
-    nb = nbformat.v4.new_notebook()
-    nb.metadata["kernelspec"] = {"name": paths.KERNEL_NAME, "language": "python", "display_name": "x"}
-    nb.metadata["language_info"] = {"name": "python"}
-    params = nbformat.v4.new_code_cell("quick = False\nseed = 0")
-    params.metadata["tags"] = ["parameters"]
-    nb.cells = [
-        params,
-        nbformat.v4.new_code_cell(
-            "from wsnlib import paths\n(paths.data_processed() / 'partial.csv').write_text('a\\n1\\n')"
-        ),
-        nbformat.v4.new_code_cell("raise RuntimeError('deliberate failure')"),
-    ]
-    nbformat.write(nb, nb_dir / "01_fails.ipynb")
-    nbformat.write(nb, nb_dir / "02_never_runs.ipynb")
+    sources = ("from wsnlib import paths\n(paths.data_processed() / 'partial.csv').write_text('a\\n1\\n')",
+               "raise RuntimeError('deliberate failure')")
+    _write_notebook(nb_dir / "01_fails.ipynb", *sources)
+    _write_notebook(nb_dir / "02_never_runs.ipynb", *sources)
+    _write_notebook(nb_dir / "solutions" / "01_fails_solutions.ipynb", "pass")
     monkeypatch.setattr(paths, "NOTEBOOKS", nb_dir)
 
     status = reproduce.main(["--quick"])
 
     assert status == 1
     manifest = json.loads((output_dir / "data" / "processed" / "manifest.json").read_text())
-    first, second = manifest["notebooks"]
+    first, second, solutions = manifest["notebooks"]
     assert first["status"] == "failed"
     assert first["error"]["ename"] == "RuntimeError"
     assert "deliberate" in first["error"]["evalue"]
     assert first["error"]["cell_first_line"].startswith("raise RuntimeError")
     assert [o["path"] for o in first["outputs"]] == ["data/processed/partial.csv"]
     assert second["status"] == "not run"
+    assert solutions == {"notebook": "solutions/01_fails_solutions.ipynb", "status": "not run",
+                         "parameters": {}, "seconds": None, "outputs": []}
     assert first["parameters"] == {"quick": True}

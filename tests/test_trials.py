@@ -34,6 +34,23 @@ def test_same_seed_same_trials():
     np.testing.assert_array_equal(a.received, b.received)
 
 
+def test_select_keeps_the_chosen_trials_in_order(rng):
+    trials = arm_loss_trials(_movements(), [LossProfile.none(), LossProfile.gilbert_elliott(0.2)], 3, rng=rng)
+    keep = np.zeros(len(trials.labels), dtype=bool)
+    keep[[1, 4, 9]] = True
+    kept = trials.select(keep)
+    for name in ("gyr", "acc", "mag", "quat_true", "received"):
+        np.testing.assert_array_equal(getattr(kept, name), getattr(trials, name)[[1, 4, 9]])
+    assert kept.labels.index.tolist() == [0, 1, 2]
+    assert kept.labels.to_dict("records") == trials.labels.iloc[[1, 4, 9]].to_dict("records")
+    assert kept.fs == trials.fs
+    assert len(trials.select(np.ones(len(trials.labels), dtype=bool)).labels) == len(trials.labels)
+    with pytest.raises(ValueError, match="boolean"):
+        trials.select([1, 4, 9])
+    with pytest.raises(ValueError, match="shape"):
+        trials.select(keep[:-1])
+
+
 def test_bad_inputs(rng):
     with pytest.raises(ValueError, match="n_repetitions"):
         arm_loss_trials(_movements(), [LossProfile.none()], 0, rng=rng)

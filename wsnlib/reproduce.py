@@ -5,41 +5,94 @@ Usage::
     python -m wsnlib.reproduce [--quick] [--only PATTERN] [-p NAME VALUE ...]
 
 Notebooks ``notebooks/NN_*.ipynb`` run in name order with the project's Jupyter kernel
-(:data:`wsnlib.paths.KERNEL_NAME`).  Executed copies go to ``build/executed/`` (gitignored).
-``data/processed/manifest.json`` records, per notebook, the parameters, the run time, the
-status (``ok`` / ``failed`` / ``not run``) and every file it wrote below ``figures/``,
-``data/processed/`` or ``data/raw/`` with its SHA-256.  The manifest is written after every
-notebook, so an interrupted batch leaves a manifest that says how far it got.  On a cell
-error the runner stops, prints the notebook and the failing cell, marks the manifest and
-exits with status 1.
+(:data:`wsnlib.paths.KERNEL_NAME`), then the solutions ``notebooks/solutions/NN_*.ipynb``
+in name order.  Executed copies go to ``build/executed/`` and ``build/executed/solutions/``
+(gitignored).  ``data/processed/manifest.json`` records, per notebook (a solutions notebook
+as ``solutions/<name>``), the parameters, the run time, the status (``ok`` / ``failed`` /
+``not run``) and every file it wrote below ``figures/``, ``data/processed/`` or
+``data/raw/`` with its SHA-256.  The manifest is written after every notebook, so an
+interrupted batch leaves a manifest that says how far it got.  On a cell error the runner
+stops, prints the notebook and the failing cell, marks the manifest and exits with status 1.
+
+The kernel runs with two environment variables set for the batch (and only for it):
+
+``MPLBACKEND=module://matplotlib_inline.backend_inline``
+    matplotlib's inline backend, non-interactive: every figure a cell leaves open is stored
+    in the executed copy as a PNG output (so ``make book`` can show it); files written by
+    :func:`wsnlib.plotting.savefig` are the same bytes from run to run.
+``WSNLIB_BATCH=1``
+    "running unattended": code that would show interactive widgets (``wsnlib.interactive``)
+    draws static figures instead.
 
 The manifest holds run times, so it is the one file in ``data/processed/`` that differs
 between two runs; reproducibility is judged on the hashes it lists.
 """
-
 from __future__ import annotations
 
 import argparse
 import ast
+import contextlib
 import fnmatch
 import json
 import os
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 from wsnlib import paths
 from wsnlib._files import sha256_of
 
 MANIFEST_NAME = "manifest.json"
+SOLUTIONS = "solutions"
+
+#: Environment of the kernel during the batch (see the module docstring).
+BATCH_ENV = {"MPLBACKEND": "module://matplotlib_inline.backend_inline", "WSNLIB_BATCH": "1"}
 
 
 def list_notebooks(pattern: str | None = None) -> list[Path]:
     """Numbered notebooks in ``notebooks/`` in run order, optionally filtered by a glob."""
-    found = sorted(paths.NOTEBOOKS.glob("[0-9][0-9]_*.ipynb"))
+    return _numbered(paths.NOTEBOOKS, pattern)
+
+
+def list_solutions(pattern: str | None = None) -> list[Path]:
+    """Numbered solutions notebooks in ``notebooks/solutions/`` in run order, optionally filtered."""
+    return _numbered(paths.NOTEBOOKS / SOLUTIONS, pattern)
+
+
+def list_batch(pattern: str | None = None) -> list[Path]:
+    """What the batch runs: the notebooks, then the solutions notebooks."""
+    return list_notebooks(pattern) + list_solutions(pattern)
+
+
+def notebook_name(notebook: Path) -> str:
+    """Name in the manifest and below ``build/executed/``: ``01_x.ipynb``, ``solutions/01_y.ipynb``."""
+    try:
+        return notebook.relative_to(paths.NOTEBOOKS).as_posix()
+    except ValueError:  # a notebook from elsewhere
+        return notebook.name
+
+
+def _numbered(folder: Path, pattern: str | None) -> list[Path]:
+    found = sorted(folder.glob("[0-9][0-9]_*.ipynb"))
     if pattern:
-        found = [nb for nb in found if fnmatch.fnmatch(nb.stem, f"*{pattern}*")]
+        found = [nb for nb in found if fnmatch.fnmatch(notebook_name(nb)[: -len(".ipynb")], f"*{pattern}*")]
     return found
+
+
+@contextlib.contextmanager
+def _batch_environment() -> Iterator[None]:
+    """Set :data:`BATCH_ENV` (the kernel inherits it) and restore the previous values after."""
+    saved = {name: os.environ.get(name) for name in BATCH_ENV}
+    os.environ.update(BATCH_ENV)
+    try:
+        yield
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
 
 
 def parse_value(text: str):
@@ -91,28 +144,32 @@ def _failing_cell(executed: Path) -> dict:
 
 def run(notebooks: list[Path], parameters: dict, quick: bool, kernel: str = paths.KERNEL_NAME) -> int:
     """Execute ``notebooks`` in order; return 0 if all succeeded, 1 at the first failure."""
+    with _batch_environment():
+        return _run(notebooks, parameters, quick, kernel)
+
+
+def _run(notebooks: list[Path], parameters: dict, quick: bool, kernel: str) -> int:
     import papermill
     from tqdm.auto import tqdm
 
-    # Batch figures never need a display; the kernel inherits this environment.
-    os.environ["MPLBACKEND"] = "Agg"
     entries = [
-        {"notebook": nb.name, "status": "not run", "parameters": {}, "seconds": None, "outputs": []}
+        {"notebook": notebook_name(nb), "status": "not run", "parameters": {}, "seconds": None, "outputs": []}
         for nb in notebooks
     ]
     _write_manifest(entries, quick)
     progress = tqdm(notebooks, desc="notebooks", unit="nb", file=sys.stderr)
     for entry, notebook in zip(entries, progress, strict=True):
-        progress.set_postfix_str(notebook.name)
+        progress.set_postfix_str(entry["notebook"])
         params = {"quick": quick, **parameters}
-        executed = paths.executed_notebooks() / notebook.name
+        executed = paths.executed_notebooks() / notebook_name(notebook)
+        executed.parent.mkdir(parents=True, exist_ok=True)
         entry["parameters"] = params
         start_ns = time.time_ns()
         started = time.perf_counter()
         try:
             papermill.execute_notebook(
                 str(notebook), str(executed), parameters=params, kernel_name=kernel,
-                cwd=str(paths.NOTEBOOKS), progress_bar=False, log_output=False,
+                cwd=str(notebook.parent), progress_bar=False, log_output=False,
             )
         except papermill.PapermillExecutionError as exc:
             entry.update(status="failed", seconds=round(time.perf_counter() - started, 1),
@@ -121,7 +178,7 @@ def run(notebooks: list[Path], parameters: dict, quick: bool, kernel: str = path
             entry["outputs"] = _describe(_files_written_since(start_ns))
             _write_manifest(entries, quick)
             progress.close()
-            print(f"\nFAILED: {notebook.name}, cell {exc.cell_index} (execution count "
+            print(f"\nFAILED: {entry['notebook']}, cell {exc.cell_index} (execution count "
                   f"{exc.exec_count}): {exc.ename}: {exc.evalue}\n"
                   f"Executed copy with the traceback: {executed}", file=sys.stderr)
             return 1
@@ -130,7 +187,7 @@ def run(notebooks: list[Path], parameters: dict, quick: bool, kernel: str = path
                          error={"ename": type(exc).__name__, "evalue": str(exc)})
             _write_manifest(entries, quick)
             progress.close()
-            print(f"\nFAILED: {notebook.name}: {type(exc).__name__}: {exc}", file=sys.stderr)
+            print(f"\nFAILED: {entry['notebook']}: {type(exc).__name__}: {exc}", file=sys.stderr)
             return 1
         entry.update(status="ok", seconds=round(time.perf_counter() - started, 1),
                      outputs=_describe(_files_written_since(start_ns)))
@@ -147,12 +204,13 @@ def _describe(files: list[Path]) -> list[dict]:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m wsnlib.reproduce", description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="pass quick=True (small sweeps, for tests)")
-    parser.add_argument("--only", metavar="PATTERN", help="run only notebooks whose name contains PATTERN (glob)")
+    parser.add_argument("--only", metavar="PATTERN",
+                        help="run only notebooks (and solutions) whose name contains PATTERN (glob)")
     parser.add_argument("-p", "--parameter", nargs=2, action="append", default=[], metavar=("NAME", "VALUE"),
                         help="override a notebook parameter (VALUE is a Python literal); repeatable")
     parser.add_argument("--kernel", default=paths.KERNEL_NAME, help="Jupyter kernel name (default: %(default)s)")
     args = parser.parse_args(argv)
-    notebooks = list_notebooks(args.only)
+    notebooks = list_batch(args.only)
     if not notebooks:
         parser.error(f"no notebook matches {args.only!r} in {paths.NOTEBOOKS}")
     parameters = {name: parse_value(value) for name, value in args.parameter}

@@ -355,12 +355,13 @@ def _run(q, gyr, acc, mag, update, dt, beta_dt, *, shown=None, blend=None):
         if any_update[t]:
             q_new = _update(q, gyr[t], acc[t], None if mag is None else mag[t], dt[t], beta_dt[t])
             if blend is not None and any_blend[t]:  # SLERP only where needed
+                q_new = np.array(q_new)  # writeable and contiguous, whatever _update returns
                 batch = q_new.shape[1:]
-                where = np.nonzero(np.broadcast_to(blend_at[t], batch))
-                rows = (slice(None),) + where
-                mu = _weight(*(np.broadcast_to(x, batch)[where] for x in (lam[t], rho, tau)))
-                q_new = np.array(q_new)  # writeable, whatever _update returns
-                q_new[rows] = _slerp_first(np.broadcast_to(q_s[t], q_new.shape)[rows], q_new[rows], mu)
+                flat = q_new.reshape(4, -1)  # a view; an unbatched state is a batch of one
+                where = np.flatnonzero(np.broadcast_to(blend_at[t], batch))
+                mu = _weight(*(np.broadcast_to(x, batch).reshape(-1)[where] for x in (lam[t], rho, tau)))
+                q_s_t = np.broadcast_to(q_s[t], q_new.shape).reshape(4, -1)
+                flat[:, where] = _slerp_first(q_s_t[:, where], flat[:, where], mu)
             q = np.where(update[t], q_new, q)
         if shown is not None:
             shown_q = np.where(shown[t], q, shown_q)

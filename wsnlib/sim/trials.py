@@ -110,6 +110,31 @@ class Trials:
     labels: pd.DataFrame
     fs: float
 
+    def select(self, keep) -> Trials:
+        """The trials where ``keep`` is True, in their order (labels renumbered from 0).
+
+        Parameters
+        ----------
+        keep : array_like of bool, shape (R,)
+
+        Returns
+        -------
+        Trials
+
+        Examples
+        --------
+        Long outages on short records can leave a node with no received sample at all, which
+        Madgwick's filter cannot start from (without ``q0``) and single frame cannot hold;
+        drop those trials with ``trials.select(trials.received.any(axis=-1).all(axis=-1))``.
+        """
+        keep = np.asarray(keep)
+        n_trials = self.received.shape[0]
+        if keep.dtype != np.bool_ or keep.shape != (n_trials,):
+            raise ValueError(f"keep must be a boolean array of shape ({n_trials},), got dtype {keep.dtype}, "
+                             f"shape {keep.shape}")
+        return Trials(gyr=self.gyr[keep], acc=self.acc[keep], mag=self.mag[keep], quat_true=self.quat_true[keep],
+                      received=self.received[keep], labels=self.labels[keep].reset_index(drop=True), fs=self.fs)
+
 
 def arm_loss_trials(movements: dict[str, ArmTrajectory], profiles: list[LossProfile], n_repetitions: int, *,
                     rng: np.random.Generator, spec: ImuSpec | None = None) -> Trials:
