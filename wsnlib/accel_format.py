@@ -61,14 +61,13 @@ indent.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from wsnlib._validation import check_positive
-from wsnlib.datasets import _json_default, sidecar_path
+from wsnlib.datasets import load_sidecar, sidecar_path, write_table_with_sidecar
 from wsnlib.sim.body import TARGET_NAMES
 
 FORMAT_NAME = "wsnlib-samples"
@@ -260,14 +259,7 @@ def write_samples(
         "frame": FRAMES[kind],
         "metadata": metadata,
     }
-    try:
-        text = json.dumps(sidecar, indent=2, sort_keys=True, default=_json_default, allow_nan=False)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"metadata cannot be written as JSON: {exc}") from exc
-    path.parent.mkdir(parents=True, exist_ok=True)
-    frame.to_csv(path, index=False, float_format=FLOAT_FORMAT, lineterminator="\n")
-    sidecar_path(path).write_text(text + "\n", encoding="utf-8")
-    return path
+    return write_table_with_sidecar(frame, path, sidecar, FLOAT_FORMAT)
 
 
 def read_samples(path, kind: str | None = None) -> tuple[pd.DataFrame, dict]:
@@ -292,16 +284,7 @@ def read_samples(path, kind: str | None = None) -> tuple[pd.DataFrame, dict]:
     if not path.exists():
         raise ValueError(f"{path}: no such file")
     side = sidecar_path(path)
-    if not side.exists():
-        raise ValueError(f"{side}: missing sidecar (a sample table needs its .json file)")
-    try:
-        meta = json.loads(side.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{side}: not valid JSON ({exc})") from exc
-    if not isinstance(meta, dict) or meta.get("format") != FORMAT_NAME:
-        raise ValueError(f"{side}: 'format' must be {FORMAT_NAME!r}")
-    if meta.get("format_version") != FORMAT_VERSION:
-        raise ValueError(f"{side}: unsupported 'format_version' {meta.get('format_version')!r}")
+    meta = load_sidecar(path, FORMAT_NAME, FORMAT_VERSION, required=True, what="a sample table")
     if meta.get("kind") not in VALUE_COLUMNS:
         raise ValueError(f"{side}: 'kind' must be one of {KINDS}, got {meta.get('kind')!r}")
     if kind is not None and meta["kind"] != _check_kind(kind):

@@ -234,6 +234,49 @@ def _json_default(value):
     raise TypeError(f"{type(value).__name__} is not JSON serialisable")
 
 
+def write_table_with_sidecar(frame, path: Path, sidecar: dict, float_format: str, what: str = "metadata") -> Path:
+    """Write ``frame`` as CSV and ``sidecar`` as ``<name>.json`` (sorted keys), byte-reproducibly.
+
+    Shared by the recording formats of :mod:`wsnlib.datasets`, :mod:`wsnlib.rss` and
+    :mod:`wsnlib.accel_format`.  ``what`` names the user-supplied part in the error raised
+    when the sidecar is not JSON-serialisable.
+    """
+    try:
+        text = json.dumps(sidecar, indent=2, sort_keys=True, default=_json_default, allow_nan=False)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{what} cannot be written as JSON: {exc}") from exc
+    path.parent.mkdir(parents=True, exist_ok=True)
+    frame.to_csv(path, index=False, float_format=float_format, lineterminator="\n")
+    sidecar_path(path).write_text(text + "\n", encoding="utf-8")
+    return path
+
+
+def load_sidecar(path: Path, format_name: str, format_version: int, *, required: bool, what: str) -> dict | None:
+    """Read and check the ``<name>.json`` sidecar of a recording file (format name and version).
+
+    Returns None when it is missing and not ``required``; raises ``ValueError`` naming the
+    sidecar otherwise (``what`` says which kind of file needs it).
+    """
+    side = sidecar_path(path)
+    if not side.exists():
+        if required:
+            raise ValueError(f"{side}: missing sidecar ({what} needs its .json file)")
+        return None
+    try:
+        meta = json.loads(side.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{side}: not valid JSON ({exc})") from exc
+    if not isinstance(meta, dict):
+        raise ValueError(f"{side}: must hold a JSON object")
+    if meta.get("format") != format_name:
+        raise ValueError(f"{side}: 'format' must be {format_name!r}, got {meta.get('format')!r}")
+    if meta.get("format_version") != format_version:
+        raise ValueError(
+            f"{side}: unsupported 'format_version' {meta.get('format_version')!r} (this reader knows {format_version})"
+        )
+    return meta
+
+
 def write_recording(recording: Recording, path) -> Path:
     """Write ``recording`` as ``path`` (CSV) plus the sidecar ``path.with_suffix('.json')``.
 
@@ -285,35 +328,14 @@ def write_recording(recording: Recording, path) -> Path:
         "has_quaternions": recording.quat_true is not None,
         "metadata": recording.metadata,
     }
-    try:
-        sidecar_text = json.dumps(
-            sidecar, indent=2, sort_keys=True, default=_json_default, allow_nan=False
-        )
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"recording.metadata cannot be written as JSON: {exc}") from exc
-    path.parent.mkdir(parents=True, exist_ok=True)
-    frame.to_csv(path, index=False, float_format=FLOAT_FORMAT, lineterminator="\n")
-    sidecar_path(path).write_text(sidecar_text + "\n", encoding="utf-8")
-    return path
+    return write_table_with_sidecar(frame, path, sidecar, FLOAT_FORMAT, what="recording.metadata")
 
 
 def _read_sidecar(path: Path) -> dict | None:
     side = sidecar_path(path)
-    if not side.exists():
+    meta = load_sidecar(path, FORMAT_NAME, FORMAT_VERSION, required=False, what="a recording")
+    if meta is None:
         return None
-    try:
-        meta = json.loads(side.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{side}: not valid JSON ({exc})") from exc
-    if not isinstance(meta, dict):
-        raise ValueError(f"{side}: must hold a JSON object")
-    if meta.get("format") != FORMAT_NAME:
-        raise ValueError(f"{side}: 'format' must be {FORMAT_NAME!r}, got {meta.get('format')!r}")
-    if meta.get("format_version") != FORMAT_VERSION:
-        raise ValueError(
-            f"{side}: unsupported 'format_version' {meta.get('format_version')!r} "
-            f"(this reader knows {FORMAT_VERSION})"
-        )
     for key in ("fs_hz", "nodes", "units"):
         if key not in meta:
             raise ValueError(f"{side}: missing key {key!r}")

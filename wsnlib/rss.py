@@ -62,7 +62,6 @@ system would), and a constant floor fills what was never received.
 
 from __future__ import annotations
 
-import json
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -71,7 +70,7 @@ import numpy as np
 import pandas as pd
 
 from wsnlib._validation import check_positive
-from wsnlib.datasets import _json_default, sidecar_path
+from wsnlib.datasets import load_sidecar, sidecar_path, write_table_with_sidecar
 from wsnlib.sim.body import ANCHOR_NAMES, TARGET_NAMES
 
 FORMAT_NAME = "wsnlib-rss"
@@ -341,14 +340,7 @@ def write_rss(
         "frame": FRAME,
         "metadata": metadata,
     }
-    try:
-        sidecar_text = json.dumps(sidecar, indent=2, sort_keys=True, default=_json_default, allow_nan=False)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"metadata cannot be written as JSON: {exc}") from exc
-    path.parent.mkdir(parents=True, exist_ok=True)
-    text.to_csv(path, index=False, float_format=FLOAT_FORMAT, lineterminator="\n")
-    sidecar_path(path).write_text(sidecar_text + "\n", encoding="utf-8")
-    return path
+    return write_table_with_sidecar(text, path, sidecar, FLOAT_FORMAT)
 
 
 def _check_positions(positions, anchors, where: str) -> dict:
@@ -379,20 +371,7 @@ def _check_positions(positions, anchors, where: str) -> dict:
 
 def _read_sidecar(path: Path) -> dict:
     side = sidecar_path(path)
-    if not side.exists():
-        raise ValueError(f"{side}: missing sidecar (an RSS recording needs its .json file)")
-    try:
-        meta = json.loads(side.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{side}: not valid JSON ({exc})") from exc
-    if not isinstance(meta, dict):
-        raise ValueError(f"{side}: must hold a JSON object")
-    if meta.get("format") != FORMAT_NAME:
-        raise ValueError(f"{side}: 'format' must be {FORMAT_NAME!r}, got {meta.get('format')!r}")
-    if meta.get("format_version") != FORMAT_VERSION:
-        raise ValueError(
-            f"{side}: unsupported 'format_version' {meta.get('format_version')!r} (this reader knows {FORMAT_VERSION})"
-        )
+    meta = load_sidecar(path, FORMAT_NAME, FORMAT_VERSION, required=True, what="an RSS recording")
     for key in ("packet_rate_hz", "anchors", "targets"):
         if key not in meta:
             raise ValueError(f"{side}: missing key {key!r}")
