@@ -1,6 +1,8 @@
 """Numbers the papers report, quoted so that notebooks can print them beside ours.
 
-Only quotations live here (never results of ours).  Paper 002: M. Giuberti, M. Martalò,
+Only quotations live here (never results of ours).  Paper 001: L. De Vito, G. Mazzilli,
+M. Riccio, C. Sementa, "Improving the orientation estimation in a packet loss-affected
+wireless sensor network for tracking human motion", Section II.  Paper 002: M. Giuberti, M. Martalò,
 G. Ferrari, "A hybrid radio/accelerometric approach to arm posture recognition", Tables 2
 and 3 and Section 5 (position errors in cm).
 """
@@ -8,6 +10,12 @@ and 3 and Section 5 (position errors in cm).
 from __future__ import annotations
 
 import pandas as pd
+
+#: Paper 001, Section II (Fig. 3): maximum humerus pitch error (°) of each estimator.
+PAPER001_SECTION2_MAX_ERROR_DEG = {"single frame": 8.5, "data fusion": 14.9}
+
+#: Paper 002, Section 5 (static conditions): average position error (cm) of each approach.
+PAPER002_STATIC_PE_CM = {"deterministic": 3.0, "probabilistic": 4.8}
 
 #: Table 2 of paper 002: PE (cm) per target and movement, deterministic, probabilistic, Kinect.
 PAPER002_TABLE2_PE_CM = pd.DataFrame(
