@@ -67,7 +67,7 @@ import numpy as np
 import pandas as pd
 
 from wsnlib._validation import check_positive
-from wsnlib.datasets import load_sidecar, sidecar_path, write_table_with_sidecar
+from wsnlib.datasets import finite_column, load_sidecar, sidecar_path, write_table_with_sidecar
 from wsnlib.sim.body import TARGET_NAMES
 
 FORMAT_NAME = "wsnlib-samples"
@@ -142,15 +142,7 @@ def _validate(df, kind: str, targets, where: str) -> pd.DataFrame:
         raise ValueError(f"{where}: has no data rows")
     out = {}
     for column in ("time_s",) + VALUE_COLUMNS[kind]:
-        values = pd.to_numeric(df[column], errors="coerce").to_numpy(dtype=float)
-        bad = ~np.isfinite(values)
-        if np.any(bad):
-            row = int(np.argmax(bad))
-            raise ValueError(
-                f"{where}: column {column!r} has a non-numeric or non-finite value {df[column].iloc[row]!r} "
-                f"at data row {row + 1}"
-            )
-        out[column] = values
+        out[column] = finite_column(df, column, where)
     for column in TEXT_COLUMNS:
         values = df[column].to_numpy(dtype=object)
         codes, uniques = pd.factorize(values, use_na_sentinel=False)

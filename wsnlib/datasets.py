@@ -251,6 +251,19 @@ def write_table_with_sidecar(frame, path: Path, sidecar: dict, float_format: str
     return path
 
 
+def finite_column(frame, column: str, where) -> np.ndarray:
+    """Column ``column`` of a read CSV table as finite floats, or ``ValueError`` naming file, column and row."""
+    values = pd.to_numeric(frame[column], errors="coerce").to_numpy(dtype=float)
+    bad = ~np.isfinite(values)
+    if np.any(bad):
+        row = int(np.argmax(bad))
+        raise ValueError(
+            f"{where}: column {column!r} has a non-numeric or non-finite value "
+            f"{frame[column].iloc[row]!r} at data row {row + 1}"
+        )
+    return values
+
+
 def load_sidecar(path: Path, format_name: str, format_version: int, *, required: bool, what: str) -> dict | None:
     """Read and check the ``<name>.json`` sidecar of a recording file (format name and version).
 
@@ -419,15 +432,7 @@ def read_recording(path) -> Recording:
     for column in expected:
         if column == "node":
             continue
-        values = pd.to_numeric(frame[column], errors="coerce").to_numpy(dtype=float)
-        bad = ~np.isfinite(values)
-        if np.any(bad):
-            row = int(np.argmax(bad))
-            raise ValueError(
-                f"{path}: column {column!r} has a non-numeric or non-finite value "
-                f"{frame[column].iloc[row]!r} at data row {row + 1}"
-            )
-        numeric[column] = values
+        numeric[column] = finite_column(frame, column, path)
     node_col = frame["node"].to_numpy(dtype=object)
     for row, name in enumerate(node_col):
         if not isinstance(name, str) or not name.strip():
