@@ -86,6 +86,11 @@ def bootstrap_knee(cost_a, cost_b, *, rng: np.random.Generator, n_boot: int = 10
     return knees
 
 
+#: The hybrid setting notebook 03 recommends in full mode (the knee of its Pareto front):
+#: later notebooks use this constant, so that each runs on its own; notebook 03 asserts that
+#: its own full-mode run still recommends it.
+RECOMMENDED_HYBRID = {"schedule": "decay", "blend": "feedback", "rho": 3.0, "tau": 6.0}
+
 #: File (in the processed-data folder) where notebook 03 stores its recommended hybrid setting.
 RECOMMENDATION_FILE = "a03_recommended_hybrid.csv"
 
