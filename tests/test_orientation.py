@@ -13,8 +13,8 @@ from scipy.spatial.transform import Rotation
 
 from wsnlib import frames
 from wsnlib import quaternion as Q
-from wsnlib.orientation import madgwick, madgwick_step, tilt_quaternion, triad
-from wsnlib.orientation.madgwick import Q_ENU_FROM_NWU, _gradient
+from wsnlib.orientation import _kernels, madgwick, madgwick_step, tilt_quaternion, triad
+from wsnlib.orientation.madgwick import Q_ENU_FROM_NWU
 
 G_ENU = frames.gravity_specific_force_enu()
 M_ENU = frames.magnetic_field_enu()
@@ -221,6 +221,12 @@ def test_madgwick_step_matches_report_restatement(rng, form):
             nwu_from_enu(q[i]), gyr[i], acc[i], None if mag is None else mag[i], 0.02, 0.3
         )
         np.testing.assert_allclose(ours[i], enu_from_nwu(ref), atol=1e-13)
+
+
+def _gradient(q_nwu, acc, mag):
+    """The compiled gradient, sample by sample, component axis first (4, N)."""
+    return np.array([_kernels.madgwick_gradient(tuple(q), tuple(a), tuple(m), True)
+                     for q, a, m in zip(q_nwu.T, acc.T, mag.T, strict=True)]).T
 
 
 def test_gradient_vanishes_at_the_true_orientation(rng):

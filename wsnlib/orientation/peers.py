@@ -68,16 +68,15 @@ import vqf
 
 from wsnlib import quaternion as Q
 from wsnlib._validation import check_nonnegative, check_positive
+from wsnlib.orientation import _batch as B
+from wsnlib.orientation import _kernels as K
 from wsnlib.orientation.loss_handling import (
+    DEFAULT_HOLD_WINDOW,
     SCHEDULES,
-    _check_choice,
-    _check_hold_window,
-    _effective_lost_run,
-    _slerp_first,
-    _weight,
     blend_with_single_frame,
+    effective_lost_run,
+    slerp_weight,
 )
-from wsnlib.orientation.madgwick import _broadcast_batch, _check_inputs, _usable
 from wsnlib.orientation.triad import triad
 
 #: Values of the ``hybrid`` argument besides ``None``.
@@ -104,13 +103,12 @@ _G = 9.80665
 def _prepare(gyr, acc, mag, fs, received):
     """Checked, broadcast signals ``(*batch, T, 3)`` and mask ``(*batch, T)``."""
     fs = check_positive(fs, "fs")
-    signals, mask, _, shapes = _check_inputs(gyr, acc, mag, received)
+    signals, mask, _, shapes = B.check_inputs(gyr, acc, mag, received)
     n_t = signals["gyr"].shape[-2]
     if mask is None:
         mask = np.ones(n_t, dtype=bool)
-    batch = _broadcast_batch(shapes)
-    for name, arr in signals.items():
-        _usable(arr, name, mask, unit=name != "gyr")  # NaN/inf (zero acc, mag) in received samples
+    batch = B.broadcast_batch(shapes)
+    B.check_usable(signals, mask)  # NaN/inf (zero acc, mag) in received samples
     mask = np.broadcast_to(mask, batch + (n_t,))
     has_sample = mask.any(axis=-1)
     if not np.all(has_sample):
@@ -125,8 +123,8 @@ def _hybrid_options(hybrid, mag, rho, tau, schedule, hold_window):
         raise ValueError(f"hybrid must be None, 'output' or 'feedback'; got {hybrid!r}")
     rho = check_positive(rho, "rho")
     tau = check_positive(tau, "tau")
-    schedule = _check_choice(schedule, "schedule", SCHEDULES)
-    window = _check_hold_window(hold_window, schedule)
+    schedule = B.check_choice(schedule, "schedule", SCHEDULES)
+    window = B.check_hold_window(hold_window, schedule, DEFAULT_HOLD_WINDOW)
     if window is not None and window.ndim:
         raise ValueError(f"hold_window must be one positive integer here, got {hold_window!r}")
     if hybrid is not None and mag is None:
@@ -137,13 +135,18 @@ def _hybrid_options(hybrid, mag, rho, tau, schedule, hold_window):
 def _feedback_inputs(signals, mask, rho, tau, schedule, window):
     """Where the feedback blends ``(*batch, T)``, TRIAD there ``(*batch, T, 4)`` and μ ``(*batch, T)``."""
     started_gap = mask | ~np.logical_or.accumulate(mask, axis=-1)  # no gap before the first sample
-    lam = _effective_lost_run(started_gap, schedule, window)
+    lam = effective_lost_run(started_gap, schedule, window)
     blend_at = mask & (lam > 0.0)
     q_s = np.zeros(mask.shape + (4,))
     q_s[..., 0] = 1.0
     if blend_at.any():
         q_s[blend_at] = triad(signals["acc"][blend_at], signals["mag"][blend_at])
-    return blend_at, q_s, _weight(lam, rho, tau)
+    return blend_at, q_s, slerp_weight(lam, rho, tau)
+
+
+def _slerp(q_s: np.ndarray, q_d: np.ndarray, mu: float) -> np.ndarray:
+    """Eq. (4) for one sample, in ``q_d``'s hemisphere (:func:`wsnlib.orientation._kernels.slerp`)."""
+    return np.array(K.slerp(tuple(q_s.tolist()), tuple(q_d.tolist()), float(mu)))
 
 
 def _hold(out: np.ndarray, mask: np.ndarray) -> np.ndarray:
@@ -220,7 +223,7 @@ def _fusion_one(settings):
                 ahrs.update(gyr_deg[t], acc_g[t], mag[t])
             if feedback is not None and blend_at[t]:
                 q = ahrs.get_quaternion().astype(float)
-                q = _slerp_first(q_s[t], q / np.linalg.norm(q), mu[t])
+                q = _slerp(q_s[t], q / np.linalg.norm(q), mu[t])
                 ahrs.set_quaternion(q)
                 out[t] = q
             else:
@@ -380,7 +383,7 @@ def _vqf_one(fs: float, params: dict):
             out[start:end] = piece[key]
             last = end - 1
             if feedback is not None and blend_at[last]:
-                out[last] = _slerp_first(q_s[last], out[last], mu[last])
+                out[last] = _slerp(q_s[last], out[last], mu[last])
                 _vqf_set_quat9d(filt, out[last])
         return out
 

@@ -13,6 +13,8 @@ quaternions rotate body → earth, so the rotation returned here is ``Aᵀ = M_r
 The first pair (gravity) is matched exactly; the magnetometer only fixes the heading, so
 its dip angle does not matter.  References are ENU from :mod:`wsnlib.frames`: gravity
 specific force up (primary) and magnetic north dipping below the horizon (secondary).
+The arithmetic is :func:`wsnlib.orientation._kernels.triad` (compiled, one sample at a
+time; the tests cross-check it with scipy's ``Rotation.align_vectors``).
 
 :func:`tilt_quaternion` is the accelerometer-only orientation with zero heading, used to
 initialise the IMU (no magnetometer) form of Madgwick's filter.
@@ -21,36 +23,16 @@ initialise the IMU (no magnetometer) form of Madgwick's filter.
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
-from wsnlib import frames
 from wsnlib._validation import as_float_array, check_nonzero_norm
-from wsnlib.quaternion import canonical, from_scipy
+from wsnlib.orientation import _kernels as K
 
 #: Below this |sin(angle)| between acc and mag the heading is undetermined.
-_PARALLEL_SIN_TOL = 1e-8
+_PARALLEL_SIN_TOL = K.PARALLEL_SIN_TOL
 
 
 def _unit(v: np.ndarray, name: str, what: str) -> np.ndarray:
     return v / check_nonzero_norm(v, name, what)[..., None]
-
-
-def _triad_frame(first: np.ndarray, second: np.ndarray) -> np.ndarray:
-    """Columns ``[r1, r2, r3]`` of the TRIAD frame of two unit vectors, shape ``(..., 3, 3)``.
-
-    The caller guarantees that ``first × second`` is not zero.
-    """
-    cross = np.cross(first, second)
-    r2 = cross / np.linalg.norm(cross, axis=-1, keepdims=True)
-    r3 = np.cross(first, r2)
-    return np.stack([first, r2, r3], axis=-1)
-
-
-# The reference triad is fixed: build it once.
-_M_REF = _triad_frame(
-    frames.gravity_specific_force_enu() / frames.STANDARD_GRAVITY,
-    frames.magnetic_field_enu() / frames.MAGNETIC_INTENSITY_UT,
-)
 
 
 def triad(acc, mag) -> np.ndarray:
@@ -93,12 +75,11 @@ def triad(acc, mag) -> np.ndarray:
             f"acc and mag are parallel at index {tuple(int(i) for i in bad)}: "
             "the heading is undefined"
         )
-    s1, m = np.broadcast_arrays(s1, m)
-    m_obs = _triad_frame(s1, m)
-    # Body → earth rotation: R = M_ref M_obsᵀ, so that R s_i = r_i.
-    rot = _M_REF @ np.swapaxes(m_obs, -1, -2)
-    quat = from_scipy(Rotation.from_matrix(rot.reshape(-1, 3, 3)))
-    return canonical(quat.reshape(shape[:-1] + (4,)))
+    # Body → earth rotation R = M_ref M_obsᵀ (so that R s_i = r_i), in the compiled kernel.
+    rows = [np.ascontiguousarray(np.broadcast_to(v, shape).reshape(-1, 3)) for v in (s1, m)]
+    out = np.empty(shape[:-1] + (4,))
+    K.run_triad(*rows, out.reshape(-1, 4))
+    return out
 
 
 def tilt_quaternion(acc) -> np.ndarray:

@@ -1,0 +1,123 @@
+"""The compiled kernels: extreme parameters, memory, the on-disk cache, one stream vs batch.
+
+The per-sample references of every method (test_loss_handling.py) and the agreement with
+``ahrs`` (test_orientation.py) test the kernels' arithmetic; this file tests what the
+compiled form adds.
+"""
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from wsnlib import quaternion as Q
+from wsnlib.orientation import _kernels, blend_with_single_frame, estimate_orientation, madgwick, madgwick_step
+from wsnlib.orientation.loss_handling import METHODS
+
+FS = 50.0
+
+
+@pytest.fixture
+def data():
+    rng = np.random.default_rng(3)
+    n = 400
+    gyr = 0.5 * rng.normal(size=(n, 3))
+    acc = rng.normal(size=(n, 3)) + [0.0, 0.0, 9.8]
+    mag = rng.normal(size=(n, 3)) + [0.0, 20.0, -40.0]
+    received = rng.random(n) > 0.2
+    return gyr, acc, mag, received
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [
+        ({"fs": 1e-300}, "fs"),
+        ({"fs": 1e300}, "fs"),
+        ({"beta": 1e308}, "beta"),
+        ({"beta_max": 1e308, "method": "adaptive_beta"}, "beta_max"),
+    ],
+)
+def test_extreme_finite_parameters_are_rejected(data, kwargs, name):
+    gyr, acc, mag, received = data
+    call = {"fs": FS, "beta": 0.1, "received": received} | kwargs
+    with pytest.raises(ValueError, match=name):
+        estimate_orientation(gyr, acc, mag, **call)
+    if "method" not in kwargs:
+        with pytest.raises(ValueError, match=name):
+            madgwick(gyr, acc, mag, **{k: v for k, v in call.items() if k != "received"})
+
+
+def test_huge_but_finite_inputs_give_finite_unit_quaternions(data):
+    gyr, acc, mag, received = data
+    q0 = [1e300, 1e300, 0.0, 0.0]
+    out = madgwick(gyr, acc * 1e300, mag * 1e-300, fs=FS, beta=0.1, q0=q0, received=received)
+    assert np.all(np.isfinite(out))
+    np.testing.assert_allclose(np.linalg.norm(out, axis=-1), 1.0, atol=1e-12)
+    np.testing.assert_allclose(out, madgwick(gyr, acc, mag, fs=FS, beta=0.1, q0=[1, 1, 0, 0], received=received),
+                               atol=1e-12)
+    step = madgwick_step(q0, gyr[0], acc[0] * 1e300, mag[0], 0.02, 0.1)
+    assert np.all(np.isfinite(step))
+
+
+def test_overflow_during_the_run_is_an_error_not_nan():
+    # Within the documented ranges but absurd together: a rotation of 1e300 rad per sample.
+    gyr = np.full((5, 3), 1e300)
+    acc = np.tile([0.0, 0.0, 9.8], (5, 1))
+    with pytest.raises(ValueError, match="overflowed"):
+        madgwick(gyr, acc, fs=1e-6, beta=0.1, q0=[1.0, 0, 0, 0])
+
+
+def test_an_output_that_does_not_fit_fails_at_once_with_its_size(data):
+    gyr, acc, mag, _ = data
+    rho = np.ones((10**7, 1, 1))  # 10 M settings x 400 samples x 4 x 8 bytes = 128 GB
+    with pytest.raises(MemoryError, match="GiB"):
+        estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, method="hybrid", rho=rho[..., 0, 0])
+    with pytest.raises(MemoryError, match="GiB"):
+        blend_with_single_frame(Q.identity((gyr.shape[0],)), acc, mag, rho=np.ones(10**7))
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_one_stream_equals_the_same_stream_in_a_batch(data, method):
+    # One stream runs the loop directly, a batch through the parallel driver: same numbers.
+    gyr, acc, mag, received = data
+    masks = np.stack([received, np.roll(received, 7), received])
+    kwargs = {"fs": FS, "beta": 0.1, "method": method, "blend": "feedback"}
+    batch = estimate_orientation(gyr, acc, mag, received=masks, **kwargs)
+    for i in range(3):
+        np.testing.assert_array_equal(batch[i], estimate_orientation(gyr, acc, mag, received=masks[i], **kwargs))
+
+
+def test_lost_samples_are_never_read(data):
+    gyr, acc, mag, received = data
+    poisoned = [np.where(received[:, None], x, np.nan) for x in (gyr, acc, mag)]
+    for method in METHODS:
+        clean = estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, received=received, method=method)
+        dirty = estimate_orientation(*poisoned, fs=FS, beta=0.1, received=received, method=method)
+        np.testing.assert_array_equal(clean, dirty)
+
+
+def test_compiled_triad_agrees_with_scipy_align_vectors():
+    rng = np.random.default_rng(5)
+    acc, mag = rng.normal(size=(2, 200, 3))
+    acc, mag = (v / np.linalg.norm(v, axis=-1, keepdims=True) for v in (acc, mag))
+    ours = np.array([_kernels.triad(tuple(a), tuple(m)) for a, m in zip(acc, mag, strict=True)])
+    from wsnlib import frames
+    from wsnlib.orientation import triad
+
+    np.testing.assert_allclose(ours, triad(acc, mag), atol=1e-14)
+    g, f = frames.gravity_specific_force_enu(), frames.magnetic_field_enu()
+    for q, a, m in zip(ours[:20], acc[:20], mag[:20], strict=True):
+        rot, _ = Q.to_scipy(q).__class__.align_vectors([g, np.cross(g, f)], [a, np.cross(a, m)], weights=[1e6, 1])
+        assert np.degrees(Q.angle_between(q, Q.from_scipy(rot))) < 1e-3
+
+
+def test_compiled_code_is_cached_on_disk(tmp_path):
+    """A fresh process writes the kernels' machine code to NUMBA_CACHE_DIR, so the next one loads it."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    code = ("import numpy as np; from wsnlib.orientation import madgwick; "
+            "madgwick(np.zeros((3, 3)), np.tile([0, 0, 9.8], (3, 1)), fs=50.0, beta=0.1)")
+    subprocess.run([sys.executable, "-c", code], env=env, check=True, timeout=600)
+    cached = {p.name.split(".")[1].split("-")[0] for p in tmp_path.rglob("_kernels*.nbi")}
+    assert {"filter_stream", "first_unusable_stream"} <= cached, cached

@@ -1,0 +1,289 @@
+"""Argument checks and the batch driver shared by the orientation filters.
+
+Every check raises a ``ValueError`` that names the argument.  :func:`run_filter` turns the
+broadcast of the inputs into index arrays for the compiled kernels of :mod:`._kernels` (no
+broadcast copies of the signals), after checking that the output fits in memory, and runs
+:func:`._kernels.run_filter`; :func:`wsnlib.orientation.madgwick` and
+:func:`wsnlib.orientation.estimate_orientation` are both this call.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from wsnlib._validation import as_float_array
+from wsnlib.orientation import _kernels as K
+
+#: Largest sampling rate (Hz) and smallest one accepted: outside, Δt·|ω| or β·Δt overflow.
+FS_RANGE = (1e-6, 1e9)
+#: Largest gain β (rad/s) accepted (a step of β·Δt per sample; useful values are below 10).
+BETA_LIMIT = 1e6
+#: Share of the memory available now that one call may take for its output.
+MEMORY_SHARE = 0.8
+
+
+def check_choice(value, name: str, choices: tuple[str, ...]) -> str:
+    if not isinstance(value, str) or value not in choices:
+        listed = ", ".join(repr(c) for c in choices)
+        raise ValueError(f"{name} must be one of {listed}; got {value!r}")
+    return value
+
+
+def positive_array(value, name: str) -> np.ndarray:
+    arr = as_float_array(value, name, min_ndim=0)  # raises on NaN/inf, naming the argument
+    if np.any(arr <= 0.0):
+        raise ValueError(f"{name} must be > 0 (and finite), got {value!r}")
+    return arr
+
+
+def nonnegative_array(value, name: str) -> np.ndarray:
+    arr = as_float_array(value, name, min_ndim=0)
+    if np.any(arr < 0.0):
+        raise ValueError(f"{name} must be >= 0 (and finite), got {value!r}")
+    return arr
+
+
+def check_fs(fs) -> float:
+    """``fs`` (Hz) as a float in :data:`FS_RANGE`."""
+    try:
+        value = float(fs)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"fs must be a positive number (Hz), got {fs!r}") from exc
+    low, high = FS_RANGE
+    if not low <= value <= high:
+        raise ValueError(f"fs must lie in [{low:g}, {high:g}] Hz (and be finite), got {fs!r}")
+    return value
+
+
+def check_beta(value, name: str = "beta") -> np.ndarray:
+    """Gain(s) β (rad/s) in ``[0, BETA_LIMIT]`` as a float array."""
+    beta = nonnegative_array(value, name)
+    if np.any(beta > BETA_LIMIT):
+        raise ValueError(f"{name} must be <= {BETA_LIMIT:g} rad/s, got {value!r}")
+    return beta
+
+
+def check_received(received) -> np.ndarray:
+    mask = np.asarray(received)
+    if mask.dtype != np.bool_:
+        raise ValueError(f"received must be a boolean mask (True = received), got dtype {mask.dtype}")
+    if mask.ndim < 1:
+        raise ValueError(f"received must have shape (..., T), got shape {mask.shape}")
+    return mask
+
+
+def check_hold_window(hold_window, schedule: str, default: int) -> np.ndarray | None:
+    """``hold_window`` as an int64 array for ``schedule="hold"``, else ``None``."""
+    if schedule != "hold":
+        if hold_window is not None:
+            raise ValueError(f"hold_window is only used with schedule='hold', not schedule={schedule!r}")
+        return None
+    if hold_window is None:
+        return np.asarray(default, dtype=np.int64)
+    arr = np.asarray(hold_window)
+    if arr.dtype == np.bool_ or not np.issubdtype(arr.dtype, np.integer) or np.any(arr < 1):
+        raise ValueError(f"hold_window must be a positive integer (samples) or an array of them, got {hold_window!r}")
+    return arr.astype(np.int64)
+
+
+def broadcast_batch(shapes: dict[str, tuple[int, ...]]) -> tuple[int, ...]:
+    try:
+        return np.broadcast_shapes(*shapes.values())
+    except ValueError as exc:
+        listed = ", ".join(f"{name} {shape}" for name, shape in shapes.items())
+        raise ValueError(f"leading (batch) dimensions do not broadcast: {listed}") from exc
+
+
+def as_signal(value, name: str) -> np.ndarray:
+    """Float array of shape ``(..., T, 3)``; finiteness is checked later, on received samples."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a numeric array, got {type(value).__name__}") from exc
+    if arr.ndim < 2 or arr.shape[-1] != 3:
+        raise ValueError(f"{name} must have shape (..., T, 3), got shape {arr.shape}")
+    return arr
+
+
+def unit_quaternions(value, name: str) -> np.ndarray:
+    """Finite, non-zero quaternions ``(..., 4)`` scaled to unit norm (huge or tiny ones too)."""
+    q = as_float_array(value, name, last_dim=4)
+    scale = np.max(np.abs(q), axis=-1, keepdims=True)
+    if np.any(scale == 0.0):
+        bad = tuple(int(i) for i in np.argwhere(scale[..., 0] == 0.0)[0])
+        raise ValueError(f"{name} has a zero-norm vector at index {bad} (a zero quaternion is not a rotation)")
+    q = q / scale
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+def check_inputs(gyr, acc, mag, received, q0=None):
+    """Shared argument checks of the whole-recording filters (madgwick, loss handling, peers).
+
+    Returns the signals ``{"gyr", "acc"[, "mag"]}`` as float arrays ``(..., T, 3)`` (finiteness
+    is checked later, on received samples only: :func:`check_usable`), ``received`` as a
+    boolean array or None, ``q0`` normalised or None, and the leading (batch) shape of each
+    argument, by name.
+    """
+    signals = {"gyr": as_signal(gyr, "gyr"), "acc": as_signal(acc, "acc")}
+    if mag is not None:
+        signals["mag"] = as_signal(mag, "mag")
+    n_t = signals["gyr"].shape[-2]
+    for name, arr in signals.items():
+        if arr.shape[-2] != n_t:
+            raise ValueError(f"{name} has {arr.shape[-2]} samples (axis -2), gyr has {n_t}")
+    shapes = {name: arr.shape[:-2] for name, arr in signals.items()}
+    if received is not None:
+        received = np.asarray(received)
+        if received.dtype != np.bool_:
+            raise ValueError(f"received must be a boolean mask, got dtype {received.dtype}")
+        if received.ndim < 1 or received.shape[-1] != n_t:
+            raise ValueError(f"received must have shape (..., {n_t}), got {received.shape}")
+        shapes["received"] = received.shape[:-1]
+    if q0 is not None:
+        q0 = unit_quaternions(q0, "q0")
+        shapes["q0"] = q0.shape[:-1]
+    return signals, received, q0, shapes
+
+
+def check_has_sample(mask: np.ndarray, batch: tuple[int, ...]) -> None:
+    """Every batch element must receive something (when the filter starts from its first sample)."""
+    has_sample = np.broadcast_to(mask.any(axis=-1), batch)
+    if not np.all(has_sample):
+        bad = tuple(int(i) for i in np.argwhere(~has_sample)[0])
+        raise ValueError(
+            f"received has no received sample for batch element {bad}; pass q0 to define the estimate there"
+        )
+
+
+# ------------------------------------------------------------------------------------------
+# From broadcast shapes to the kernels' flat batches
+# ------------------------------------------------------------------------------------------
+
+
+def flat(arr: np.ndarray, n_core: int) -> np.ndarray:
+    """``arr`` ``(*s, *core)`` as C-contiguous ``(prod(s), *core)`` (a view when it can be)."""
+    core = arr.shape[arr.ndim - n_core :]
+    return np.ascontiguousarray(arr).reshape((int(np.prod(arr.shape[: arr.ndim - n_core], dtype=np.int64)),) + core)
+
+
+def index_into(shape: tuple[int, ...], batch: tuple[int, ...]) -> np.ndarray:
+    """For each element of ``batch`` (C order), the flat index of the element of ``shape`` it reads."""
+    size = int(np.prod(shape, dtype=np.int64))
+    index = np.arange(size, dtype=np.int64).reshape(shape)
+    return np.ascontiguousarray(np.broadcast_to(index, batch).reshape(-1))
+
+
+def per_element(value, batch: tuple[int, ...], dtype=float) -> np.ndarray:
+    """A scalar or array parameter broadcast to ``batch`` and flattened, ``(prod(batch),)``."""
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(value, dtype=dtype), batch).reshape(-1))
+
+
+def available_memory() -> int | None:
+    """Bytes of memory available now (Linux ``MemAvailable``), or None where unknown."""
+    try:
+        with open("/proc/meminfo") as handle:
+            for line in handle:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def check_memory(n_bytes: int, what: str) -> None:
+    """Raise ``MemoryError`` at once, with the size, if ``n_bytes`` would not fit."""
+    available = available_memory()
+    if available is not None and n_bytes > MEMORY_SHARE * available:
+        raise MemoryError(
+            f"{what} needs {n_bytes / 2**30:.1f} GiB but only {available / 2**30:.1f} GiB of memory is "
+            "available: split the batch (e.g. loop over its first dimension)"
+        )
+
+
+def new_output(batch: tuple[int, ...], n_t: int, n_components: int = 4) -> np.ndarray:
+    """An uninitialised ``(*batch, T, C)`` float array, after :func:`check_memory`."""
+    n_bytes = 8 * n_components * n_t * int(np.prod(batch, dtype=np.int64))
+    check_memory(n_bytes, f"an output of shape {batch + (n_t, n_components)}")
+    return np.empty(batch + (n_t, n_components))
+
+
+def check_usable(signals: dict[str, np.ndarray], received: np.ndarray | None) -> None:
+    """Raise if a received sample is not finite (or, for ``acc``/``mag``, a zero vector).
+
+    Reported at the first such sample in (batch..., t) order of the broadcast of the signal
+    and the mask, ``gyr`` then ``acc`` then ``mag``.  Lost samples are never checked.
+    """
+    for name, arr in signals.items():
+        n_t = arr.shape[-2]
+        mask = np.ones(n_t, dtype=bool) if received is None else received
+        batch = np.broadcast_shapes(arr.shape[:-2], mask.shape[:-1])
+        result = np.empty((int(np.prod(batch, dtype=np.int64)), 2), dtype=np.int64)
+        if result.shape[0] == 1:  # one stream: no thread start-up
+            result[0] = K.first_unusable_stream(flat(arr, 2)[0], flat(mask, 1)[0], name != "gyr")
+        else:
+            K.first_unusable(flat(arr, 2), index_into(arr.shape[:-2], batch), flat(mask, 1),
+                             index_into(mask.shape[:-1], batch), name != "gyr", result)
+        bad = np.flatnonzero(result[:, 0] >= 0)
+        if bad.size:
+            b = int(bad[0])
+            index = np.unravel_index(b, batch) + (int(result[b, 0]),)
+            what = "is not finite" if result[b, 1] == 1 else "is a zero vector"
+            raise ValueError(f"{name} {what} at received sample (batch..., t) = {tuple(int(i) for i in index)}")
+
+
+def raise_on_overflow(status: np.ndarray, batch: tuple[int, ...], **params) -> None:
+    """Turn a kernel's OVERFLOW status into a ``ValueError`` naming the parameters."""
+    bad = np.flatnonzero(status != K.OK)
+    if bad.size:
+        index = tuple(int(i) for i in np.unravel_index(int(bad[0]), batch))
+        listed = ", ".join(f"{k}={v!r}" for k, v in params.items())
+        raise ValueError(
+            f"the filter overflowed (a non-finite estimate) in batch element {index}: the parameters are "
+            f"too extreme for the data ({listed}); Δt·|ω| and β·Δt must stay far below 1e150"
+        )
+
+
+def run_filter(signals, received, q0, batch, *, fs, method, blend=K.NO_BLEND, beta=0.0, beta_max=None,
+               rho=1.0, tau=1.0, schedule=K.DECAY, window=1) -> np.ndarray:
+    """Madgwick's filter with a loss-handling method over a batch: ``(*batch, T, 4)``.
+
+    ``signals`` from :func:`check_inputs` (checked here with :func:`check_usable`), ``received``
+    ``(..., T)`` bool or None, ``q0`` ``(..., 4)`` unit or None (then every batch element must
+    receive a sample), ``batch`` the broadcast of all leading shapes, parameters (scalars or
+    arrays broadcasting to ``batch``) as in :func:`._kernels.filter_stream`.
+    """
+    n_t = signals["gyr"].shape[-2]
+    mask = np.ones(n_t, dtype=bool) if received is None else received
+    out = new_output(batch, n_t)
+    if n_t == 0:
+        return out
+    check_usable(signals, mask)
+    if q0 is None:
+        check_has_sample(mask, batch)
+    use_mag = "mag" in signals
+    gyr, acc = flat(signals["gyr"], 2), flat(signals["acc"], 2)
+    mag = flat(signals["mag"], 2) if use_mag else np.zeros((1, 1, 3))
+    masks = flat(mask, 1)
+    starts = np.array([[1.0, 0.0, 0.0, 0.0]]) if q0 is None else flat(q0, 1)
+    beta_max = beta if beta_max is None else beta_max
+    params = [per_element(x, batch) for x in (beta, beta_max, rho, tau)]
+    windows = per_element(window, batch, np.int64)
+    flat_out = out.reshape(-1, n_t, 4)
+    status = np.empty(flat_out.shape[0], dtype=np.int64)
+    if status.size == 1:  # one stream: the loop itself, no thread start-up
+        status[0] = K.filter_stream(gyr[0], acc[0], mag[0], use_mag, masks[0], starts[0], q0 is not None,
+                                    method, blend, 1.0 / fs, *(x[0] for x in params), schedule, windows[0],
+                                    flat_out[0])
+    else:
+        index = [index_into(shape, batch) for shape in (signals["gyr"].shape[:-2], signals["acc"].shape[:-2],
+                                                        signals["mag"].shape[:-2] if use_mag else (),
+                                                        mask.shape[:-1], () if q0 is None else q0.shape[:-1])]
+        K.run_filter(gyr, acc, mag, use_mag, masks, starts, q0 is not None, *index, method, blend, 1.0 / fs,
+                     *params, schedule, windows, flat_out, status)
+    raise_on_overflow(status, batch, fs=fs, beta=beta)
+    return out
