@@ -15,10 +15,12 @@ def _load(name):
 def test_benchmark_runs_in_quick_mode_and_agrees_with_ahrs():
     bench = _load("bench_madgwick")
     results = bench.run(quick=True, log=lambda *args: None)
-    assert all(rate > 0 for rate in results["ours"].values())
-    assert results["ahrs"] > 0 and results["masked"]["steps_per_s"] > 0
+    assert all(rate > 0 for rate in results["stream"].values())
+    assert all(rate > 0 for rate in results["options"].values()) and results["batch"] > 0
+    assert set(results["options"]) >= {"hold_last", "hybrid (feedback)", "gyro_interpolation"}
     assert results["ahrs_max_abs_diff"] < 1e-9
-    assert "PASS" in bench.report(results) or "MISS" in bench.report(results)
+    text = bench.report(results)
+    assert text.count("PASS") + text.count("MISS") == len(results["targets"]) == 5
 
 
 def test_search_benchmark_runs_in_quick_mode():

@@ -121,3 +121,21 @@ def test_compiled_code_is_cached_on_disk(tmp_path):
     subprocess.run([sys.executable, "-c", code], env=env, check=True, timeout=600)
     cached = {p.name.split(".")[1].split("-")[0] for p in tmp_path.rglob("_kernels*.nbi")}
     assert {"filter_stream", "first_unusable_stream"} <= cached, cached
+
+
+@pytest.mark.parametrize(("method", "blend"), [("hold_last", "output"), ("hybrid", "output"), ("hybrid", "feedback"),
+                                               ("gyro_interpolation", "output")])
+def test_scratch_memory_is_a_small_fraction_of_the_output(data, method, blend):
+    # numpy reports its allocations to tracemalloc: the peak during a call is the output plus
+    # what the call needs besides (index arrays, per-element parameters).
+    import tracemalloc
+
+    gyr, acc, mag, received = data
+    masks = np.stack([np.roll(received, k) for k in range(64)])
+    rho = np.linspace(1.0, 8.0, 8)[:, None]  # a (ρ) grid over 64 masks: batch (8, 64)
+    estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, received=masks[:2], method=method, blend=blend)
+    tracemalloc.start()
+    out = estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, received=masks, method=method, blend=blend, rho=rho)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < 1.1 * out.nbytes, (peak, out.nbytes)

@@ -262,16 +262,21 @@ def triad(a, m):
     """
     s1 = a
     c = _cross(a, m)
-    c = unit3(c[0], c[1], c[2])
-    s3 = _cross(s1, c)
-    ref = M_REF
-    rows = np.empty((3, 3))
-    for i in range(3):
-        rows[i, 0] = ref[i, 0] * s1[0] + ref[i, 1] * c[0] + ref[i, 2] * s3[0]
-        rows[i, 1] = ref[i, 0] * s1[1] + ref[i, 1] * c[1] + ref[i, 2] * s3[1]
-        rows[i, 2] = ref[i, 0] * s1[2] + ref[i, 1] * c[2] + ref[i, 2] * s3[2]
-    return quat_from_matrix(rows[0, 0], rows[0, 1], rows[0, 2], rows[1, 0], rows[1, 1], rows[1, 2],
-                            rows[2, 0], rows[2, 1], rows[2, 2])
+    s2 = unit3(c[0], c[1], c[2])
+    s3 = _cross(s1, s2)
+    # R[i][j] = Σ_k M_ref[i, k] s_k[j]
+    r = M_REF
+    return quat_from_matrix(
+        r[0, 0] * s1[0] + r[0, 1] * s2[0] + r[0, 2] * s3[0],
+        r[0, 0] * s1[1] + r[0, 1] * s2[1] + r[0, 2] * s3[1],
+        r[0, 0] * s1[2] + r[0, 1] * s2[2] + r[0, 2] * s3[2],
+        r[1, 0] * s1[0] + r[1, 1] * s2[0] + r[1, 2] * s3[0],
+        r[1, 0] * s1[1] + r[1, 1] * s2[1] + r[1, 2] * s3[1],
+        r[1, 0] * s1[2] + r[1, 1] * s2[2] + r[1, 2] * s3[2],
+        r[2, 0] * s1[0] + r[2, 1] * s2[0] + r[2, 2] * s3[0],
+        r[2, 0] * s1[1] + r[2, 1] * s2[1] + r[2, 2] * s3[1],
+        r[2, 0] * s1[2] + r[2, 1] * s2[2] + r[2, 2] * s3[2],
+    )
 
 
 @njit(**COMPILE)
