@@ -4,6 +4,11 @@ All take body-frame signals ``(..., T, 3)`` and return ENU quaternions ``(..., T
 (see :mod:`wsnlib` for the conventions).  :mod:`.loss_handling` adds paper 001's hybrid
 SLERP (eqs. (3)–(4)) and the loss-handling alternatives of its Sec. V.
 :mod:`.peers` wraps two peer filters, x-io Fusion and VQF, with the same loss semantics.
+
+The arithmetic of Madgwick's update, TRIAD, SLERP and every loss option is in
+:mod:`._kernels`: numba-compiled scalar functions that follow the equations line by line,
+one loop over time per recording, batch elements in parallel.  :mod:`._batch` holds the
+argument checks the public functions share.
 """
 
 from wsnlib.orientation.loss_handling import (
