@@ -147,6 +147,23 @@ def check_inputs(gyr, acc, mag, received, q0=None):
     return signals, received, q0, shapes
 
 
+#: What the filters do during a gap (the ``gap`` argument).
+GAPS = ("hold", "constant_rate")
+
+
+def check_gap(gap, gap_time_constant, method: str = "hold_last") -> tuple[str, float | None]:
+    """``gap`` one of :data:`GAPS`; ``gap_time_constant`` (s) > 0 or None, only with "constant_rate"."""
+    gap = check_choice(gap, "gap", GAPS)
+    if gap_time_constant is not None:
+        if gap != "constant_rate":
+            raise ValueError("gap_time_constant is only used with gap='constant_rate'")
+        gap_time_constant = float(positive_array(gap_time_constant, "gap_time_constant"))
+    if gap == "constant_rate" and method in ("dt_extension", "gyro_interpolation"):
+        raise ValueError(f"gap='constant_rate' cannot be combined with method={method!r}: both fill the gap "
+                         "with the gyroscope (use one or the other)")
+    return gap, gap_time_constant
+
+
 def check_has_sample(mask: np.ndarray, batch: tuple[int, ...]) -> None:
     """Every batch element must receive something (when the filter starts from its first sample)."""
     has_sample = np.broadcast_to(mask.any(axis=-1), batch)
@@ -249,13 +266,14 @@ def raise_on_overflow(status: np.ndarray, batch: tuple[int, ...], **params) -> N
 
 
 def run_filter(signals, received, q0, batch, *, fs, method, blend=K.NO_BLEND, beta=0.0, beta_max=None,
-               rho=1.0, tau=1.0, schedule=K.DECAY, window=1) -> np.ndarray:
+               rho=1.0, tau=1.0, schedule=K.DECAY, window=1, gap="hold", gap_time_constant=None) -> np.ndarray:
     """Madgwick's filter with a loss-handling method over a batch: ``(*batch, T, 4)``.
 
     ``signals`` from :func:`check_inputs` (checked here with :func:`check_usable`), ``received``
     ``(..., T)`` bool or None, ``q0`` ``(..., 4)`` unit or None (then every batch element must
     receive a sample), ``batch`` the broadcast of all leading shapes, parameters (scalars or
-    arrays broadcasting to ``batch``) as in :func:`._kernels.filter_stream`.
+    arrays broadcasting to ``batch``) as in :func:`._kernels.filter_stream`; ``gap`` and
+    ``gap_time_constant`` checked by :func:`check_gap`.
     """
     n_t = signals["gyr"].shape[-2]
     mask = np.ones(n_t, dtype=bool) if received is None else received
@@ -273,17 +291,19 @@ def run_filter(signals, received, q0, batch, *, fs, method, blend=K.NO_BLEND, be
     beta_max = beta if beta_max is None else beta_max
     params = [per_element(x, batch) for x in (beta, beta_max, rho, tau)]
     windows = per_element(window, batch, np.int64)
+    predict = gap == "constant_rate"
+    rate_factor = 1.0 if gap_time_constant is None else float(np.exp(-1.0 / (fs * gap_time_constant)))
     flat_out = out.reshape(-1, n_t, 4)
     status = np.empty(flat_out.shape[0], dtype=np.int64)
     if status.size == 1:  # one stream: the loop itself, no thread start-up
         status[0] = K.filter_stream(gyr[0], acc[0], mag[0], use_mag, masks[0], starts[0], q0 is not None,
                                     method, blend, 1.0 / fs, *(x[0] for x in params), schedule, windows[0],
-                                    flat_out[0])
+                                    predict, rate_factor, flat_out[0])
     else:
         index = [index_into(shape, batch) for shape in (signals["gyr"].shape[:-2], signals["acc"].shape[:-2],
                                                         signals["mag"].shape[:-2] if use_mag else (),
                                                         mask.shape[:-1], () if q0 is None else q0.shape[:-1])]
         K.run_filter(gyr, acc, mag, use_mag, masks, starts, q0 is not None, *index, method, blend, 1.0 / fs,
-                     *params, schedule, windows, flat_out, status)
+                     *params, schedule, windows, predict, rate_factor, flat_out, status)
     raise_on_overflow(status, batch, fs=fs, beta=beta)
     return out

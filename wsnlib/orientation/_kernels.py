@@ -355,14 +355,15 @@ def _store(out, t, q):
 
 @njit(**COMPILE)
 def filter_stream(gyr, acc, mag, use_mag, received, q0, has_q0, method, blend, dt, beta, beta_max,
-                  rho, tau, schedule, window, out):
+                  rho, tau, schedule, window, predict_gap, rate_factor, out):
     """Madgwick's filter with one loss-handling method over one recording; returns a status.
 
     ``gyr``, ``acc``, ``mag`` ``(T, 3)`` (only received samples are read), ``received`` ``(T,)``,
     ``q0`` ``(4,)`` used if ``has_q0`` (else the filter starts from TRIAD, or the tilt without
     ``mag``, of the first received sample, which then only initialises), ``out`` ``(T, 4)``.
-    On a lost sample the output is the previous output.  See
-    :func:`wsnlib.orientation.estimate_orientation` for what each method does.
+    On a lost sample the output is the previous output, or with ``predict_gap`` the state
+    turned on by the last received rate, times ``rate_factor`` per lost sample (1: constant
+    rate).  See :func:`wsnlib.orientation.estimate_orientation` for what each method does.
     """
     n_t = received.shape[0]
     q = (q0[0], q0[1], q0[2], q0[3])
@@ -381,6 +382,7 @@ def filter_stream(gyr, acc, mag, use_mag, received, q0, has_q0, method, blend, d
     lam, prev_lost, since = 0.0, False, 0  # λ_eff schedule state
     run = 0  # samples lost since the last received one (after the start)
     last = -1  # last received sample
+    g_gap = (0.0, 0.0, 0.0)  # the rate a predicted gap turns at
     for t in range(n_t):
         rx = received[t]
         # A gap before the filter starts is no gap: λ_eff counts only once it runs.
@@ -388,6 +390,10 @@ def filter_stream(gyr, acc, mag, use_mag, received, q0, has_q0, method, blend, d
         if not rx:
             if started:
                 run += 1
+                if predict_gap and last >= 0:  # dead reckoning on the last received rate
+                    g_gap = (g_gap[0] * rate_factor, g_gap[1] * rate_factor, g_gap[2] * rate_factor)
+                    q = madgwick_update(q, g_gap, g_gap, g_gap, False, dt, 0.0)
+                    shown = q
             _store(out, t, shown)
             continue
         a = _unit_at(acc, t)
@@ -424,13 +430,13 @@ def filter_stream(gyr, acc, mag, use_mag, received, q0, has_q0, method, blend, d
         if not is_finite4(q):
             return OVERFLOW
         _store(out, t, shown)
-        run, last = 0, t
+        run, last, g_gap = 0, t, g
     return OK
 
 
 @njit(parallel=True, **COMPILE)
 def run_filter(gyr, acc, mag, use_mag, received, q0, has_q0, i_gyr, i_acc, i_mag, i_rx, i_q0,
-               method, blend, dt, beta, beta_max, rho, tau, schedule, window, out, status):
+               method, blend, dt, beta, beta_max, rho, tau, schedule, window, predict_gap, rate_factor, out, status):
     """:func:`filter_stream` for every batch element ``b`` of ``out`` ``(B, T, 4)``, in parallel.
 
     Element ``b`` reads recording ``gyr[i_gyr[b]]`` (likewise ``acc``, ``mag``), mask
@@ -440,7 +446,7 @@ def run_filter(gyr, acc, mag, use_mag, received, q0, has_q0, i_gyr, i_acc, i_mag
     for b in prange(out.shape[0]):
         status[b] = filter_stream(gyr[i_gyr[b]], acc[i_acc[b]], mag[i_mag[b]], use_mag, received[i_rx[b]],
                                   q0[i_q0[b]], has_q0, method, blend, dt, beta[b], beta_max[b], rho[b],
-                                  tau[b], schedule, window[b], out[b])
+                                  tau[b], schedule, window[b], predict_gap, rate_factor, out[b])
 
 
 @njit(parallel=True, **COMPILE)

@@ -209,6 +209,8 @@ def estimate_orientation(
     blend: str = "output",
     beta_max=None,
     q0=None,
+    gap: str = "hold",
+    gap_time_constant=None,
     return_weight: bool = False,
 ):
     """Madgwick's filter under packet loss with a choice of loss handling, batched.
@@ -288,6 +290,14 @@ def estimate_orientation(
         received sample.  A gap before that sample is then no gap of the filter, which had
         not started: λ_eff is 0 up to that sample, and nothing is replayed or extended.
         With ``q0`` a gap at the start is a gap like any other.
+    gap : {"hold", "constant_rate"}
+        During a gap: hold the previous output (the paper's receiver), or keep turning the
+        state by the last received angular rate (dead reckoning, gyroscope only; then the
+        output on a lost sample is that prediction, and the method acts from there when the
+        gap ends).  ``"constant_rate"`` cannot be combined with ``"dt_extension"`` or
+        ``"gyro_interpolation"``, which fill the same gap with the gyroscope their own way.
+    gap_time_constant : float, optional
+        With ``"constant_rate"``: the extrapolated rate decays as ``exp(−t/τ)``, τ in s.
     return_weight : bool
         Also return μ.
 
@@ -298,7 +308,8 @@ def estimate_orientation(
         dimensions of the signals, ``received``, ``q0``, ``beta``, and of the parameters the
         method uses (``rho``, ``tau``, ``hold_window`` for ``"hybrid"`` and
         ``"adaptive_beta"``, ``beta_max`` for ``"adaptive_beta"``); parameters a method does
-        not use add no dimension.  Lost samples hold the previous output.
+        not use add no dimension.  Lost samples hold the previous output (or, with
+        ``gap="constant_rate"``, the prediction).
     mu : numpy.ndarray, shape (..., T)
         Only with ``return_weight``: μ of eq. (3) from λ_eff on every sample (1 where
         λ_eff = 0), whatever the method, with the leading dimensions of ``quat`` broadcast
@@ -338,6 +349,7 @@ def estimate_orientation(
     rho = B.positive_array(rho, "rho")
     tau = B.positive_array(tau, "tau")
     window = B.check_hold_window(hold_window, schedule, DEFAULT_HOLD_WINDOW)
+    gap, gap_time_constant = B.check_gap(gap, gap_time_constant, method)
     if method == "hybrid" and mag is None:
         raise ValueError("mag is required for method='hybrid': TRIAD (q_s) needs the magnetometer")
 
@@ -368,7 +380,7 @@ def estimate_orientation(
     quat = B.run_filter(signals, mask, q0, batch, fs=fs, method=_METHOD_CODES[method], blend=blend_code,
                         beta=beta, beta_max=beta_max if method == "adaptive_beta" else beta,
                         **({"rho": rho, "tau": tau, "window": 1 if window is None else window} | unused),
-                        schedule=_SCHEDULE_CODES[schedule])
+                        schedule=_SCHEDULE_CODES[schedule], gap=gap, gap_time_constant=gap_time_constant)
     if not return_weight:
         return quat
     lam = _effective_lost_run(mask, schedule, window, leading_gap=q0 is not None)
