@@ -49,17 +49,62 @@ class CopyDownloader:
         Path(output_file).write_bytes(data)
 
 
-def test_registry_lists_six_trials_and_trials_json():
+SHARED_TRIALS = [  # the 17 trials of ../shared/data/broad (see its README)
+    "02_undisturbed_slow_rotation_B", "04_undisturbed_slow_rotation_with_breaks_A",
+    "05_undisturbed_slow_rotation_with_breaks_B", "07_undisturbed_fast_rotation_B",
+    "09_undisturbed_fast_rotation_with_breaks_B", "11_undisturbed_slow_translation_B",
+    "14_undisturbed_slow_translation_with_breaks_B", "16_undisturbed_fast_translation_B",
+    "25_disturbed_tapping_B", "27_disturbed_phone_vibration_B", "29_disturbed_stationary_magnet_B",
+    "30_disturbed_stationary_magnet_C", "31_disturbed_stationary_magnet_D", "33_disturbed_attached_magnet_2cm",
+    "34_disturbed_attached_magnet_3cm", "35_disturbed_attached_magnet_4cm", "36_disturbed_attached_magnet_5cm",
+]
+BLOB_ONLY = {13, 17, 19, 20, 22, 23, 37, 38, 39}  # trials whose SHA-256 the registry lacks
+
+
+def test_registry_lists_all_39_trials_and_trials_json():
     names = datasets.broad_trials()
-    assert len(names) == 6 and names[0] == TRIAL and names == sorted(names)
-    assert "trials.json" in datasets.BROAD_REGISTRY
-    assert all(re.fullmatch(r"[0-9a-f]{64}", h) for h in datasets.BROAD_REGISTRY.values())
-    readme = SOURCE_DIR / "README.md"
-    if readme.exists():  # the registry agrees with the sums published next to the files
-        published = dict((name, digest) for digest, name in re.findall(r"^([0-9a-f]{64})\s+(\S+)$",
-                                                                       readme.read_text(), flags=re.M))
-        assert published == datasets.BROAD_REGISTRY
-        assert datasets.BROAD_COMMIT in readme.read_text()
+    assert len(names) == 39 and names == sorted(names)
+    assert [int(name[:2]) for name in names] == list(range(1, 40))
+    assert names[0] == "01_undisturbed_slow_rotation_A" and names[1] == TRIAL and names[-1] == "39_disturbed_mixed"
+    assert set(datasets.BROAD_REGISTRY) == {f"{name}.mat" for name in names} | {"trials.json"}
+    for name, entry in datasets.BROAD_REGISTRY.items():
+        assert re.fullmatch(r"[0-9a-f]{40}", entry.git_blob_sha1), name
+        if name.endswith(".mat") and int(name[:2]) in BLOB_ONLY:
+            assert entry.sha256 is None, name
+        else:
+            assert re.fullmatch(r"[0-9a-f]{64}", entry.sha256), name
+
+
+def test_registry_agrees_with_the_published_sums():
+    readme, registry = SOURCE_DIR / "README.md", SOURCE_DIR / "REGISTRY.tsv"
+    if not readme.exists() or not registry.exists():
+        pytest.skip(f"BROAD README.md / REGISTRY.tsv not found in {SOURCE_DIR}")
+    published = dict((name, digest) for digest, name in re.findall(r"^([0-9a-f]{64})\s+(\S+)$",
+                                                                   readme.read_text(), flags=re.M))
+    assert published == {name: e.sha256 for name, e in datasets.BROAD_REGISTRY.items() if e.sha256}
+    assert datasets.BROAD_COMMIT in readme.read_text()
+    rows = [line.split("\t") for line in registry.read_text().splitlines()[1:]]
+    assert {name: datasets.RegistryEntry(None if sha == "-" else sha, blob) for name, sha, blob in rows} == (
+        datasets.BROAD_REGISTRY
+    )
+
+
+def test_present_trials_are_the_files_in_the_folder(tmp_path):
+    assert datasets.broad_trials(present_only=True, data_dir=tmp_path) == []
+    for name in ("13_undisturbed_slow_translation_with_breaks_A", "02_undisturbed_slow_rotation_B"):
+        (tmp_path / f"{name}.mat").write_bytes(b"")
+    (tmp_path / "99_not_a_trial.mat").write_bytes(b"")
+    (tmp_path / "trials.json").write_bytes(b"{}")
+    assert datasets.broad_trials(present_only=True, data_dir=tmp_path) == [
+        "02_undisturbed_slow_rotation_B", "13_undisturbed_slow_translation_with_breaks_A"
+    ]
+    with pytest.raises(ValueError, match="present_only"):
+        datasets.broad_trials(present_only="yes")
+
+
+@pytest.mark.skipif(not (SOURCE_DIR / "REGISTRY.tsv").exists(), reason=f"BROAD subset not found in {SOURCE_DIR}")
+def test_shared_folder_holds_seventeen_trials():
+    assert datasets.broad_trials(present_only=True, data_dir=SOURCE_DIR) == SHARED_TRIALS
 
 
 @pytest.mark.parametrize("spec", [2, np.int64(2), TRIAL, TRIAL_FILE])
@@ -67,9 +112,16 @@ def test_trial_given_by_name_or_number(spec):
     assert datasets._broad_trial_name(spec) == TRIAL
 
 
-@pytest.mark.parametrize("spec", [1, 99, "01_undisturbed_slow_rotation_A", "02", True, 2.0, None])
+@pytest.mark.parametrize("spec", [1, 13, 39, "01_undisturbed_slow_rotation_A", "39_disturbed_mixed.mat"])
+def test_every_trial_of_the_dataset_is_known(spec, tmp_path):
+    name = datasets._broad_trial_name(spec)
+    with pytest.raises(FileNotFoundError, match=re.escape(str(tmp_path / f"{name}.mat"))):
+        datasets.load_broad(spec, tmp_path, download=False)
+
+
+@pytest.mark.parametrize("spec", [0, 40, 99, "02", "01_undisturbed_slow_rotation_B", True, 2.0, None])
 def test_unknown_trial_lists_the_known_ones(spec):
-    with pytest.raises(ValueError, match="known trials: .*02_undisturbed_slow_rotation_B"):
+    with pytest.raises(ValueError, match="known trials: .*02_undisturbed_slow_rotation_B.*39_disturbed_mixed"):
         datasets.load_broad(spec, download=False)
 
 
@@ -89,7 +141,7 @@ def test_missing_file_without_download(tmp_path):
 
 def test_unknown_file_name():
     with pytest.raises(ValueError, match="unknown BROAD file"):
-        datasets.broad_file("01_undisturbed_slow_rotation_A.mat")
+        datasets.broad_file("40_undisturbed_slow_rotation_A.mat")
 
 
 @needs_files
@@ -115,7 +167,7 @@ def test_truncated_download_fails_and_leaves_nothing(tmp_path, name):
     fake = CopyDownloader(truncate=1000)
     with pytest.raises(ValueError, match=re.escape(name)) as info:
         datasets.broad_file(name, tmp_path, downloader=fake)
-    assert datasets.BROAD_REGISTRY[name] in str(info.value)
+    assert datasets.BROAD_REGISTRY[name].sha256 in str(info.value)
     assert list(tmp_path.iterdir()) == []  # neither the bad file nor pooch's temporary copy
 
 
@@ -126,6 +178,65 @@ def test_failed_connection_is_an_os_error_with_a_hint(tmp_path):
     with pytest.raises(OSError, match="WSNLIB_BROAD_DIR"):
         datasets.broad_file("trials.json", tmp_path, downloader=offline)
     assert not (tmp_path / "trials.json").exists()
+
+
+@pytest.mark.parametrize(
+    ("content", "blob_id"),
+    [(b"", "e69de29bb2d1d6434b8b29ae775ad8c2e48c5391"), (b"hello\n", "ce013625030ba8dba906f756967f9e9ca394464a")],
+)
+def test_git_blob_id_is_what_git_computes(tmp_path, content, blob_id):
+    path = tmp_path / "file"
+    path.write_bytes(content)
+    assert datasets.git_blob_sha1_of(path) == blob_id  # values of `git hash-object`
+
+
+BLOB_FILE = "99_blob_only_test.mat"
+BLOB_CONTENT = b"MATLAB-ish test content\n" * 50
+
+
+@pytest.fixture
+def blob_only_entry(monkeypatch, tmp_path):
+    """A registry entry with a git blob id and no SHA-256, as for trials 13, 17, ... 39."""
+    source = tmp_path / "source" / BLOB_FILE
+    source.parent.mkdir()
+    source.write_bytes(BLOB_CONTENT)
+    entry = datasets.RegistryEntry(sha256=None, git_blob_sha1=datasets.git_blob_sha1_of(source))
+    monkeypatch.setitem(datasets.BROAD_REGISTRY, BLOB_FILE, entry)
+    return entry
+
+
+def test_blob_id_verifies_a_present_file(tmp_path, blob_only_entry):
+    folder = tmp_path / "broad"
+    folder.mkdir()
+    path = folder / BLOB_FILE
+    path.write_bytes(BLOB_CONTENT)
+    assert datasets.broad_file(BLOB_FILE, folder, download=False) == path
+    path.write_bytes(BLOB_CONTENT[:-1] + b"!")  # same size, other content
+    os.utime(path, ns=(path.stat().st_atime_ns, path.stat().st_mtime_ns + 10**9))
+    with pytest.raises(ValueError, match="git blob id") as info:
+        datasets.broad_file(BLOB_FILE, folder, download=False)
+    assert blob_only_entry.git_blob_sha1 in str(info.value) and datasets.git_blob_sha1_of(path) in str(info.value)
+    assert str(path) in str(info.value)
+
+
+def test_blob_id_verifies_a_download(tmp_path, blob_only_entry):
+    def serve(content):
+        def downloader(url, output_file, pooch):
+            served.append(url)
+            Path(output_file).write_bytes(content)
+        return downloader
+
+    served = []
+    folder = tmp_path / "broad"
+    with pytest.raises(ValueError, match="git blob id") as info:
+        datasets.broad_file(BLOB_FILE, folder, downloader=serve(BLOB_CONTENT[:100]))
+    assert blob_only_entry.git_blob_sha1 in str(info.value)
+    assert list(folder.iterdir()) == []  # neither the file nor the partial download
+    path = datasets.broad_file(BLOB_FILE, folder, downloader=serve(BLOB_CONTENT))
+    assert path == folder / BLOB_FILE and path.read_bytes() == BLOB_CONTENT
+    assert list(folder.iterdir()) == [path]
+    url = f"https://raw.githubusercontent.com/dlaidig/broad/{datasets.BROAD_COMMIT}/data_mat/{BLOB_FILE}"
+    assert served == [url, url]
 
 
 @needs_files
@@ -142,7 +253,7 @@ def test_corrupt_existing_file_is_refused_not_replaced(tmp_path, damage):
     with pytest.raises(ValueError, match="SHA-256") as info:
         datasets.load_broad(TRIAL, tmp_path, downloader=fake)
     message = str(info.value)
-    assert str(path) in message and datasets.BROAD_REGISTRY[TRIAL_FILE] in message
+    assert str(path) in message and datasets.BROAD_REGISTRY[TRIAL_FILE].sha256 in message
     assert datasets.sha256_of(path) in message  # the actual hash too
     assert fake.urls == [] and path.read_bytes() == bytes(data)
 

@@ -94,9 +94,10 @@ REFERENCES = (
 DATASETS = (
     ("BROAD",
      'D. Laidig, M. Caruso, A. Cereatti, T. Seel, "BROAD—A Benchmark for Robust Inertial Orientation '
-     'Estimation", <i>Data</i> 6(7):72, 2021, doi:10.3390/data6070072; github.com/dlaidig/broad. Six of '
-     "its 39 trials (IMU recordings with optical ground truth). License: Creative Commons Attribution 4.0 "
-     "(CC BY 4.0); the recordings and the reference are the authors' work.", "BROAD"),
+     'Estimation", <i>Data</i> 6(7):72, 2021, doi:10.3390/data6070072; github.com/dlaidig/broad. Every one '
+     "of its 39 trials present in the data folder (17 on CI; IMU recordings with optical ground truth). "
+     "License: Creative Commons Attribution 4.0 (CC BY 4.0); the recordings and the reference are the "
+     "authors' work.", "BROAD"),
     ("PABR",
      "F. S. Daniş, A. T. Naskali, A. T. Cemgil, C. Ersoy, Position Annotated BLE RSSI Dataset for Indoor "
      "Localization, <i>Pervasive and Mobile Computing</i> 81, 2022; "

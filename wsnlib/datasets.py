@@ -47,9 +47,13 @@ mask, never by deleting rows).
 * ``units``: ``{"time": "s", "gyr": "rad/s", "acc": "m/s^2", "mag": "uT"}``;
 * ``frame_convention``: text describing the body and earth frames (informative);
 * ``has_quaternions``: whether the CSV has the ``quat_*`` columns;
-* ``metadata``: free JSON object (generator, parameters, seed, subject, …).
+* ``metadata``: free JSON object (generator, parameters, seed, subject, …);
+* ``csv_rows``, ``csv_sha256``: the CSV's number of data rows and the SHA-256 of its bytes
+  (written by every writer; a reader refuses a CSV that disagrees with them — a truncated or
+  edited copy — and skips the check when a hand-made sidecar leaves both out).
 
-Written with sorted keys and two-space indent.  If the sidecar is missing,
+Written with sorted keys and two-space indent; both files are written atomically (temporary
+file, then rename).  If the sidecar is missing,
 :func:`read_recording` infers ``fs`` from the median time step and the node order from the
 first sample, and uses empty metadata.
 
@@ -65,22 +69,26 @@ Dataset:
     Data licensed CC BY 4.0 — credit the authors wherever results from it are shown.
 
 The files are the MATLAB versions (``data_mat/<trial>.mat``) of the public repository
-github.com/dlaidig/broad, pinned to commit :data:`BROAD_COMMIT`.  :data:`BROAD_REGISTRY` lists
-the six trials this project uses (plus the dataset's ``trials.json``) with their SHA-256.
+github.com/dlaidig/broad, pinned to commit :data:`BROAD_COMMIT`.  :data:`BROAD_REGISTRY` (shipped
+as ``wsnlib/registry/broad.tsv``) lists all 39 trials of the dataset and its ``trials.json``,
+with the SHA-256 where known (30 trials) and the git blob id of every file (SHA-1 of
+``b"blob <size>\\0"`` + content), which verifies the other nine.  :func:`broad_trials` lists the
+trials, or with ``present_only=True`` those whose file is in the folder.
 
 Folder, first match wins: the ``data_dir`` argument; else the environment variable
 ``WSNLIB_BROAD_DIR``; else ``<ROOT>/data/raw/broad/`` (gitignored; ROOT is the checkout,
 :data:`wsnlib.paths.ROOT`).  A missing file is downloaded with pooch from
 ``https://raw.githubusercontent.com/dlaidig/broad/<BROAD_COMMIT>/data_mat/<file>`` into that
-folder (unless ``download=False``) and kept only if its SHA-256 matches.  Every file, whether
-downloaded or already there, is hash-checked before it is read; a mismatch raises
-``ValueError`` naming the file and both hashes (a corrupt file is never half-read, and never
+folder (unless ``download=False``) and kept only if its SHA-256 (else its git blob id) matches.
+Every file, whether downloaded or already there, is hash-checked before it is read; a mismatch
+raises ``ValueError`` naming the file and both hashes (a corrupt file is never half-read, and never
 silently replaced: delete it to download it again).  The verified hash is remembered per
 (path, size, modification time) within the process, so reloading does not rehash.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -91,7 +99,7 @@ import numpy as np
 import pandas as pd
 
 from wsnlib import paths
-from wsnlib._files import sha256_of
+from wsnlib._files import atomic_write_bytes, atomic_write_text, sha256_of
 from wsnlib._validation import as_float_array, check_positive
 
 FORMAT_NAME = "wsnlib-recording"
@@ -123,6 +131,11 @@ FRAME_CONVENTION = (
 )
 
 FLOAT_FORMAT = "%.9g"
+
+#: Sidecar keys written by every recording format (:func:`write_table_with_sidecar`): the
+#: number of data rows of the CSV and the SHA-256 of its bytes, checked by the readers.
+CSV_ROWS_KEY = "csv_rows"
+CSV_SHA256_KEY = "csv_sha256"
 
 #: Largest tolerated deviation of a ground-truth quaternion's norm from 1 when reading.
 _QUAT_NORM_TOL = 1e-6
@@ -239,16 +252,45 @@ def write_table_with_sidecar(frame, path: Path, sidecar: dict, float_format: str
 
     Shared by the recording formats of :mod:`wsnlib.datasets`, :mod:`wsnlib.rss` and
     :mod:`wsnlib.accel_format`.  ``what`` names the user-supplied part in the error raised
-    when the sidecar is not JSON-serialisable.
+    when the sidecar is not JSON-serialisable.  The sidecar gains :data:`CSV_ROWS_KEY` (the
+    number of data rows) and :data:`CSV_SHA256_KEY` (the SHA-256 of the CSV's bytes), which
+    :func:`load_sidecar` checks, so a truncated or altered copy is refused.  Both files are
+    written atomically (temporary file + rename), the CSV first.
     """
+    csv_bytes = frame.to_csv(None, index=False, float_format=float_format, lineterminator="\n").encode("utf-8")
+    sidecar = {**sidecar, CSV_ROWS_KEY: len(frame), CSV_SHA256_KEY: hashlib.sha256(csv_bytes).hexdigest()}
     try:
         text = json.dumps(sidecar, indent=2, sort_keys=True, default=_json_default, allow_nan=False)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{what} cannot be written as JSON: {exc}") from exc
-    path.parent.mkdir(parents=True, exist_ok=True)
-    frame.to_csv(path, index=False, float_format=float_format, lineterminator="\n")
-    sidecar_path(path).write_text(text + "\n", encoding="utf-8")
+    atomic_write_bytes(path, csv_bytes)
+    atomic_write_text(sidecar_path(path), text + "\n")
     return path
+
+
+def _check_csv_integrity(path: Path, meta: dict, side: Path) -> None:
+    """Compare the CSV with the row count and SHA-256 its sidecar recorded (when it has them)."""
+    if CSV_ROWS_KEY not in meta and CSV_SHA256_KEY not in meta:
+        return  # a hand-converted file: nothing to check against
+    rows, digest = meta.get(CSV_ROWS_KEY), meta.get(CSV_SHA256_KEY)
+    if isinstance(rows, bool) or not isinstance(rows, int) or rows < 0:
+        raise ValueError(f"{side}: {CSV_ROWS_KEY!r} must be a non-negative integer, got {rows!r}")
+    if not isinstance(digest, str) or len(digest) != 64 or any(c not in "0123456789abcdef" for c in digest):
+        raise ValueError(f"{side}: {CSV_SHA256_KEY!r} must be 64 lower-case hex digits, got {digest!r}")
+    data = path.read_bytes()
+    lines = data.count(b"\n") + (1 if data and not data.endswith(b"\n") else 0)
+    found = max(lines - 1, 0)  # minus the header line
+    if found != rows:
+        raise ValueError(
+            f"{path}: has {found} data rows but its sidecar {side.name} says {rows}: the file is "
+            f"truncated or was changed after it was written (write it again with the writer)"
+        )
+    actual = hashlib.sha256(data).hexdigest()
+    if actual != digest:
+        raise ValueError(
+            f"{path}: SHA-256 {actual[:12]}… differs from {CSV_SHA256_KEY!r} {digest[:12]}… in its sidecar "
+            f"{side.name}: the file was damaged or changed after it was written (write it again with the writer)"
+        )
 
 
 def finite_column(frame, column: str, where) -> np.ndarray:
@@ -268,7 +310,10 @@ def load_sidecar(path: Path, format_name: str, format_version: int, *, required:
     """Read and check the ``<name>.json`` sidecar of a recording file (format name and version).
 
     Returns None when it is missing and not ``required``; raises ``ValueError`` naming the
-    sidecar otherwise (``what`` says which kind of file needs it).
+    sidecar otherwise (``what`` says which kind of file needs it).  When the sidecar records
+    :data:`CSV_ROWS_KEY` and :data:`CSV_SHA256_KEY` (every file the writers produce), the CSV
+    ``path`` must have that many data rows and that SHA-256, else ``ValueError`` naming the
+    file (truncated or changed after writing).  A hand-made sidecar may leave both out.
     """
     side = sidecar_path(path)
     if not side.exists():
@@ -287,7 +332,20 @@ def load_sidecar(path: Path, format_name: str, format_version: int, *, required:
         raise ValueError(
             f"{side}: unsupported 'format_version' {meta.get('format_version')!r} (this reader knows {format_version})"
         )
+    _check_csv_integrity(Path(path), meta, side)
     return meta
+
+
+def check_sidecar_units(meta: dict, units: dict, side: Path) -> None:
+    """``ValueError`` naming the sidecar unless ``meta["units"]`` gives every unit of ``units`` as documented."""
+    found = meta.get("units")
+    if not isinstance(found, dict):
+        raise ValueError(f"{side}: 'units' must be an object {units}, got {found!r}")
+    for key, unit in units.items():
+        if found.get(key) != unit:
+            raise ValueError(
+                f"{side}: units[{key!r}] must be {unit!r} (convert the data first), got {found.get(key)!r}"
+            )
 
 
 def write_recording(recording: Recording, path) -> Path:
@@ -534,27 +592,82 @@ BROAD_URL = "https://raw.githubusercontent.com/dlaidig/broad/{commit}/data_mat/{
 #: Environment variable naming the folder that holds the BROAD files.
 BROAD_DIR_ENV_VAR = "WSNLIB_BROAD_DIR"
 
-#: File name → SHA-256 of the BROAD files this project knows (six trials and ``trials.json``).
-BROAD_REGISTRY: dict[str, str] = {
-    "02_undisturbed_slow_rotation_B.mat": "2ab69f86aab5fcc018399068baaabc725bb4b53862aefbef70eaf0256da1930a",
-    "07_undisturbed_fast_rotation_B.mat": "bc1ed36ec3f8d279a3b81078d229549fd4c55ed8338e42c3bd83ab89146096b5",
-    "11_undisturbed_slow_translation_B.mat": "4a78ec3dd01988c065c53eb3157e34425237f0a4598fba95ab2cc19e2342fe72",
-    "16_undisturbed_fast_translation_B.mat": "fc97a89ca41c03b7f86793c20d8ce208fe085f8a1cc6e956cce03ebf3fa57c54",
-    "25_disturbed_tapping_B.mat": "38326275bd24d350ce188e8621b42e0598e2cc6b5f7eb8c652052afb8f4ae887",
-    "30_disturbed_stationary_magnet_C.mat": "a2749e93855ca115384c0d998dcdb088a2a6f1d46f743c5f37e5feb9b6ebb753",
-    "trials.json": "9f4a680062fd5b6b500653fe7f8e7dd774dedbf4fe573210328ec8d0d263c2fd",
-}
+
+@dataclass(frozen=True)
+class RegistryEntry:
+    """Expected content of one file of a dataset registry.
+
+    Attributes
+    ----------
+    sha256 : str or None
+        Hex SHA-256 of the file; None where the registry does not know it.
+    git_blob_sha1 : str or None
+        Git's blob id of the file: hex SHA-1 of ``b"blob <size>\\0"`` followed by the content
+        (see :func:`git_blob_sha1_of`); used when ``sha256`` is None.
+    size_bytes : int or None
+        Size of the file (bytes), where the registry gives it (informative).
+    """
+
+    sha256: str | None
+    git_blob_sha1: str | None = None
+    size_bytes: int | None = None
+
+
+def _read_broad_registry() -> dict[str, RegistryEntry]:
+    from importlib import resources
+
+    text = resources.files("wsnlib").joinpath("registry", "broad.tsv").read_text(encoding="utf-8")
+    rows = [line.split("\t") for line in text.splitlines() if line and not line.startswith("#")]
+    if rows[0] != ["file", "sha256", "git_blob_sha1"]:
+        raise ValueError(f"wsnlib/registry/broad.tsv: unexpected header {rows[0]}")
+    return {name: RegistryEntry(None if sha == "-" else sha, blob) for name, sha, blob in rows[1:]}
+
+
+#: File name → expected content (:class:`RegistryEntry`) of every file of the dataset's
+#: ``data_mat/`` folder at :data:`BROAD_COMMIT`: the 39 trials and ``trials.json``.  The SHA-256
+#: is known for 30 trials; the other 9 (13, 17, 19, 20, 22, 23, 37, 38, 39) are verified by
+#: their git blob id.  Shipped as ``wsnlib/registry/broad.tsv``.
+BROAD_REGISTRY: dict[str, RegistryEntry] = _read_broad_registry()
 
 #: Largest tolerated deviation of a reference quaternion's norm from 1.
 _BROAD_QUAT_NORM_TOL = 1e-6
 
-#: Verified files: (resolved path, size, mtime_ns) → SHA-256, so reloading does not rehash.
+#: Verified files: (resolved path, size, mtime_ns) → the expected hash it matched, so
+#: reloading does not rehash.
 _VERIFIED_HASHES: dict[tuple[str, int, int], str] = {}
 
 
-def broad_trials() -> list[str]:
-    """Names of the known BROAD trials (without ``.mat``), in trial-number order."""
-    return sorted(name[: -len(".mat")] for name in BROAD_REGISTRY if name.endswith(".mat"))
+def git_blob_sha1_of(path: Path) -> str:
+    """Git's blob id of a file: hex SHA-1 of ``b"blob <size in bytes>\\0"`` followed by its bytes."""
+    import hashlib
+
+    path = Path(path)
+    digest = hashlib.sha1(f"blob {path.stat().st_size}\0".encode("ascii"))
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def broad_trials(present_only: bool = False, data_dir=None) -> list[str]:
+    """Names of the BROAD trials (without ``.mat``), in trial-number order.
+
+    Parameters
+    ----------
+    present_only : bool
+        False (default): all 39 trials of the dataset (each loads if its file is present or can
+        be downloaded).  True: only those whose ``.mat`` file is in the folder now (not yet
+        hash-checked: :func:`load_broad` does that).
+    data_dir : str or pathlib.Path, optional
+        Folder looked into when ``present_only``; default see :func:`broad_dir`.
+    """
+    if not isinstance(present_only, bool):
+        raise ValueError(f"present_only must be True or False, got {present_only!r}")
+    names = sorted(name[: -len(".mat")] for name in BROAD_REGISTRY if name.endswith(".mat"))
+    if present_only:
+        folder = broad_dir(data_dir)
+        names = [name for name in names if (folder / f"{name}.mat").is_file()]
+    return names
 
 
 def broad_dir(data_dir=None) -> Path:
@@ -586,16 +699,25 @@ def _broad_trial_name(trial) -> str:
     return matches[0]
 
 
-def _verify_file(path: Path, expected: str) -> None:
-    """Raise ``ValueError`` naming ``path`` and both hashes unless its SHA-256 is ``expected``."""
+def _verify_file(path: Path, expected: RegistryEntry) -> None:
+    """Raise ``ValueError`` naming ``path`` and both hashes unless its content is ``expected``.
+
+    Checks the SHA-256 where the registry knows it, else the git blob id.
+    """
+    if expected.sha256 is not None:
+        kind, wanted, compute = "SHA-256", expected.sha256, sha256_of
+    elif expected.git_blob_sha1 is not None:
+        kind, wanted, compute = "git blob id", expected.git_blob_sha1, git_blob_sha1_of
+    else:
+        raise ValueError(f"{path}: the registry holds no hash to verify it with")
     stat = path.stat()
     key = (str(path.resolve()), stat.st_size, stat.st_mtime_ns)
-    if _VERIFIED_HASHES.get(key) == expected:
+    if _VERIFIED_HASHES.get(key) == wanted:
         return
-    actual = sha256_of(path)
-    if actual != expected:
+    actual = compute(path)
+    if actual != wanted:
         raise ValueError(
-            f"{path}: SHA-256 is {actual}, expected {expected} (the file is corrupt, truncated or "
+            f"{path}: {kind} is {actual}, expected {wanted} (the file is corrupt, truncated or "
             f"another version); delete it to download it again"
         )
     _VERIFIED_HASHES[key] = actual
@@ -620,7 +742,8 @@ def broad_file(filename: str, data_dir=None, *, download: bool = True, downloade
     Returns
     -------
     pathlib.Path
-        The file, whose SHA-256 matches the registry.
+        The file, whose SHA-256 (or, where the registry has none, git blob id) matches the
+        registry.
 
     Raises
     ------
@@ -644,30 +767,47 @@ def broad_file(filename: str, data_dir=None, *, download: bool = True, downloade
                 f"{path} does not exist; download it from {url}, point ${BROAD_DIR_ENV_VAR} or "
                 f"data_dir at a folder holding it, or call with download=True"
             )
-        _download(url, path, expected, downloader)
+        _download(url, path, expected, downloader, env_var=BROAD_DIR_ENV_VAR)
     _verify_file(path, expected)
     return path
 
 
-def _download(url: str, path: Path, expected: str, downloader) -> None:
+def _download(url: str, path: Path, expected: RegistryEntry, downloader, *, env_var: str) -> None:
+    """Download ``url`` to ``path`` with pooch, keeping it only if it matches ``expected``.
+
+    With a SHA-256, pooch checks it (writing to a temporary file in the same folder and moving
+    it into place only on a match).  With only a git blob id, the file is downloaded under a
+    temporary name, checked here, then renamed into place (``os.replace``) or deleted.
+    """
     import pooch
 
     path.parent.mkdir(parents=True, exist_ok=True)
+    partial = path.with_name(f".{path.name}.download")
     try:
-        # pooch writes to a temporary file in the same folder, checks the hash and only then
-        # moves it into place; on a mismatch it deletes the temporary file.
-        pooch.retrieve(url, known_hash=f"sha256:{expected}", fname=path.name, path=path.parent,
-                       downloader=downloader, progressbar=False)
+        if expected.sha256 is not None:
+            pooch.retrieve(url, known_hash=f"sha256:{expected.sha256}", fname=path.name, path=path.parent,
+                           downloader=downloader, progressbar=False)
+        else:
+            partial.unlink(missing_ok=True)
+            pooch.retrieve(url, known_hash=None, fname=partial.name, path=path.parent,
+                           downloader=downloader, progressbar=False)
+            actual = git_blob_sha1_of(partial)
+            if actual != expected.git_blob_sha1:
+                raise ValueError(f"git blob id of the download is {actual}, expected {expected.git_blob_sha1}")
+            os.replace(partial, path)
     except ValueError as exc:
+        wanted = f"SHA-256 {expected.sha256}" if expected.sha256 else f"git blob id {expected.git_blob_sha1}"
         raise ValueError(
-            f"download of {path.name} from {url} failed the hash check (expected SHA-256 {expected}); "
+            f"download of {path.name} from {url} failed the hash check (expected {wanted}); "
             f"nothing was written to {path}. Details: {exc}"
         ) from exc
     except OSError as exc:
         raise OSError(
             f"could not download {url} to {path}: {exc}. Without network, copy the file there "
-            f"by hand or set ${BROAD_DIR_ENV_VAR} to a folder holding it"
+            f"by hand or set ${env_var} to a folder holding it"
         ) from exc
+    finally:
+        partial.unlink(missing_ok=True)
 
 
 def broad_trial_info(data_dir=None, *, download: bool = True, downloader=None) -> dict:
