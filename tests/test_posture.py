@@ -92,6 +92,30 @@ def test_lowpass_removes_a_high_frequency_disturbance():
                           pitch_from_acc(acc, method="lowpass", fs=fs)[:200])
 
 
+@pytest.mark.parametrize(("order", "cutoff_hz"), [(2, 1.0), (8, 0.05), (10, 0.2), (6, 0.02)])
+def test_lowpass_matches_the_butterworth_response_at_high_orders(order, cutoff_hz):
+    """Reference: a Butterworth low-pass passes a sinusoid at its cut-off with gain 1/sqrt(2)
+    (scipy's bilinear design is exact there) and a constant with gain 1.  Along the segment
+    axis x, with z constant, the settled pitch peaks at atan((g sin θ0 + A/sqrt(2)) / (g cos θ0)).
+    The (b, a) polynomial form was unstable for order 8 at 0.05 Hz (pitch 0..84° for ±17°)."""
+    fs, periods = 30.0, 25
+    t = np.arange(int(periods * fs / cutoff_hz)) / fs
+    base, amplitude = np.radians(10.0), 1.5  # rad, m/s²
+    acc = np.zeros(t.shape + (3,))
+    acc[:, 0] = G * np.sin(base) + amplitude * np.sin(2 * np.pi * cutoff_hz * t)
+    acc[:, 2] = G * np.cos(base)
+    pitch = pitch_from_acc(acc, method="lowpass", fs=fs, cutoff_hz=cutoff_hz, order=order)
+    settled = pitch[-int(3 * fs / cutoff_hz):]  # the last three periods
+    peak = math.atan((G * math.sin(base) + amplitude / math.sqrt(2.0)) / (G * math.cos(base)))
+    trough = math.atan((G * math.sin(base) - amplitude / math.sqrt(2.0)) / (G * math.cos(base)))
+    assert np.degrees(settled.max()) == pytest.approx(np.degrees(peak), abs=0.02)
+    assert np.degrees(settled.min()) == pytest.approx(np.degrees(trough), abs=0.02)
+    # A pose held still is returned unchanged from the first sample (steady-state start).
+    still = pitch_from_acc(np.repeat(_static_acc(np.radians(17.0))[None], 3000, axis=0),
+                           method="lowpass", fs=fs, cutoff_hz=cutoff_hz, order=order)
+    np.testing.assert_allclose(still, np.radians(17.0), atol=1e-9)
+
+
 def test_pitch_is_vectorised_over_batches(rng):
     pitch = rng.uniform(-1.5, 1.5, size=(3, 4, 50))
     acc = _static_acc(pitch, rng.uniform(-3, 3, size=pitch.shape)) + 0.05 * rng.standard_normal(pitch.shape + (3,))

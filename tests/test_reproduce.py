@@ -2,6 +2,8 @@
 
 import json
 import os
+import signal
+import time
 
 import nbformat
 import pytest
@@ -90,3 +92,112 @@ def test_a_failing_cell_stops_the_batch_and_is_recorded(output_dir, tmp_path, mo
     assert solutions == {"notebook": "solutions/01_fails_solutions.ipynb", "status": "not run",
                          "parameters": {}, "seconds": None, "outputs": []}
     assert first["parameters"] == {"quick": True}
+
+
+# --------------------------------------------------------------------------------------------
+# Faults: a stuck cell, a dead kernel, a signal; stale outputs; bad command lines
+# --------------------------------------------------------------------------------------------
+
+_WRITE_PARTIAL = "from wsnlib import paths\n(paths.data_processed() / 'partial.csv').write_text('a\\n1\\n')"
+
+
+def _manifest(output_dir):
+    return json.loads((output_dir / "data" / "processed" / "manifest.json").read_text())
+
+
+def test_a_stuck_cell_times_out_and_is_recorded(output_dir, tmp_path, monkeypatch, capfd):
+    nb_dir = tmp_path / "nbs"
+    _write_notebook(nb_dir / "01_stuck.ipynb", _WRITE_PARTIAL, "import time\ntime.sleep(120)")
+    _write_notebook(nb_dir / "02_after.ipynb", "pass")
+    monkeypatch.setattr(paths, "NOTEBOOKS", nb_dir)
+
+    started = time.perf_counter()
+    assert reproduce.main(["--quick", "--cell-timeout", "3"]) == 1
+    assert time.perf_counter() - started < 60
+
+    stuck, after = _manifest(output_dir)["notebooks"]
+    assert stuck["status"] == "timeout"
+    assert stuck["error"]["timeout_s"] == 3
+    assert stuck["error"]["cell_first_line"] == "import time"
+    assert [o["path"] for o in stuck["outputs"]] == ["data/processed/partial.csv"]
+    assert after["status"] == "not run"
+    err = capfd.readouterr().err
+    assert "TIMEOUT: 01_stuck.ipynb" in err and "import time" in err
+    assert "without encryption" not in err  # the kernel runs over IPC, not plain TCP
+
+
+def test_a_dead_kernel_names_the_cell_and_the_files_written(output_dir, tmp_path, monkeypatch):
+    nb_dir = tmp_path / "nbs"
+    _write_notebook(nb_dir / "01_dies.ipynb", _WRITE_PARTIAL, "import os\nos._exit(1)", "print('never')")
+    monkeypatch.setattr(paths, "NOTEBOOKS", nb_dir)
+
+    assert reproduce.main(["--quick"]) == 1
+
+    (entry,) = _manifest(output_dir)["notebooks"]
+    assert entry["status"] == "failed"
+    assert entry["error"]["ename"] == "DeadKernelError"
+    assert entry["error"]["cell_first_line"] == "import os"
+    assert [o["path"] for o in entry["outputs"]] == ["data/processed/partial.csv"]
+
+
+@pytest.mark.parametrize("signame", ["SIGTERM", "SIGINT"])
+def test_a_signal_marks_the_notebook_interrupted(output_dir, tmp_path, monkeypatch, signame):
+    nb_dir = tmp_path / "nbs"
+    # The kernel is a child of the runner: the cell signals its parent, as `kill` or Ctrl-C would.
+    _write_notebook(nb_dir / "01_killed.ipynb", _WRITE_PARTIAL,
+                    f"import os, signal, time\nos.kill(os.getppid(), signal.{signame})\ntime.sleep(60)")
+    _write_notebook(nb_dir / "02_after.ipynb", "pass")
+    monkeypatch.setattr(paths, "NOTEBOOKS", nb_dir)
+    before = signal.getsignal(getattr(signal, signame))
+
+    assert reproduce.main(["--quick"]) == 128 + getattr(signal, signame)
+
+    killed, after = _manifest(output_dir)["notebooks"]
+    assert killed["status"] == "interrupted"
+    assert signame in killed["error"]["evalue"]
+    assert killed["error"]["cell_first_line"] == "import os, signal, time"
+    assert [o["path"] for o in killed["outputs"]] == ["data/processed/partial.csv"]
+    assert after["status"] == "not run"
+    assert signal.getsignal(getattr(signal, signame)) == before  # handlers restored
+
+
+def test_outputs_of_the_previous_run_are_moved_aside(output_dir, tmp_path, monkeypatch):
+    nb_dir = tmp_path / "nbs"
+    write_old = "from wsnlib import paths\n(paths.figures() / 'old.png').write_bytes(b'old')"
+    _write_notebook(nb_dir / "01_changes.ipynb", write_old)
+    monkeypatch.setattr(paths, "NOTEBOOKS", nb_dir)
+    assert reproduce.main(["--quick"]) == 0
+    assert (output_dir / "figures" / "old.png").is_file()
+
+    _write_notebook(nb_dir / "01_changes.ipynb", "raise RuntimeError('now it fails')")
+    assert reproduce.main(["--quick"]) == 1
+
+    (entry,) = _manifest(output_dir)["notebooks"]
+    assert entry["status"] == "failed"
+    assert entry["moved_aside"] == ["figures/old.png"]
+    assert entry["outputs"] == []
+    assert not (output_dir / "figures" / "old.png").exists()  # nothing stale beside the new outputs
+    assert (output_dir / "build" / "stale" / "figures" / "old.png").read_bytes() == b"old"
+
+
+def test_unknown_parameters_and_an_empty_only_are_refused(output_dir, tmp_path, monkeypatch, capsys):
+    nb_dir = tmp_path / "nbs"
+    _write_notebook(nb_dir / "01_first.ipynb", "pass")
+    monkeypatch.setattr(paths, "NOTEBOOKS", nb_dir)
+
+    with pytest.raises(SystemExit) as exit_info:
+        reproduce.main(["--quick", "-p", "sede", "3"])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert "'sede'" in err and "01_first.ipynb" in err and "quick, seed" in err
+    assert not (output_dir / "data" / "processed" / "manifest.json").exists()  # nothing ran
+
+    with pytest.raises(SystemExit):
+        reproduce.main(["--quick", "--only", ""])
+    assert "--only" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        reproduce.main(["--quick", "--cell-timeout", "0"])
+    assert "--cell-timeout" in capsys.readouterr().err
+
+    assert reproduce.notebook_parameters(nb_dir / "01_first.ipynb") == ["quick", "seed"]
+    reproduce.check_parameters(reproduce.list_batch(), {"seed": 3})  # a known name passes

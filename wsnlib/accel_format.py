@@ -54,9 +54,12 @@ an absent row.
 
 **JSON sidecar** — an object with the keys ``format`` (``"wsnlib-samples"``),
 ``format_version`` (1), ``kind``, ``rate_hz`` (nominal samples per second per target),
-``targets`` (names, in order), ``units`` and ``frame`` (informative text), ``metadata`` (free
-JSON object: sensor spec, camera placement, seed …).  Written with sorted keys and two-space
-indent.
+``targets`` (names, in order), ``units`` (exactly :data:`UNITS` of the kind: a reader refuses
+any other unit — convert the data first), ``frame`` (informative text), ``metadata`` (free
+JSON object: sensor spec, camera placement, seed …), ``csv_rows`` and ``csv_sha256`` (the
+CSV's data rows and SHA-256: a truncated or edited CSV is refused; a hand-made sidecar may
+leave both out).  Written with sorted keys and two-space indent; both files are written
+atomically.
 """
 
 from __future__ import annotations
@@ -67,7 +70,13 @@ import numpy as np
 import pandas as pd
 
 from wsnlib._validation import check_positive
-from wsnlib.datasets import finite_column, load_sidecar, sidecar_path, write_table_with_sidecar
+from wsnlib.datasets import (
+    check_sidecar_units,
+    finite_column,
+    load_sidecar,
+    sidecar_path,
+    write_table_with_sidecar,
+)
 from wsnlib.sim.body import TARGET_NAMES
 
 FORMAT_NAME = "wsnlib-samples"
@@ -271,6 +280,13 @@ def read_samples(path, kind: str | None = None) -> tuple[pd.DataFrame, dict]:
         holds ``rate_hz`` and ``kind``, so ``write_samples(df, other, kind, sidecar["metadata"])``
         reproduces the files byte for byte.
     sidecar : dict
+
+    Raises
+    ------
+    ValueError
+        Naming the file and column or the sidecar: bad columns or values, rows out of order,
+        a sidecar of another kind, units other than :data:`UNITS` of the kind, a row count or
+        SHA-256 that disagrees with the CSV (a truncated or edited copy).
     """
     path = Path(path)
     if not path.exists():
@@ -281,6 +297,7 @@ def read_samples(path, kind: str | None = None) -> tuple[pd.DataFrame, dict]:
         raise ValueError(f"{side}: 'kind' must be one of {KINDS}, got {meta.get('kind')!r}")
     if kind is not None and meta["kind"] != _check_kind(kind):
         raise ValueError(f"{side}: holds a {meta['kind']!r} table, expected {kind!r}")
+    check_sidecar_units(meta, UNITS[meta["kind"]], side)
     try:
         meta["rate_hz"] = check_positive(meta.get("rate_hz"), "rate_hz")
         meta["targets"] = list(_check_targets(meta.get("targets", ())))

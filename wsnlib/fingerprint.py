@@ -7,7 +7,16 @@ mixture PMFs its Section 5 proposes as extensions.
 Conventions
 -----------
 * ``X`` (training or online RSS vectors): shape ``(n, A)`` in dBm, one column per anchor
-  (7 anchors in the paper, 12 receivers in PABR).
+  (7 anchors in the paper, 12 receivers in PABR).  Every training reading (and ``floor_rss``)
+  must lie in :data:`RSS_RANGE_DBM` = [−130, 20] dBm, the span of any radio's RSS report: a
+  value outside it is a glitch or a unit error and raises ``ValueError`` naming ``X`` and the
+  index (so one −1e9 glitch cannot ask for a giant PMF grid); so does training data with no
+  reading at all (every entry NaN) or whose readings are all ≥ 0 (linear power such as mW,
+  not dBm: convert with ``10·log10(P / 1 mW)``).  Online vectors are not range-checked: the
+  p-kNN clips them to ``grid_``, the kNN measures their distance as it is.
+* Online vectors are processed in chunks of at most about 4 million (vector, fingerprint,
+  anchor) values (32 MB per intermediate array), so ``predict`` of 100,000 vectors needs a
+  few hundred MB at most, with results identical to an unchunked computation.
 * ``y`` (positions): shape ``(n, D)``, normally ``D = 3`` metres (any coordinates work; the
   estimate is a weighted mean of them).  Training vectors whose rows of ``y`` are equal form
   one *fingerprint position*; positions are numbered in order of first appearance
@@ -97,8 +106,16 @@ METRICS = ("euclidean", "manhattan")
 PMF_METHODS = ("histogram", "parzen", "gmm")
 
 #: Largest number of (subset, vector, fingerprint) distances held in memory at once by the
-#: batch functions (they process anchor subsets in chunks of this size).
+#: batch functions (they process anchor subsets in chunks of this size), and of (vector,
+#: fingerprint, anchor) values by the estimators' online methods (they process vectors in
+#: chunks of this size).
 _CHUNK_ELEMENTS = 1 << 22
+
+#: Plausible range (dBm) of an RSS reading and of ``floor_rss``: below any receiver's
+#: sensitivity floor (about −100 dBm for IEEE 802.15.4 radios; the CC2420's 8-bit register
+#: reads down to −128 dBm, see :data:`wsnlib.rss.RSS_RANGE_DBM`) up to a transmitter's
+#: maximum output power (+20 dBm).  Values outside are glitches or unit errors.
+RSS_RANGE_DBM: tuple[float, float] = (-130.0, 20.0)
 
 
 # --------------------------------------------------------------------------------------
@@ -161,6 +178,15 @@ def _check_training(X, y) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError(f"X must have shape (n_vectors, n_anchors) with both > 0, got {X.shape}")
     if np.any(np.isinf(X)):
         raise ValueError("X contains inf (use NaN for a missing reading)")
+    readings = X[~np.isnan(X)]
+    if readings.size == 0:
+        raise ValueError("X has no reading: every entry is NaN (missing), so there is no radio map to learn")
+    _check_rss_range(X, "X")
+    if np.all(readings >= 0.0):
+        raise ValueError(
+            f"X holds only readings >= 0 (from {readings.min():g} to {readings.max():g}): that is linear power "
+            "(e.g. mW), not RSS in dBm; convert with 10 * log10(P / 1 mW)"
+        )
     try:
         y = np.asarray(y, dtype=float)
     except (TypeError, ValueError) as exc:
@@ -170,6 +196,18 @@ def _check_training(X, y) -> tuple[np.ndarray, np.ndarray]:
     if not np.all(np.isfinite(y)):
         raise ValueError("y contains NaN or inf")
     return X, y + 0.0  # + 0.0 turns -0.0 into 0.0, so both group together
+
+
+def _check_rss_range(X: np.ndarray, name: str) -> None:
+    """``ValueError`` naming ``name`` and the first index of a reading outside :data:`RSS_RANGE_DBM` (NaN ignored)."""
+    lo, hi = RSS_RANGE_DBM
+    outside = (X < lo) | (X > hi)
+    if np.any(outside):
+        index = tuple(int(i) for i in np.argwhere(outside)[0])
+        raise ValueError(
+            f"{name} has an RSS of {X[index]:g} dBm at index {index}, outside the plausible range "
+            f"[{lo:g}, {hi:g}] dBm (a glitch, or not dBm?)"
+        )
 
 
 def _group_positions(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -248,9 +286,13 @@ class _FingerprintEstimator(BaseEstimator):
 
     def _fit_radio_map(self, X, y) -> tuple[np.ndarray, np.ndarray]:
         X, y = _check_training(X, y)
-        floor = float(self.floor_rss)
-        if not np.isfinite(floor):
-            raise ValueError(f"floor_rss must be a finite number (dBm), got {self.floor_rss!r}")
+        try:
+            floor = float(self.floor_rss)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"floor_rss must be a number (dBm), got {self.floor_rss!r}") from exc
+        lo, hi = RSS_RANGE_DBM
+        if not lo <= floor <= hi:
+            raise ValueError(f"floor_rss must be a finite number in [{lo:g}, {hi:g}] dBm, got {self.floor_rss!r}")
         n_vectors, n_anchors = X.shape
         self.anchor_mask_ = _resolve_anchors(self.anchors, n_anchors)
         positions, inverse = _group_positions(y)
@@ -287,6 +329,19 @@ class _FingerprintEstimator(BaseEstimator):
         if np.any(np.isinf(X)):
             raise ValueError("X contains inf")
         return X
+
+    def _query_chunks(self, n_vectors: int) -> list[slice]:
+        """Slices of at most ``_CHUNK_ELEMENTS // (L·A)`` online vectors (one empty slice for none)."""
+        n_fp, n_anchors = self.radio_map_.shape
+        step = max(1, _CHUNK_ELEMENTS // (n_fp * n_anchors))
+        return [slice(start, min(start + step, n_vectors)) for start in range(0, n_vectors, step)] or [slice(0, 0)]
+
+    def _neighbors(self, X):
+        """Estimates, neighbour scores and indices of the checked online vectors, chunk by chunk."""
+        X = self._check_online(X)
+        k = _check_n_neighbors(self.n_neighbors, self.positions_.shape[0])
+        parts = [self._neighbors_chunk(X[chunk], k) for chunk in self._query_chunks(X.shape[0])]
+        return tuple(np.concatenate(arrays) for arrays in zip(*parts, strict=True))
 
 
 # --------------------------------------------------------------------------------------
@@ -534,13 +589,14 @@ class KNNFingerprint(_FingerprintEstimator):
         ``|x_a − m_la|`` (dB) for Manhattan, ``(x_a − m_la)²`` (dB²) for Euclidean; a subset's
         Manhattan distance is the sum of its terms, its Euclidean distance the root of the sum.
         """
-        X = self._check_online(X)
+        return self._terms(self._check_online(X))
+
+    def _terms(self, X: np.ndarray) -> np.ndarray:
         diff = X[:, None, :] - self.radio_map_[None, :, :]
         return np.abs(diff) if _check_metric(self.metric) == "manhattan" else diff * diff
 
-    def _neighbors(self, X):
-        terms = self.anchor_terms(X)
-        k = _check_n_neighbors(self.n_neighbors, self.positions_.shape[0])
+    def _neighbors_chunk(self, X: np.ndarray, k: int):
+        terms = self._terms(X)
         est, dist, idx = _knn_batch(
             terms, self.anchor_mask_[None, :], self.positions_, k, _check_power(self.power), self.metric
         )
@@ -850,21 +906,26 @@ class ProbabilisticKNN(_FingerprintEstimator):
         Every anchor is returned (``anchors`` ignored); a subset's log-likelihood is the sum
         of its columns.  Readings are rounded to 1 dBm and clipped to ``grid_``.
         """
-        X = self._check_online(X)
+        return self._loglik(self._check_online(X))
+
+    def _loglik(self, X: np.ndarray) -> np.ndarray:
         bins = np.clip(_round_db(X) - self.grid_[0], 0, self.grid_.size - 1).astype(np.intp)  # (n, A)
         anchor_idx = np.arange(X.shape[1])
         return np.transpose(self.log_pmf_[:, anchor_idx[None, :], bins], (1, 0, 2))
 
-    def _neighbors(self, X):
-        loglik = self.anchor_log_likelihoods(X)
-        k = _check_n_neighbors(self.n_neighbors, self.positions_.shape[0])
-        est, lp, idx = _pknn_batch(loglik, self.anchor_mask_[None, :], self.positions_, k)
+    def _neighbors_chunk(self, X: np.ndarray, k: int):
+        est, lp, idx = _pknn_batch(self._loglik(X), self.anchor_mask_[None, :], self.positions_, k)
         return est[0], lp[0], idx[0]
 
     def predict_log_proba(self, X) -> np.ndarray:
         """Log posterior ``log P(s_l | r)`` (eq. (4), uniform prior), shape (n, L), over the selected anchors."""
-        loglik = self.anchor_log_likelihoods(X) @ self.anchor_mask_.astype(float)
-        return loglik - logsumexp(loglik, axis=-1, keepdims=True)
+        X = self._check_online(X)
+        weights = self.anchor_mask_.astype(float)
+        out = np.empty((X.shape[0], self.positions_.shape[0]))
+        for chunk in self._query_chunks(X.shape[0]):
+            loglik = self._loglik(X[chunk]) @ weights
+            out[chunk] = loglik - logsumexp(loglik, axis=-1, keepdims=True)
+        return out
 
     def predict_proba(self, X) -> np.ndarray:
         """Posterior ``P(s_l | r)``, shape (n, L); rows sum to 1."""

@@ -125,8 +125,10 @@ def pitch_from_acc(
           one; rejected samples *before* the first accepted one take the first accepted
           pitch (the only non-causal step).  If no sample of a sequence passes, ``ValueError``.
         * ``"lowpass"``: a causal Butterworth low-pass (``order``, ``cutoff_hz``, at ``fs``)
-          on each acceleration axis, started in its steady state for the first sample (no
-          start-up transient), then eq. (6) on the filtered vector.
+          on each acceleration axis, run as cascaded second-order sections (numerically
+          stable at high orders and low cut-offs, unlike the ``(b, a)`` polynomial form),
+          started in its steady state for the first sample (no start-up transient), then
+          eq. (6) on the filtered vector.
         * ``"none"``: eq. (6) on every sample as it is.
     xi : float
         Gate half-width ξ (m/s²) for ``"gating"``; default :data:`DEFAULT_XI_M_S2` (ours; the
@@ -203,10 +205,14 @@ def _lowpass(acc: np.ndarray, fs, cutoff_hz, order) -> np.ndarray:
         raise ValueError(f"cutoff_hz must be below the Nyquist frequency fs/2 = {fs / 2.0:g} Hz, got {cutoff_hz!r}")
     if isinstance(order, bool) or not isinstance(order, int | np.integer) or order < 1:
         raise ValueError(f"order must be a positive integer, got {order!r}")
-    b, a = signal.butter(int(order), cutoff_hz, btype="low", fs=fs)
+    # Second-order sections: the (b, a) polynomial form loses the filter to rounding at high
+    # orders or low cut-offs (order 8 at 0.05 Hz is unstable in it); cascaded biquads are not.
+    sos = signal.butter(int(order), cutoff_hz, btype="low", fs=fs, output="sos")
     series = np.moveaxis(acc, -2, -1)                                   # (..., 3, T)
-    zi = signal.lfilter_zi(b, a) * series[..., :1]                     # steady state at sample 0
-    filtered, _ = signal.lfilter(b, a, series, axis=-1, zi=zi)
+    zi_unit = signal.sosfilt_zi(sos)                                    # (S, 2), for a unit step
+    zi = zi_unit.reshape((len(sos),) + (1,) * (series.ndim - 1) + (2,)) * series[None, ..., :1]
+    # (S, ..., 3, 2): every section in its steady state for the first sample (no start-up transient)
+    filtered, _ = signal.sosfilt(sos, series, axis=-1, zi=zi)
     return np.moveaxis(filtered, -1, -2)
 
 

@@ -27,6 +27,39 @@ from wsnlib._validation import as_float_array, check_nonzero_norm
 _SLERP_SMALL_ANGLE = 1e-6
 
 
+def _quat_array(q, name: str) -> np.ndarray:
+    """``q`` as a float array of shape ``(..., 4)``, or ``ValueError`` naming ``name``.
+
+    A shape check only (O(1)): these helpers run inside loops, and values are the caller's.
+    """
+    try:
+        q = np.asarray(q, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a numeric array of quaternions [w, x, y, z], got {type(q).__name__}") from exc
+    if q.ndim == 0 or q.shape[-1] != 4:
+        raise ValueError(f"{name} must have shape (..., 4), quaternions [w, x, y, z]; got shape {q.shape}")
+    return q
+
+
+def _vector_array(v, name: str) -> np.ndarray:
+    try:
+        v = np.asarray(v, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a numeric array of 3-vectors, got {type(v).__name__}") from exc
+    if v.ndim == 0 or v.shape[-1] != 3:
+        raise ValueError(f"{name} must have shape (..., 3), got shape {v.shape}")
+    return v
+
+
+def _broadcast(names: str, *shapes) -> tuple[int, ...]:
+    try:
+        return np.broadcast_shapes(*shapes)
+    except ValueError:
+        raise ValueError(
+            f"{names} must broadcast against each other; got shapes {', '.join(map(str, shapes))}"
+        ) from None
+
+
 def identity(shape: tuple[int, ...] = ()) -> np.ndarray:
     """Identity quaternions of shape ``shape + (4,)``."""
     q = np.zeros(tuple(shape) + (4,))
@@ -41,16 +74,23 @@ def normalize(q) -> np.ndarray:
     return q / norm[..., None]
 
 
+def _unit(q, name: str) -> np.ndarray:
+    q = as_float_array(q, name, last_dim=4)
+    return q / check_nonzero_norm(q, name, "a zero quaternion is not a rotation")[..., None]
+
+
 def conjugate(q) -> np.ndarray:
     """Quaternion conjugate ``[w, -x, -y, -z]`` (the inverse rotation for unit quaternions)."""
-    q = np.asarray(q, dtype=float)
+    q = _quat_array(q, "q")
     return q * np.array([1.0, -1.0, -1.0, -1.0])
 
 
 def multiply(p, q) -> np.ndarray:
     """Hamilton product ``p ⊗ q`` (apply ``q`` first, then ``p``), broadcasting."""
-    p = np.asarray(p, dtype=float)
-    q = np.asarray(q, dtype=float)
+    p = _quat_array(p, "p")
+    q = _quat_array(q, "q")
+    if p.shape != q.shape:
+        _broadcast("p and q", p.shape, q.shape)
     pw, px, py, pz = np.moveaxis(p, -1, 0)
     qw, qx, qy, qz = np.moveaxis(q, -1, 0)
     return np.stack(
@@ -65,9 +105,14 @@ def multiply(p, q) -> np.ndarray:
 
 
 def rotate(q, v) -> np.ndarray:
-    """Rotate vectors ``v`` (``(..., 3)``, body frame) into the earth frame by unit ``q``."""
-    q = np.asarray(q, dtype=float)
-    v = np.asarray(v, dtype=float)
+    """Rotate vectors ``v`` (``(..., 3)``, body frame) into the earth frame by unit ``q`` (``(..., 4)``).
+
+    ``ValueError`` naming ``q`` or ``v`` when a shape is wrong or they do not broadcast.
+    """
+    q = _quat_array(q, "q")
+    v = _vector_array(v, "v")
+    if q.shape[:-1] != v.shape[:-1]:
+        _broadcast("q[..., 1:] and v", q.shape[:-1] + (3,), v.shape)
     w = q[..., :1]
     u = q[..., 1:]
     # v' = v + 2w (u × v) + 2 u × (u × v), the expanded form of q ⊗ v ⊗ q*.
@@ -90,16 +135,34 @@ def angle_between(q_a, q_b) -> np.ndarray:
     """Rotation angle (rad, in ``[0, π]``) of ``q_a* ⊗ q_b``: how far apart two orientations are.
 
     Uses ``2·atan2(‖vec‖, |w|)``, which stays accurate for small angles where ``arccos`` does not.
+    ``ValueError`` naming ``q_a`` or ``q_b`` for a wrong shape or a zero quaternion (no rotation).
     """
+    q_a = _quat_array(q_a, "q_a")
+    q_b = _quat_array(q_b, "q_b")
     d = multiply(conjugate(q_a), q_b)
-    return 2.0 * np.arctan2(np.linalg.norm(d[..., 1:], axis=-1), np.abs(d[..., 0]))
+    vec_norm, w_abs = np.linalg.norm(d[..., 1:], axis=-1), np.abs(d[..., 0])
+    zero = (vec_norm == 0.0) & (w_abs == 0.0)  # |q_a* ⊗ q_b| = |q_a|·|q_b|: zero iff one of them is
+    if np.any(zero):
+        for q, name in ((q_a, "q_a"), (q_b, "q_b")):
+            bad = ~np.broadcast_to(q, d.shape).any(axis=-1)
+            if np.any(bad):
+                index = tuple(int(i) for i in np.argwhere(bad)[0])
+                where = f" at index {index}" if index else ""
+                raise ValueError(f"{name} is a zero quaternion{where} (a zero quaternion is not a rotation)")
+    return 2.0 * np.arctan2(vec_norm, w_abs)
 
 
 def from_axis_angle(axis, angle) -> np.ndarray:
-    """Quaternion for a rotation by ``angle`` (rad) about ``axis`` (``(..., 3)``, normalised here)."""
+    """Quaternion for a rotation by ``angle`` (rad) about ``axis`` (``(..., 3)``, normalised here).
+
+    ``ValueError`` naming ``axis`` or ``angle`` on NaN/inf, a zero axis or shapes that do not
+    broadcast.
+    """
     axis = as_float_array(axis, "axis", last_dim=3)
     norm = check_nonzero_norm(axis, "axis", "a rotation axis needs a direction")
-    half = 0.5 * np.asarray(angle, dtype=float)
+    angle = as_float_array(angle, "angle", min_ndim=0)
+    _broadcast("axis[..., 0] and angle", axis.shape[:-1], angle.shape)
+    half = 0.5 * angle
     unit = axis / norm[..., None]
     return np.concatenate([np.cos(half)[..., None], np.sin(half)[..., None] * unit], axis=-1)
 
@@ -130,10 +193,17 @@ def slerp(q_a, q_b, mu) -> np.ndarray:
     -------
     numpy.ndarray, shape (..., 4)
         Unit quaternions.
+
+    Raises
+    ------
+    ValueError
+        Naming ``q_a``, ``q_b`` or ``mu``: a wrong shape, NaN/inf, a zero quaternion, ``mu``
+        outside [0, 1], or shapes that do not broadcast.
     """
-    q_a = normalize(q_a)
-    q_b = normalize(q_b)
+    q_a = _unit(q_a, "q_a")
+    q_b = _unit(q_b, "q_b")
     mu = as_float_array(mu, "mu", min_ndim=0)
+    _broadcast("q_a[..., 0], q_b[..., 0] and mu", q_a.shape[:-1], q_b.shape[:-1], mu.shape)
     if np.any((mu < 0.0) | (mu > 1.0)):
         raise ValueError("mu must lie in [0, 1]")
     dot = np.sum(q_a * q_b, axis=-1)

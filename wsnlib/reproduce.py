@@ -2,17 +2,41 @@
 
 Usage::
 
-    python -m wsnlib.reproduce [--quick] [--only PATTERN] [-p NAME VALUE ...]
+    python -m wsnlib.reproduce [--quick] [--only PATTERN] [-p NAME VALUE ...] [--cell-timeout SECONDS]
 
 Notebooks ``notebooks/NN_*.ipynb`` run in name order with the project's Jupyter kernel
 (:data:`wsnlib.paths.KERNEL_NAME`), then the solutions ``notebooks/solutions/NN_*.ipynb``
 in name order.  Executed copies go to ``build/executed/`` and ``build/executed/solutions/``
 (gitignored).  ``data/processed/manifest.json`` records, per notebook (a solutions notebook
-as ``solutions/<name>``), the parameters, the run time, the status (``ok`` / ``failed`` /
-``not run``) and every file it wrote below ``figures/``, ``data/processed/`` or
-``data/raw/`` with its SHA-256.  The manifest is written after every notebook, so an
-interrupted batch leaves a manifest that says how far it got.  On a cell error the runner
-stops, prints the notebook and the failing cell, marks the manifest and exits with status 1.
+as ``solutions/<name>``), the parameters, the run time, the status and every file it wrote
+below ``figures/``, ``data/processed/`` or ``data/raw/`` with its SHA-256:
+
+``ok``
+    every cell ran; ``outputs`` lists the files the notebook wrote.
+``failed``
+    a cell raised, or the kernel died (``error`` gives ``ename``, ``evalue`` and the cell:
+    ``cell_index`` in the executed copy and ``cell_first_line``); ``outputs`` lists every
+    file written before the failure.
+``timeout``
+    a cell ran longer than ``--cell-timeout`` seconds (default
+    :data:`DEFAULT_CELL_TIMEOUT_S`); ``error`` names the cell and the limit; ``outputs`` as
+    for ``failed``.
+``interrupted``
+    the batch received SIGINT (Ctrl-C) or SIGTERM; ``error`` names the signal and the cell
+    that was running; ``outputs`` as for ``failed``.
+``not run``
+    the batch stopped before this notebook.
+
+The manifest is written before the first notebook and after every notebook (atomically),
+so a batch that stops leaves a manifest that says how far it got.  At the first notebook
+that does not end ``ok`` the runner stops, prints the notebook and the cell, and exits with
+status 1 (``failed``, ``timeout``) or 128 + the signal number (``interrupted``).
+
+Before the batch runs, the files that the previous manifest listed for each selected
+notebook are moved aside to ``build/stale/`` (the entry's ``moved_aside`` lists them), so a
+figure or table left by an earlier run is never mistaken for a fresh one.  ``-p`` names must
+be parameters of every selected notebook (assigned in its cell tagged ``parameters``);
+anything else is refused before a notebook runs.
 
 The kernel runs with two environment variables set for the batch (and only for it):
 
@@ -23,6 +47,9 @@ The kernel runs with two environment variables set for the batch (and only for i
 ``WSNLIB_BATCH=1``
     "running unattended": code that would show interactive widgets (``wsnlib.interactive``)
     draws static figures instead.
+
+The kernel talks to the runner over local IPC sockets (in a private temporary folder), not
+TCP, so nothing listens on the network and ipykernel has no unencrypted-TCP warning to print.
 
 The manifest holds run times, so it is the one file in ``data/processed/`` that differs
 between two runs; reproducibility is judged on the hashes it lists.
@@ -35,19 +62,39 @@ import contextlib
 import fnmatch
 import json
 import os
+import shutil
+import signal
 import sys
+import tempfile
 import time
 from collections.abc import Iterator
 from pathlib import Path
 
 from wsnlib import paths
-from wsnlib._files import sha256_of
+from wsnlib._files import atomic_write_text, is_temporary, sha256_of
 
 MANIFEST_NAME = "manifest.json"
 SOLUTIONS = "solutions"
 
+#: Default limit (s) on the run time of one cell: generous (the slowest cell of a full,
+#: non-quick run takes minutes), it only stops a batch that would otherwise hang forever.
+DEFAULT_CELL_TIMEOUT_S = 3600.0
+
 #: Environment of the kernel during the batch (see the module docstring).
 BATCH_ENV = {"MPLBACKEND": "module://matplotlib_inline.backend_inline", "WSNLIB_BATCH": "1"}
+
+#: Folder (below the output root) that receives the previous outputs of a notebook about to run.
+STALE_FOLDER = Path("build") / "stale"
+
+_EXIT_FAILED = 1
+
+
+class BatchInterrupted(KeyboardInterrupt):
+    """Raised in the runner by SIGINT or SIGTERM while the batch runs."""
+
+    def __init__(self, signum: int):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
 
 
 def list_notebooks(pattern: str | None = None) -> list[Path]:
@@ -80,6 +127,50 @@ def _numbered(folder: Path, pattern: str | None) -> list[Path]:
     return found
 
 
+def notebook_parameters(notebook: Path) -> list[str]:
+    """Names assigned in ``notebook``'s cell tagged ``parameters``, in order (``[]`` if it has none).
+
+    Raises ``ValueError`` naming the notebook when that cell is not valid Python.
+    """
+    import nbformat
+
+    nb = nbformat.read(notebook, as_version=4)
+    names: list[str] = []
+    for cell in nb.cells:
+        if cell.cell_type != "code" or "parameters" not in cell.get("metadata", {}).get("tags", []):
+            continue
+        try:
+            tree = ast.parse(cell.source)
+        except SyntaxError as exc:
+            raise ValueError(f"{notebook}: the parameters cell is not valid Python ({exc})") from exc
+        for node in tree.body:
+            targets = node.targets if isinstance(node, ast.Assign) else [getattr(node, "target", None)]
+            for target in targets:
+                for name in ast.walk(target) if target is not None else ():
+                    if isinstance(name, ast.Name) and name.id not in names:
+                        names.append(name.id)
+    return names
+
+
+def check_parameters(notebooks: list[Path], parameters: dict) -> None:
+    """``ValueError`` unless every name in ``parameters`` is a parameter of every notebook.
+
+    The message names the unknown parameter, each notebook that lacks it and the parameters
+    that notebook has (papermill itself would only warn and run on).
+    """
+    problems = []
+    for notebook in notebooks:
+        known = notebook_parameters(notebook)
+        unknown = [name for name in parameters if name not in known]
+        if unknown:
+            problems.append(
+                f"{notebook_name(notebook)} has no parameter {', '.join(map(repr, unknown))}; "
+                f"its parameters are {', '.join(known) if known else '(none)'}"
+            )
+    if problems:
+        raise ValueError("unknown -p parameter: " + "; ".join(problems))
+
+
 @contextlib.contextmanager
 def _batch_environment() -> Iterator[None]:
     """Set :data:`BATCH_ENV` (the kernel inherits it) and restore the previous values after."""
@@ -93,6 +184,26 @@ def _batch_environment() -> Iterator[None]:
                 os.environ.pop(name, None)
             else:
                 os.environ[name] = value
+
+
+@contextlib.contextmanager
+def _signals_interrupt() -> Iterator[None]:
+    """Turn SIGINT and SIGTERM into :class:`BatchInterrupted` while the batch runs (main thread only)."""
+
+    def handler(signum, frame):
+        raise BatchInterrupted(signum)
+
+    saved = {}
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        try:
+            saved[signum] = signal.signal(signum, handler)
+        except ValueError:  # not the main thread: leave signals alone
+            break
+    try:
+        yield
+    finally:
+        for signum, previous in saved.items():
+            signal.signal(signum, previous)
 
 
 def parse_value(text: str):
@@ -111,18 +222,61 @@ def _files_written_since(start_ns: int) -> list[Path]:
     written = []
     for folder in _output_folders():
         for path in folder.rglob("*"):
-            if path.is_file() and path.name != MANIFEST_NAME and path.stat().st_mtime_ns >= start_ns:
+            if (path.is_file() and path.name != MANIFEST_NAME and not is_temporary(path)
+                    and path.stat().st_mtime_ns >= start_ns):
                 written.append(path)
     return sorted(written)
 
 
+def _manifest_path() -> Path:
+    return paths.data_processed() / MANIFEST_NAME
+
+
 def _write_manifest(entries: list[dict], quick: bool) -> Path:
-    manifest_path = paths.data_processed() / MANIFEST_NAME
     manifest = {"quick": quick, "kernel": paths.KERNEL_NAME, "notebooks": entries}
-    tmp = manifest_path.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n")
-    tmp.replace(manifest_path)
-    return manifest_path
+    return atomic_write_text(_manifest_path(), json.dumps(manifest, indent=2, sort_keys=True) + "\n")
+
+
+def _previous_outputs() -> dict[str, list[str]]:
+    """Output paths (relative to the output root) per notebook in the existing manifest, if any."""
+    try:
+        manifest = json.loads(_manifest_path().read_text(encoding="utf-8"))
+        return {e["notebook"]: [o["path"] for o in e.get("outputs", [])] for e in manifest["notebooks"]}
+    except (OSError, ValueError, KeyError, TypeError):
+        return {}
+
+
+def _move_aside(relative_paths: list[str]) -> list[str]:
+    """Move the listed outputs (if still there) to ``build/stale/``; return those moved."""
+    root = paths.output_root().resolve()
+    folders = [folder.resolve() for folder in _output_folders()]
+    moved = []
+    for relative in relative_paths:
+        source = (root / relative).resolve()
+        if not source.is_file() or not any(source.is_relative_to(folder) for folder in folders):
+            continue  # gone already, or not one of ours (never touch anything else)
+        target = root / STALE_FOLDER / source.relative_to(root)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        os.replace(source, target)
+        moved.append(source.relative_to(root).as_posix())
+    return moved
+
+
+def _last_started_cell(executed: Path) -> dict:
+    """Index and first line of the last cell papermill started in the executed copy ({} if unknown)."""
+    import nbformat
+
+    try:
+        nb = nbformat.read(executed, as_version=4)
+    except Exception:  # missing or half-written copy
+        return {}
+    started = [i for i, cell in enumerate(nb.cells)
+               if cell.get("metadata", {}).get("papermill", {}).get("start_time")]
+    if not started:
+        return {}
+    index = started[-1]
+    source = nb.cells[index].source
+    return {"cell_index": index, "cell_first_line": source.splitlines()[0] if source else ""}
 
 
 def _failing_cell(executed: Path) -> dict:
@@ -142,21 +296,50 @@ def _failing_cell(executed: Path) -> dict:
     return {}
 
 
-def run(notebooks: list[Path], parameters: dict, quick: bool, kernel: str = paths.KERNEL_NAME) -> int:
-    """Execute ``notebooks`` in order; return 0 if all succeeded, 1 at the first failure."""
-    with _batch_environment():
-        return _run(notebooks, parameters, quick, kernel)
+def _ipc_kernel_manager(folder: Path):
+    """A kernel manager class whose kernels use IPC sockets in ``folder`` instead of TCP."""
+    from jupyter_client.manager import AsyncKernelManager
+
+    class IPCKernelManager(AsyncKernelManager):
+        def __init__(self, **kwargs):
+            kwargs.setdefault("transport", "ipc")
+            kwargs.setdefault("ip", str(folder / "kernel"))
+            super().__init__(**kwargs)
+
+    return IPCKernelManager
 
 
-def _run(notebooks: list[Path], parameters: dict, quick: bool, kernel: str) -> int:
+def run(notebooks: list[Path], parameters: dict, quick: bool, kernel: str = paths.KERNEL_NAME,
+        cell_timeout: float = DEFAULT_CELL_TIMEOUT_S) -> int:
+    """Execute ``notebooks`` in order and write the manifest.
+
+    Returns 0 if all ran, 1 at the first failure or cell timeout, 128 + the signal number
+    when SIGINT or SIGTERM stopped the batch.
+    """
+    socket_folder = Path(tempfile.mkdtemp(prefix="wsnlib-kernel-"))
+    try:
+        with _batch_environment(), _signals_interrupt():
+            return _run(notebooks, parameters, quick, kernel, cell_timeout, socket_folder)
+    finally:
+        shutil.rmtree(socket_folder, ignore_errors=True)
+
+
+def _run(notebooks, parameters, quick, kernel, cell_timeout, socket_folder) -> int:
     import papermill
+    from nbclient.exceptions import CellTimeoutError
     from tqdm.auto import tqdm
 
+    previous = _previous_outputs()
     entries = [
         {"notebook": notebook_name(nb), "status": "not run", "parameters": {}, "seconds": None, "outputs": []}
         for nb in notebooks
     ]
+    for entry in entries:  # before anything runs: nothing stale is left to look fresh
+        moved = _move_aside(previous.get(entry["notebook"], []))
+        if moved:
+            entry["moved_aside"] = moved
     _write_manifest(entries, quick)
+    kernel_manager_class = _ipc_kernel_manager(socket_folder)
     progress = tqdm(notebooks, desc="notebooks", unit="nb", file=sys.stderr)
     for entry, notebook in zip(entries, progress, strict=True):
         progress.set_postfix_str(entry["notebook"])
@@ -166,39 +349,47 @@ def _run(notebooks: list[Path], parameters: dict, quick: bool, kernel: str) -> i
         entry["parameters"] = params
         start_ns = time.time_ns()
         started = time.perf_counter()
+        status, error, exit_code = "ok", None, 0
         try:
             papermill.execute_notebook(
                 str(notebook), str(executed), parameters=params, kernel_name=kernel,
                 cwd=str(notebook.parent), progress_bar=False, log_output=False,
+                execution_timeout=cell_timeout, kernel_manager_class=kernel_manager_class,
             )
         except papermill.PapermillExecutionError as exc:
-            entry.update(status="failed", seconds=round(time.perf_counter() - started, 1),
-                         error={"cell_index": exc.cell_index, "ename": exc.ename,
-                                "evalue": exc.evalue, **_failing_cell(executed)})
-            entry["outputs"] = _describe(_files_written_since(start_ns))
-            _write_manifest(entries, quick)
-            progress.close()
-            print(f"\nFAILED: {entry['notebook']}, cell {exc.cell_index} (execution count "
-                  f"{exc.exec_count}): {exc.ename}: {exc.evalue}\n"
-                  f"Executed copy with the traceback: {executed}", file=sys.stderr)
-            return 1
+            status, exit_code = "failed", _EXIT_FAILED
+            error = {"cell_index": exc.cell_index, "ename": exc.ename, "evalue": exc.evalue,
+                     **_failing_cell(executed)}
+        except CellTimeoutError as exc:
+            status, exit_code = "timeout", _EXIT_FAILED
+            error = {"ename": "CellTimeoutError", "evalue": f"a cell ran longer than {cell_timeout:g} s ({exc})",
+                     "timeout_s": cell_timeout, **_last_started_cell(executed)}
+        except BatchInterrupted as exc:
+            status, exit_code = "interrupted", 128 + exc.signum
+            error = {"ename": "BatchInterrupted", "evalue": f"stopped by {signal.Signals(exc.signum).name}",
+                     **_last_started_cell(executed)}
         except Exception as exc:  # kernel died, missing kernel, unreadable notebook
-            entry.update(status="failed", seconds=round(time.perf_counter() - started, 1),
-                         error={"ename": type(exc).__name__, "evalue": str(exc)})
-            _write_manifest(entries, quick)
-            progress.close()
-            print(f"\nFAILED: {entry['notebook']}: {type(exc).__name__}: {exc}", file=sys.stderr)
-            return 1
-        entry.update(status="ok", seconds=round(time.perf_counter() - started, 1),
+            status, exit_code = "failed", _EXIT_FAILED
+            error = {"ename": type(exc).__name__, "evalue": str(exc).strip(), **_last_started_cell(executed)}
+        entry.update(status=status, seconds=round(time.perf_counter() - started, 1),
                      outputs=_describe(_files_written_since(start_ns)))
+        if error is not None:
+            entry["error"] = error
         _write_manifest(entries, quick)
+        if status != "ok":
+            progress.close()
+            cell = (f", cell {error['cell_index']} of the executed copy ({error.get('cell_first_line', '')!r})"
+                    if "cell_index" in error else "")
+            print(f"\n{status.upper()}: {entry['notebook']}{cell}: {error['ename']}: {error['evalue']}\n"
+                  f"Executed copy: {executed}\nManifest: {_manifest_path()}", file=sys.stderr)
+            return exit_code
     progress.close()
     return 0
 
 
 def _describe(files: list[Path]) -> list[dict]:
     root = paths.output_root()
-    return [{"path": str(f.relative_to(root)), "sha256": sha256_of(f)} for f in files]
+    return [{"path": f.relative_to(root).as_posix(), "sha256": sha256_of(f)} for f in files if f.is_file()]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -209,17 +400,26 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("-p", "--parameter", nargs=2, action="append", default=[], metavar=("NAME", "VALUE"),
                         help="override a notebook parameter (VALUE is a Python literal); repeatable")
     parser.add_argument("--kernel", default=paths.KERNEL_NAME, help="Jupyter kernel name (default: %(default)s)")
+    parser.add_argument("--cell-timeout", type=float, default=DEFAULT_CELL_TIMEOUT_S, metavar="SECONDS",
+                        help="stop the batch when one cell runs longer than this (default: %(default)g s)")
     args = parser.parse_args(argv)
+    if args.only is not None and not args.only.strip():
+        parser.error("--only needs a non-empty PATTERN (leave --only out to run every notebook)")
+    if not args.cell_timeout > 0 or args.cell_timeout == float("inf"):
+        parser.error(f"--cell-timeout must be a positive number of seconds, got {args.cell_timeout!r}")
     notebooks = list_batch(args.only)
     if not notebooks:
         parser.error(f"no notebook matches {args.only!r} in {paths.NOTEBOOKS}")
     parameters = {name: parse_value(value) for name, value in args.parameter}
     if "quick" in parameters:
         parser.error("use --quick rather than -p quick ...")
-    status = run(notebooks, parameters, quick=args.quick, kernel=args.kernel)
+    try:
+        check_parameters(notebooks, parameters)
+    except ValueError as exc:
+        parser.error(str(exc))
+    status = run(notebooks, parameters, quick=args.quick, kernel=args.kernel, cell_timeout=args.cell_timeout)
     if status == 0:
-        print(f"Ran {len(notebooks)} notebook(s); manifest: {paths.data_processed() / MANIFEST_NAME}",
-              file=sys.stderr)
+        print(f"Ran {len(notebooks)} notebook(s); manifest: {_manifest_path()}", file=sys.stderr)
     return status
 
 

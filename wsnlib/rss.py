@@ -45,10 +45,14 @@ Packets received by no anchor leave no row (a lost reading is an absent row, not
 * ``anchors``, ``targets``: lists of names (the column orders of fingerprint vectors);
 * ``anchor_positions_m``: ``{user: {session: {anchor: [x, y, z]}}}`` in m, shoulder frame,
   or ``{}`` when not surveyed (informative: fingerprinting does not need them);
-* ``units``, ``frame``: informative text;
-* ``metadata``: free JSON object (generator, seed, user parameters, channel parameters …).
+* ``units``: exactly ``{"time": "s", "rss": "dBm", "position": "m"}`` (:data:`UNITS`; a
+  reader refuses any other unit — convert the data first); ``frame``: informative text;
+* ``metadata``: free JSON object (generator, seed, user parameters, channel parameters …);
+* ``csv_rows``, ``csv_sha256``: the CSV's data rows and SHA-256, checked by :func:`read_rss`
+  (a truncated or edited CSV is refused; a hand-made sidecar may leave both out).
 
-Written with sorted keys and two-space indent.  The sidecar is required.
+Written with sorted keys and two-space indent; both files are written atomically.  The
+sidecar is required.
 
 Fingerprint vectors
 -------------------
@@ -70,7 +74,13 @@ import numpy as np
 import pandas as pd
 
 from wsnlib._validation import check_positive
-from wsnlib.datasets import finite_column, load_sidecar, sidecar_path, write_table_with_sidecar
+from wsnlib.datasets import (
+    check_sidecar_units,
+    finite_column,
+    load_sidecar,
+    sidecar_path,
+    write_table_with_sidecar,
+)
 from wsnlib.sim.body import ANCHOR_NAMES, TARGET_NAMES
 
 FORMAT_NAME = "wsnlib-rss"
@@ -367,6 +377,7 @@ def _read_sidecar(path: Path) -> dict:
     for key in ("packet_rate_hz", "anchors", "targets"):
         if key not in meta:
             raise ValueError(f"{side}: missing key {key!r}")
+    check_sidecar_units(meta, UNITS, side)
     try:
         meta["packet_rate_hz"] = check_positive(meta["packet_rate_hz"], "packet_rate_hz")
         meta["anchors"] = list(_check_names(meta["anchors"], "anchors"))
@@ -404,7 +415,8 @@ def read_rss(path) -> tuple[pd.DataFrame, dict]:
     ValueError
         Naming the file and the column: missing/unknown/misordered columns, non-numeric,
         non-finite or non-integer values, empty names, anchors or targets not in the sidecar,
-        rows out of order, duplicated or inconsistent packets, or a bad sidecar.
+        rows out of order, duplicated or inconsistent packets, or a bad sidecar (units other
+        than :data:`UNITS`; a row count or SHA-256 that disagrees with the CSV).
     """
     path = Path(path)
     if not path.exists():

@@ -1,0 +1,287 @@
+"""A catalogue of bad inputs and faults (issue 14): each must raise a ValueError naming the
+argument, the file or the sidecar — or, for file writes, leave the old file or none.
+
+The batch runner's faults (stuck cell, dead kernel, signals, stale outputs, bad command
+lines) are in ``test_reproduce.py``; the pitch low-pass at high orders in ``test_posture.py``.
+"""
+
+import json
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+import pytest  # noqa: E402
+
+from wsnlib import _files, accel_format, fingerprint, plotting  # noqa: E402
+from wsnlib import quaternion as Q  # noqa: E402
+from wsnlib import rss as RSS  # noqa: E402
+from wsnlib.datasets import Recording, read_recording, sidecar_path, write_recording  # noqa: E402
+from wsnlib.fingerprint import KNNFingerprint, ProbabilisticKNN  # noqa: E402
+
+# --------------------------------------------------------------------------------------------
+# Quaternion helpers: wrong shapes, zero quaternions and NaN name the argument
+# --------------------------------------------------------------------------------------------
+
+IDENTITY = [1.0, 0.0, 0.0, 0.0]
+
+
+@pytest.mark.parametrize(
+    ("call", "name"),
+    [
+        (lambda: Q.rotate([1.0, 0.0, 0.0], [1.0, 0.0, 0.0]), "q"),
+        (lambda: Q.rotate(IDENTITY, [1.0, 0.0, 0.0, 0.0]), "v"),
+        (lambda: Q.rotate(np.ones((2, 4)), np.ones((3, 3))), "v"),
+        (lambda: Q.angle_between([0.0, 0.0, 0.0, 0.0], IDENTITY), "q_a"),
+        (lambda: Q.angle_between(IDENTITY, np.zeros((3, 4))), "q_b"),
+        (lambda: Q.angle_between(IDENTITY, [1.0, 0.0]), "q_b"),
+        (lambda: Q.from_axis_angle([0.0, 0.0, 1.0], np.nan), "angle"),
+        (lambda: Q.from_axis_angle([np.nan, 0.0, 1.0], 0.5), "axis"),
+        (lambda: Q.from_axis_angle(np.ones((2, 3)), np.ones(5)), "angle"),
+        (lambda: Q.slerp(np.ones((2, 4)), np.ones((3, 4)), 0.5), "q_a"),
+        (lambda: Q.slerp(IDENTITY, [1.0, 0.0, 0.0], 0.5), "q_b"),
+        (lambda: Q.slerp(np.tile(IDENTITY, (2, 1)), np.tile(IDENTITY, (2, 1)), np.full(3, 0.5)), "mu"),
+        (lambda: Q.conjugate([1.0, 0.0, 0.0]), "q"),
+        (lambda: Q.conjugate(1.0), "q"),
+        (lambda: Q.multiply(IDENTITY, [1.0, 0.0]), "q"),
+        (lambda: Q.multiply(np.ones((2, 4)), np.ones((3, 4))), "p"),
+    ],
+)
+def test_quaternion_errors_name_the_argument(call, name):
+    with pytest.raises(ValueError, match=rf"(?<![\w\[]){name}(?![\w(])"):
+        call()
+
+
+def test_quaternion_checks_leave_valid_results_alone(rng):
+    q = Q.normalize(rng.normal(size=(5, 4)))
+    v = rng.normal(size=(5, 3))
+    np.testing.assert_allclose(np.linalg.norm(Q.rotate(q, v), axis=-1), np.linalg.norm(v, axis=-1))
+    assert Q.angle_between(q, q) == pytest.approx(np.zeros(5), abs=1e-7)
+    assert Q.angle_between(q[0], -q[0]) == pytest.approx(0.0, abs=1e-7)
+
+
+# --------------------------------------------------------------------------------------------
+# Fingerprint estimators: nonsense training data is refused; predict works in chunks
+# --------------------------------------------------------------------------------------------
+
+
+def _training(rng, n_positions=6, n_anchors=5, per_position=20):
+    means = rng.uniform(-90.0, -40.0, size=(n_positions, n_anchors))
+    positions = rng.uniform(0.0, 3.0, size=(n_positions, 3))
+    X = np.repeat(means, per_position, axis=0) + rng.normal(scale=2.0, size=(n_positions * per_position, n_anchors))
+    y = np.repeat(positions, per_position, axis=0)
+    return X, y
+
+
+@pytest.mark.parametrize("cls", [KNNFingerprint, ProbabilisticKNN])
+@pytest.mark.parametrize(
+    ("edit", "match"),
+    [
+        (lambda X: np.full_like(X, np.nan), r"\bX\b has no reading"),
+        (lambda X: 10.0 ** (X / 10.0), r"\bX\b holds only readings >= 0.*mW"),  # linear power in mW
+        (lambda X: np.where(np.arange(X.size).reshape(X.shape) == 7, -1e9, X),
+         r"\bX\b .*-1e\+09 dBm at index \(1, 2\)"),
+        (lambda X: X + 200.0, r"\bX\b .*outside the plausible range \[-130, 20\] dBm"),
+    ],
+)
+def test_fit_refuses_training_data_without_usable_dbm_values(rng, cls, edit, match):
+    X, y = _training(rng)
+    with pytest.raises(ValueError, match=match):
+        cls().fit(edit(X), y)
+
+
+@pytest.mark.parametrize("cls", [KNNFingerprint, ProbabilisticKNN])
+@pytest.mark.parametrize("floor", [-1e9, 25.0, np.nan, "low"])
+def test_fit_refuses_an_implausible_floor_rss(rng, cls, floor):
+    X, y = _training(rng)
+    with pytest.raises(ValueError, match="floor_rss"):
+        cls(floor_rss=floor).fit(X, y)
+
+
+def test_a_glitch_no_longer_asks_for_a_giant_grid(rng):
+    X, y = _training(rng)
+    X[3, 1] = -1e9
+    with pytest.raises(ValueError, match=r"\bX\b"):
+        ProbabilisticKNN().fit(X, y)
+    X[3, 1] = np.nan  # a missing reading is fine
+    assert ProbabilisticKNN().fit(X, y).grid_.size < 200
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: KNNFingerprint(n_neighbors=3, power=2),
+        lambda: KNNFingerprint(n_neighbors=2, metric="manhattan", anchors=[0, 2, 3]),
+        lambda: ProbabilisticKNN(n_neighbors=3),
+        lambda: ProbabilisticKNN(n_neighbors=2, pmf="parzen", anchors=[1, 4]),
+    ],
+)
+def test_predict_in_chunks_equals_predict_at_once(rng, monkeypatch, make):
+    X, y = _training(rng)
+    online = rng.uniform(-95.0, -35.0, size=(53, X.shape[1]))
+    est = make().fit(X, y)
+    whole = est.predict(online), est.kneighbors(online)
+    proba = est.predict_log_proba(online) if isinstance(est, ProbabilisticKNN) else None
+
+    # Ask for chunks of at most 7 vectors and record the vectors each chunk holds.
+    n_fp, n_anchors = est.radio_map_.shape
+    monkeypatch.setattr(fingerprint, "_CHUNK_ELEMENTS", 7 * n_fp * n_anchors)
+    sizes = []
+    inner = type(est)._neighbors_chunk
+
+    def spy(self, chunk, k):
+        sizes.append(chunk.shape[0])
+        return inner(self, chunk, k)
+
+    monkeypatch.setattr(type(est), "_neighbors_chunk", spy)
+    chunked = est.predict(online), est.kneighbors(online)
+    assert max(sizes) == 7 and sum(sizes) == 2 * len(online)  # predict + kneighbors
+    np.testing.assert_array_equal(chunked[0], whole[0])
+    np.testing.assert_array_equal(chunked[1][0], whole[1][0])
+    np.testing.assert_array_equal(chunked[1][1], whole[1][1])
+    if proba is not None:
+        np.testing.assert_array_equal(est.predict_log_proba(online), proba)
+    assert est.predict(online[:0]).shape == (0, 3)
+
+
+def test_the_chunk_bound_keeps_a_100k_query_small():
+    """The largest intermediate (vectors x fingerprints x anchors) of a 100,000-vector query
+    over PABR's 81 positions x 12 receivers stays at _CHUNK_ELEMENTS values (32 MB)."""
+    est = KNNFingerprint()
+    est.radio_map_ = np.zeros((81, 12))
+    chunks = est._query_chunks(100_000)
+    largest = max(c.stop - c.start for c in chunks)
+    assert largest * 81 * 12 <= fingerprint._CHUNK_ELEMENTS
+    assert largest * 81 * 12 * 8 <= 40e6  # bytes per (n, L, A) float array
+    assert chunks[0].start == 0 and chunks[-1].stop == 100_000
+    assert all(a.stop == b.start for a, b in zip(chunks, chunks[1:], strict=False))
+
+
+# --------------------------------------------------------------------------------------------
+# Atomic writes
+# --------------------------------------------------------------------------------------------
+
+
+def test_atomic_path_keeps_the_old_file_when_the_writer_fails(tmp_path):
+    target = tmp_path / "table.csv"
+    target.write_text("old\n")
+    with pytest.raises(RuntimeError, match="disk full"):
+        with _files.atomic_path(target) as tmp:
+            tmp.write_text("half of a new")
+            raise RuntimeError("disk full")
+    assert target.read_text() == "old\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["table.csv"]  # no temporary file left
+    _files.atomic_write_text(target, "new\n")
+    assert target.read_text() == "new\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["table.csv"]
+    assert _files.write_csv(pd.DataFrame({"a": [1]}), tmp_path / "x.csv", index=False).read_text() == "a\n1\n"
+
+
+def test_savefig_checks_every_format_before_writing_anything(output_dir):
+    fig, ax = plt.subplots()
+    ax.plot([0, 1])
+    with pytest.raises(ValueError, match="formats"):
+        plotting.savefig(fig, "checked", formats=("png", "jpg"))
+    with pytest.raises(ValueError, match="formats"):
+        plotting.savefig(fig, "checked", formats=())
+    assert not list((output_dir / "figures").glob("*")) if (output_dir / "figures").exists() else True
+    written = plotting.savefig(fig, "checked", formats="png")
+    assert [p.name for p in written] == ["checked.png"]
+    assert sorted(p.name for p in (output_dir / "figures").iterdir()) == ["checked.png"]
+    plt.close(fig)
+
+
+# --------------------------------------------------------------------------------------------
+# Recording formats: truncated copies and foreign units are refused
+# --------------------------------------------------------------------------------------------
+
+
+def _cut_at_a_line_end(path, keep_rows):
+    lines = path.read_bytes().split(b"\n")
+    path.write_bytes(b"\n".join(lines[: 1 + keep_rows]) + b"\n")
+
+
+def _set_units(path, units):
+    side = sidecar_path(path)
+    meta = json.loads(side.read_text())
+    meta["units"] = units
+    side.write_text(json.dumps(meta))
+
+
+def _recording(rng, n=40):
+    shape = (2, n)
+    return Recording(fs=50.0, time_s=np.arange(n) / 50.0, nodes=("humerus", "forearm"),
+                     gyr=rng.normal(size=shape + (3,)), acc=rng.normal(size=shape + (3,)),
+                     mag=rng.normal(size=shape + (3,)))
+
+
+@pytest.fixture(scope="module")
+def rss_table():
+    from wsnlib.sim import body as B
+    from wsnlib.sim import radio as R
+
+    rng = np.random.default_rng(3)
+    user = B.make_users(1, rng=rng)[0]
+    return R.simulate_rss(B.hold("P1", 2.0), user, rng=rng, session="training")
+
+
+def _acc_table(n=20):
+    time_s = np.repeat(np.arange(n) / 30.0, 2)
+    return pd.DataFrame({
+        "time_s": time_s, "user": "U1", "session": "online_dynamic", "target": ["T1", "T2"] * n,
+        "label": "P1", "acc_x_m_s2": 0.1, "acc_y_m_s2": 0.2, "acc_z_m_s2": 9.8,
+    })
+
+
+def _writers(rng, rss_table, tmp_path):
+    return {
+        "recording": (write_recording(_recording(rng), tmp_path / "rec.csv"), read_recording),
+        "rss": (RSS.write_rss(rss_table, tmp_path / "rss.csv", packet_rate_hz=30.0), RSS.read_rss),
+        "acc": (accel_format.write_acc(_acc_table(), tmp_path / "acc.csv", rate_hz=30.0), accel_format.read_acc),
+    }
+
+
+@pytest.mark.parametrize("kind", ["recording", "rss", "acc"])
+def test_a_copy_cut_at_a_line_end_is_refused(rng, rss_table, tmp_path, kind):
+    path, read = _writers(rng, rss_table, tmp_path)[kind]
+    meta = json.loads(sidecar_path(path).read_text())
+    assert meta["csv_rows"] == len(path.read_text().splitlines()) - 1
+    read(path)  # the intact file reads
+    _cut_at_a_line_end(path, keep_rows=meta["csv_rows"] // 3)
+    with pytest.raises(ValueError, match=rf"has {meta['csv_rows'] // 3} data rows but its sidecar .* says "
+                                         rf"{meta['csv_rows']}") as info:
+        read(path)
+    assert str(path) in str(info.value)
+
+
+@pytest.mark.parametrize("kind", ["recording", "rss", "acc"])
+def test_an_edited_copy_is_refused_by_its_checksum(rng, rss_table, tmp_path, kind):
+    path, read = _writers(rng, rss_table, tmp_path)[kind]
+    text = path.read_text()
+    last_digit = max(i for i, c in enumerate(text) if c in "12345678")
+    path.write_text(text[:last_digit] + str(int(text[last_digit]) + 1) + text[last_digit + 1:])
+    with pytest.raises(ValueError, match="SHA-256") as info:
+        read(path)
+    assert str(path) in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("kind", "units", "key"),
+    [
+        ("rss", {"time": "s", "rss": "mW", "position": "m"}, "rss"),
+        ("rss", {"time": "s", "rss": "dBm", "position": "cm"}, "position"),
+        ("rss", None, "units"),
+        ("acc", {"time": "s", "acc": "g"}, "acc"),
+        ("acc", {"time": "ms", "acc": "m/s^2 (specific force)"}, "time"),
+        ("recording", {"time": "s", "gyr": "deg/s", "acc": "m/s^2", "mag": "uT"}, "gyr"),
+    ],
+)
+def test_readers_refuse_undocumented_units(rng, rss_table, tmp_path, kind, units, key):
+    path, read = _writers(rng, rss_table, tmp_path)[kind]
+    _set_units(path, units)
+    with pytest.raises(ValueError, match="units") as info:
+        read(path)
+    assert sidecar_path(path).name in str(info.value)
+    assert repr(key) in str(info.value) or key == "units"
