@@ -240,11 +240,8 @@ def check_usable(signals: dict[str, np.ndarray], received: np.ndarray | None) ->
         mask = np.ones(n_t, dtype=bool) if received is None else received
         batch = np.broadcast_shapes(arr.shape[:-2], mask.shape[:-1])
         result = np.empty((int(np.prod(batch, dtype=np.int64)), 2), dtype=np.int64)
-        if result.shape[0] == 1:  # one stream: no thread start-up
-            result[0] = K.first_unusable_stream(flat(arr, 2)[0], flat(mask, 1)[0], name != "gyr")
-        else:
-            K.first_unusable(flat(arr, 2), index_into(arr.shape[:-2], batch), flat(mask, 1),
-                             index_into(mask.shape[:-1], batch), name != "gyr", result)
+        K.first_unusable(flat(arr, 2), index_into(arr.shape[:-2], batch), flat(mask, 1),
+                         index_into(mask.shape[:-1], batch), name != "gyr", result)
         bad = np.flatnonzero(result[:, 0] >= 0)
         if bad.size:
             b = int(bad[0])

@@ -517,8 +517,11 @@ def first_unusable_stream(x, rx, check_zero):
     return -1, 0
 
 
-@njit(parallel=True, **COMPILE)
+@njit(**COMPILE)
 def first_unusable(arr, i_arr, received, i_rx, check_zero, out):
-    """:func:`first_unusable_stream` of ``arr[i_arr[b]]`` under ``received[i_rx[b]]`` into ``out[b]``."""
-    for b in prange(out.shape[0]):
+    """:func:`first_unusable_stream` of ``arr[i_arr[b]]`` under ``received[i_rx[b]]`` into ``out[b]``.
+
+    Serial: a check reads each sample once and costs far less than starting threads for it.
+    """
+    for b in range(out.shape[0]):
         out[b, 0], out[b, 1] = first_unusable_stream(arr[i_arr[b]], received[i_rx[b]], check_zero)
