@@ -1,7 +1,7 @@
 import numpy as np
 
 from wsnlib import loss, metrics
-from wsnlib.orientation import madgwick
+from wsnlib.orientation import fusion_ahrs, madgwick, vqf_orientation
 from wsnlib.orientation.compare import OUR_METHODS, PEER_ESTIMATORS, SINGLE_FRAME, run_estimators
 from wsnlib.sim import arm_extension, arm_kinematics, simulate_imu
 
@@ -26,3 +26,17 @@ def test_every_estimator_runs_on_the_same_masks(rng):
         err = {k: metrics.orientation_error_deg(out[k][1, first_after], truth.quat[0, first_after])
                for k in (library, f"{library} + hybrid (feedback)")}
         assert err[f"{library} + hybrid (feedback)"] < err[library]
+
+
+def test_output_hybrids_equal_the_wrappers_own_output_stage(rng):
+    # run_estimators blends the plain peer output instead of running the peer a second time.
+    truth = arm_kinematics(arm_extension(duration_s=4.0))
+    gyr, acc, mag = (x[0, 0] for x in simulate_imu(truth, rng=rng, n_runs=1))
+    n = gyr.shape[0]
+    masks = np.stack([loss.burst_mask(n, 60, 4), loss.burst_mask(n, 20, 8)])
+    setting = {"rho": 3.0, "tau": 6.0, "schedule": "decay", "blend": "output"}
+    out = run_estimators(gyr, acc, mag, fs=50.0, beta=0.041, received=masks, hybrid=setting)
+    per_mask = [np.broadcast_to(x, masks.shape + (3,)) for x in (gyr, acc, mag)]
+    for library, run in (("Fusion", fusion_ahrs), ("VQF", vqf_orientation)):
+        direct = run(*per_mask, fs=50.0, received=masks, hybrid="output", rho=3.0, tau=6.0, schedule="decay")
+        np.testing.assert_array_equal(out[f"{library} + hybrid (output)"], direct)

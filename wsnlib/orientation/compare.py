@@ -12,7 +12,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from wsnlib.loss import hold_last
-from wsnlib.orientation.loss_handling import estimate_orientation
+from wsnlib.orientation.loss_handling import blend_with_single_frame, estimate_orientation
 from wsnlib.orientation.peers import fusion_ahrs, vqf_orientation
 from wsnlib.orientation.triad import triad
 
@@ -73,8 +73,11 @@ def run_estimators(gyr, acc, mag, *, fs: float, beta: float, received, hybrid: d
             results[name] = hold_last(triad(acc, mag), received)
         else:
             library, _, variant = name.partition(" + hybrid ")
-            run = fusion_ahrs if library == "Fusion" else vqf_orientation
             mode = variant.strip("()") or None
+            if mode == "output":  # an output stage on the plain filter's output: no second run
+                results[name] = blend_with_single_frame(results[library], acc, mag, received, **shape)
+                continue
+            run = fusion_ahrs if library == "Fusion" else vqf_orientation
             extra = shape if mode else {}
             per_mask = [np.broadcast_to(x, received.shape + (3,)) for x in (gyr, acc, mag)]
             results[name] = run(*per_mask, fs=fs, received=received, hybrid=mode, **extra)
