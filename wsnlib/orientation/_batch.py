@@ -20,6 +20,8 @@ from wsnlib.orientation import _kernels as K
 FS_RANGE = (1e-6, 1e9)
 #: Largest gain β (rad/s) accepted (a step of β·Δt per sample; useful values are below 10).
 BETA_LIMIT = 1e6
+#: Above this many samples the received-sample check runs in parallel.
+PARALLEL_CHECK_SAMPLES = 2**22
 #: Share of the memory available now that one call may take for its output.
 MEMORY_SHARE = 0.8
 
@@ -240,8 +242,9 @@ def check_usable(signals: dict[str, np.ndarray], received: np.ndarray | None) ->
         mask = np.ones(n_t, dtype=bool) if received is None else received
         batch = np.broadcast_shapes(arr.shape[:-2], mask.shape[:-1])
         result = np.empty((int(np.prod(batch, dtype=np.int64)), 2), dtype=np.int64)
-        K.first_unusable(flat(arr, 2), index_into(arr.shape[:-2], batch), flat(mask, 1),
-                         index_into(mask.shape[:-1], batch), name != "gyr", result)
+        check = K.first_unusable_parallel if result.shape[0] * n_t > PARALLEL_CHECK_SAMPLES else K.first_unusable
+        check(flat(arr, 2), index_into(arr.shape[:-2], batch), flat(mask, 1), index_into(mask.shape[:-1], batch),
+              name != "gyr", result)
         bad = np.flatnonzero(result[:, 0] >= 0)
         if bad.size:
             b = int(bad[0])
