@@ -186,3 +186,18 @@ def test_gap_prediction_arguments_are_checked(data):
         out = estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, received=received, method=method,
                                    gap="constant_rate", blend="feedback")
         assert np.all(np.isfinite(out))
+
+
+@pytest.mark.parametrize("threshold", [0, 2**40])
+def test_the_parallel_and_serial_checks_report_the_same_sample(data, monkeypatch, threshold):
+    from wsnlib.orientation import _batch
+
+    monkeypatch.setattr(_batch, "PARALLEL_CHECK_SAMPLES", threshold)
+    gyr, acc, mag, received = data
+    masks = np.stack([received] * 5)
+    bad = np.repeat(acc[None], 5, axis=0)
+    t = int(np.flatnonzero(received)[10])
+    bad[3, t] = 0.0
+    bad[4, t - 1] = np.nan  # a later batch element: the first in (batch..., t) order is reported
+    with pytest.raises(ValueError, match=rf"acc is a zero vector at received sample \(batch..., t\) = \(3, {t}\)"):
+        estimate_orientation(gyr, bad, mag, fs=FS, beta=0.1, received=masks)
