@@ -292,3 +292,135 @@ def test_precision_at_accuracy_is_the_empirical_cdf(rng):
         metrics.precision_at_accuracy([0.1, np.nan], grid)
     with pytest.raises(ValueError, match="accuracies"):
         metrics.precision_at_accuracy(errors, [np.nan])
+
+
+# --- Smoothness split, quantile and phases (issue 12) ---------------------------------------
+
+
+def _gappy_trace():
+    """A smooth sine with two gaps during which the output is held, so each gap ends in a step."""
+    fs = 50.0
+    t = np.arange(300) / fs
+    truth = 20.0 * np.sin(2 * np.pi * 0.5 * t)
+    received = np.ones(300, dtype=bool)
+    received[100:120] = False
+    received[200:210] = False
+    held = truth.copy()
+    for start, stop in ((100, 120), (200, 210)):
+        held[start:stop] = truth[start - 1]
+    return fs, truth, held, received
+
+
+def test_gap_end_mask_marks_first_received_sample_after_each_gap():
+    received = np.array([False, False, True, True, False, True, False])
+    assert np.flatnonzero(metrics.gap_end_mask(received)).tolist() == [2, 5]  # the open gap at the end: none
+    assert not metrics.gap_end_mask(np.ones(5, dtype=bool)).any()
+    with pytest.raises(ValueError, match="received"):
+        metrics.gap_end_mask(np.array([1, 0, 1]))
+
+
+def test_gap_end_steps_recover_planted_steps():
+    fs, truth, held, received = _gappy_trace()
+    steps = metrics.gap_end_steps_deg(held, received)
+    planted = [abs(truth[119 + 1] - truth[99]), abs(truth[209 + 1] - truth[199])]
+    assert steps["step_deg"][steps["gap_end"]] == pytest.approx(planted)
+    assert steps["n_gaps"] == 2
+    assert steps["max_deg"] == pytest.approx(max(planted))
+    assert steps["mean_deg"] == pytest.approx(np.mean(planted))
+    # No gap: no step, explicitly zero with n_gaps 0; batches keep their shape.
+    batch = metrics.gap_end_steps_deg(np.stack([held, truth]), np.stack([received, np.ones(300, bool)]))
+    assert batch["n_gaps"].tolist() == [2, 0] and batch["max_deg"][1] == 0.0
+
+
+def test_quaternion_gap_end_steps_match_the_angle_version():
+    fs, truth, held, received = _gappy_trace()
+    quat = Q.from_axis_angle([0.0, 1.0, 0.0], np.radians(held))
+    ours = metrics.quat_gap_end_steps_deg(quat, received)
+    assert ours["step_deg"] == pytest.approx(metrics.gap_end_steps_deg(held, received)["step_deg"], abs=1e-6)
+
+
+def test_jitter_excludes_the_gap_end_step_but_jerk_does_not():
+    fs, truth, _, received = _gappy_trace()
+    # During each gap the estimate drifts away smoothly (quadratic, no kink) and snaps back
+    # at the gap's end: one planted step per gap, nothing else rough.
+    drifting = truth.copy()
+    for start, stop in ((100, 120), (200, 210)):
+        drifting[start:stop] += 10.0 * (np.arange(1, stop - start + 1) / (stop - start)) ** 2
+    steps = metrics.gap_end_steps_deg(drifting - truth, received)
+    assert steps["step_deg"][steps["gap_end"]] == pytest.approx([10.0, 10.0])
+    smooth = metrics.angle_jerk_rms_deg(truth, fs)
+    jerk = metrics.angle_jerk_rms_deg(drifting, fs)
+    jitter = metrics.angle_jitter_rms_deg(drifting, fs, received)
+    assert jerk > 100 * smooth            # the two steps dominate the whole-record jerk
+    assert jitter < 3 * smooth            # without them the trace is about as smooth as the truth
+    # Without loss, jitter is the jerk.
+    assert metrics.angle_jitter_rms_deg(truth, fs, np.ones(300, bool)) == pytest.approx(smooth)
+    # A noisy record stays noisy: the jitter is not blind.
+    noisy = drifting + np.random.default_rng(0).normal(scale=0.5, size=300)
+    assert metrics.angle_jitter_rms_deg(noisy, fs, received) > 30 * jitter
+
+
+def test_quaternion_jitter_matches_the_angle_version_for_one_axis():
+    fs, truth, held, received = _gappy_trace()
+    quat = Q.from_axis_angle([0.0, 1.0, 0.0], np.radians(held))
+    assert metrics.angular_jitter_rms_deg(quat, fs, received) == pytest.approx(
+        metrics.angle_jitter_rms_deg(held, fs, received), rel=1e-6)
+    assert metrics.angular_jitter_rms_deg(quat, fs, np.ones(300, bool)) == pytest.approx(
+        metrics.angular_jerk_rms_deg(quat, fs), rel=1e-9)
+
+
+def test_jitter_raises_when_no_window_is_free():
+    received = np.array([True, False, True, False, True, False, True])
+    with pytest.raises(ValueError, match="no jerk window"):
+        metrics.angle_jitter_rms_deg(np.arange(7.0), 50.0, received)
+
+
+def test_quantile_error_is_stable_where_the_maximum_shrinks():
+    rng = np.random.default_rng(3)
+    error = np.abs(rng.normal(size=(1, 20000)))
+    received = rng.random(error.shape) < 0.02      # 98 % random loss: 400 samples left
+    # The maximum over fewer samples is smaller, though nothing got better ...
+    assert metrics.max_abs_error(error, where=received) < metrics.max_abs_error(error) - 0.5
+    # ... while the 95th percentile estimates the same number (1.96 for |N(0, 1)|) either way.
+    q_all = metrics.quantile_error(error, 0.95)
+    assert q_all == pytest.approx(1.96, abs=0.05)
+    assert metrics.quantile_error(error, 0.95, where=received) == pytest.approx(q_all, abs=0.2)
+    assert metrics.quantile_error(error, 1.0) == pytest.approx(metrics.max_abs_error(error))
+    with pytest.raises(ValueError, match="no sample counts"):
+        metrics.quantile_error(error, where=np.zeros(error.shape, bool))
+    with pytest.raises(ValueError, match="q must"):
+        metrics.quantile_error(error, q=95)
+
+
+def test_error_by_phase_on_a_planted_trace():
+    fs = 10.0
+    received = np.ones(60, dtype=bool)
+    received[10:20] = False                        # gap: error 6
+    error = np.full(60, 1.0)                       # steady: error 1
+    error[10:20] = 6.0
+    error[20:25] = 3.0                             # 0.5 s after the gap: error 3
+    error[25:30] = -3.0
+    phases = metrics.error_by_phase(error, received, fs, after_s=1.0)
+    assert phases["lost"] == pytest.approx(6.0) and phases["n_lost"] == 10
+    assert phases["after_gap"] == pytest.approx(3.0) and phases["n_after_gap"] == 10
+    assert phases["steady"] == pytest.approx(1.0) and phases["n_steady"] == 40
+    mean = metrics.error_by_phase(error, received, fs, after_s=0.5, statistic="mean")
+    assert mean["after_gap"] == pytest.approx(3.0) and mean["n_after_gap"] == 5
+    assert mean["steady"] == pytest.approx((40 * 1.0 + 5 * 3.0) / 45) and mean["n_steady"] == 45
+    # No loss: explicit NaN with count 0; NaN errors (no reference) skipped.
+    clean = metrics.error_by_phase(np.r_[np.nan, np.ones(9)], np.ones(10, bool), fs)
+    assert np.isnan(clean["lost"]) and clean["n_lost"] == 0 and clean["n_steady"] == 9
+    with pytest.raises(ValueError, match="statistic"):
+        metrics.error_by_phase(error, received, fs, statistic="max")
+    with pytest.raises(ValueError, match="received"):
+        metrics.error_by_phase(error, received[:10], fs)
+
+
+def test_extended_figures_of_merit():
+    fs, truth, held, received = _gappy_trace()
+    error = held - truth
+    foms = metrics.loss_figures_of_merit(error, fs=fs, received=received, extended=True)
+    assert foms[metrics.GAP_STEP_MAX] == pytest.approx(metrics.gap_end_steps_deg(error, received)["max_deg"])
+    assert foms[metrics.JITTER] < foms[metrics.JERK] / 10
+    assert foms[metrics.P95_ERROR] <= foms[metrics.MAX_ERROR]
+    assert metrics.GAP_STEP_MAX not in metrics.loss_figures_of_merit(error, fs=fs, received=received)

@@ -8,6 +8,7 @@ import pytest
 from wsnlib.sim.optical import (
     PAPER_CAMERA_DISTANCE_M,
     KinectModel,
+    hand_derived_reference,
     kinect_errors,
     kinect_frame_times,
     kinect_target_positions,
@@ -326,3 +327,68 @@ def test_frame_count_rejects_bad_input():
         n_kinect_frames(0, 30.0)
     with pytest.raises(ValueError, match="fs"):
         kinect_frame_times(10, 0.0)
+
+
+# --- paper 002's hand-derived reference --------------------------------------------------------
+
+
+def _arc_rows(n_movements=40, n_rows=60):
+    """Both targets on a straight arm sweeping 90° in each movement, 30 rows per second."""
+    angle = np.linspace(0.0, np.pi / 2, n_rows)
+    direction = np.stack([np.zeros_like(angle), np.sin(angle), -np.cos(angle)], axis=-1)
+    one = np.stack([0.15 * direction, 0.45 * direction], axis=1)                  # (n_rows, 2, 3)
+    truth = np.concatenate([one] * n_movements)
+    movement = np.repeat(np.arange(1, n_movements + 1), n_rows)
+    time_s = np.tile(np.arange(n_rows) / 30.0, n_movements) + np.repeat(np.arange(n_movements) * 10.0, n_rows)
+    return truth, movement, time_s
+
+
+def test_hand_derived_reference_zero_error_and_determinism():
+    truth, movement, time_s = _arc_rows(3)
+    rng = np.random.default_rng(1)
+    exact = hand_derived_reference(truth, movement, time_s, rng=rng, rotation_std_deg=0.0, timing_std_s=0.0)
+    np.testing.assert_array_equal(exact, truth)
+    a = hand_derived_reference(truth, movement, time_s, rng=np.random.default_rng(2))
+    b = hand_derived_reference(truth, movement, time_s, rng=np.random.default_rng(2))
+    np.testing.assert_array_equal(a, b)
+    assert a.shape == truth.shape and not np.allclose(a, truth)
+    # (n, 3) input works too and gives the same rows as the first target of (n, J, 3).
+    single = hand_derived_reference(truth[:, 0], movement, time_s, rng=np.random.default_rng(2))
+    np.testing.assert_allclose(single, a[:, 0], atol=1e-15)
+
+
+def test_hand_derived_reference_error_sizes():
+    truth, movement, time_s = _arc_rows(400)
+    # Posture only: a rotation ~ N(0, σ² I) moves a point at radius r by |ω × p|, RMS √2·σ·r,
+    # and keeps its distance from the shoulder.
+    rotated = hand_derived_reference(truth, movement, time_s, rng=np.random.default_rng(3),
+                                     rotation_std_deg=3.0, timing_std_s=0.0)
+    error = np.linalg.norm(rotated - truth, axis=-1)
+    rms = np.sqrt(np.mean(error**2, axis=0))
+    np.testing.assert_allclose(rms, math.sqrt(2) * math.radians(3.0) * np.array([0.15, 0.45]), rtol=0.1)
+    np.testing.assert_allclose(np.linalg.norm(rotated, axis=-1), np.linalg.norm(truth, axis=-1))
+    # Timing only: the reference runs along the arc (same radius), ahead or behind.
+    shifted = hand_derived_reference(truth, movement, time_s, rng=np.random.default_rng(3),
+                                     rotation_std_deg=0.0, timing_std_s=0.1)
+    np.testing.assert_allclose(np.linalg.norm(shifted, axis=-1), np.linalg.norm(truth, axis=-1), rtol=2e-3)
+    speed = 0.45 * (np.pi / 2) / (59 / 30.0)                                        # m/s of the forearm target
+    along = np.sqrt(np.mean(np.linalg.norm(shifted - truth, axis=-1)[:, 1] ** 2))
+    assert 0.3 * 0.1 * speed < along < 1.1 * 0.1 * speed                             # ends are held: a bit less
+    # Default: "a few centimetres" at the forearm target.
+    both = hand_derived_reference(truth, movement, time_s, rng=np.random.default_rng(3))
+    assert 0.02 < np.sqrt(np.mean(np.linalg.norm(both - truth, axis=-1)[:, 1] ** 2)) < 0.06
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"movement": np.ones(5)}, "movement"),
+    ({"time_s": np.zeros(4)}, "time_s"),
+    ({"rotation_std_deg": -1.0}, "rotation_std_deg"),
+    ({"rng": 0}, "rng"),
+    ({"true_positions": np.zeros((5, 2))}, "true_positions"),
+    ({"time_s": np.array([0.0, 1.0, 0.5, 2.0, 3.0])}, "non-decreasing"),
+])
+def test_hand_derived_reference_rejects_bad_input(kwargs, match):
+    args = {"true_positions": np.ones((5, 3)), "movement": np.ones(5, dtype=int), "time_s": np.arange(5.0),
+            "rng": np.random.default_rng(0), **kwargs}
+    with pytest.raises(ValueError, match=match):
+        hand_derived_reference(args.pop("true_positions"), args.pop("movement"), args.pop("time_s"), **args)

@@ -23,6 +23,7 @@ from wsnlib.optimize import (
     average_over_users,
     best_global,
     best_per_movement,
+    coupled_selection_regret,
     evaluate_setting,
     format_subset,
     held_out_gap,
@@ -31,6 +32,7 @@ from wsnlib.optimize import (
     proximal_from_selection,
     search,
     select_settings,
+    selection_regret,
     union_of_subsets,
 )
 from wsnlib.posture import ArmChain, recursive_chain
@@ -599,3 +601,104 @@ def test_selection_and_setting_errors(users):
         held_out_gap(res, first=(1, 2), second=(2, 3))
     with pytest.raises(ValueError, match="no movement"):
         held_out_gap(res, first=(1,), second=(9,))
+
+
+# --- selection regret with swapped folds, and target 2 without the leak ----------------------
+
+
+def test_regret_is_nonnegative_per_fold_on_a_planted_example():
+    """Settings equal up to noise: choosing on one half cannot beat the other half's own best."""
+    rng = np.random.default_rng(17)
+    pe = 10.0 + rng.normal(0.0, 2.0, (300, 8, 5))
+    pe[:, 4:] += 1.5                     # the second repetition is harder: an unswapped gap misleads
+    res = _fake_results(pe)
+    units = selection_regret(res, by_unit=True)
+    per_fold = units.groupby(["split", "selection", "fold"])["regret_cm"].mean()
+    assert (per_fold >= -1e-12).all()
+    assert len(per_fold) == 2 * 2 + 5 * 2            # two swapped repetition folds, five held-out users
+    summary = selection_regret(res).loc["probabilistic"]
+    assert list(summary.columns) == ["in_sample_cm", "out_of_sample_cm", "oracle_cm", "regret_cm", "regret_se_cm",
+                                     "optimism_cm", "optimism_se_cm", "n_folds", "n_units"]
+    assert (summary["regret_cm"] > 0.5).all()       # pure noise: choosing is all luck
+    assert (summary["regret_se_cm"] > 0).all() and (summary["n_units"] == 5).all()
+    rep = summary.loc["repetition"]
+    # Swapped folds: mean in-sample = mean oracle, so optimism = regret (>= 0) ...
+    np.testing.assert_allclose(rep["optimism_cm"], rep["regret_cm"], atol=1e-9)
+    # ... while one unswapped fold (the old held_out_gap) is off by the halves' difficulty.
+    old = held_out_gap(res).loc[("probabilistic", "repetition")]
+    assert (old["gap_cm"] > rep["optimism_cm"] + 1.0).all()
+    # Hand check of one fold: global rule, select on movements 5-8, score on 1-4.
+    mean = pe.mean(axis=2)
+    pick, oracle = np.argmin(mean[:, 4:].mean(axis=1)), np.argmin(mean[:, :4].mean(axis=1))
+    fold = units[(units["split"] == "repetition") & (units["selection"] == "global")
+                 & (units["fold"] == "select on movements {5, 6, 7, 8}")]
+    np.testing.assert_allclose(fold["out_of_sample_cm"], pe[pick, :4].mean(axis=0))
+    np.testing.assert_allclose(fold["regret_cm"], pe[pick, :4].mean(axis=0) - pe[oracle, :4].mean(axis=0))
+    np.testing.assert_allclose(fold["in_sample_cm"], pe[pick, 4:].mean(axis=0))
+
+
+def test_regret_is_small_when_one_setting_is_truly_best():
+    rng = np.random.default_rng(18)
+    pe = 10.0 + rng.normal(0.0, 0.5, (300, 8, 5))
+    pe[42] -= 3.0
+    summary = selection_regret(_fake_results(pe))
+    assert (summary["regret_cm"].abs() < 1e-9).all()  # every fold picks 42, the test data's best too
+    assert (summary["out_of_sample_cm"] < 7.8).all()
+
+
+def test_regret_bad_input():
+    res = _fake_results(np.ones((3, 8, 2)))
+    with pytest.raises(ValueError, match="splits"):
+        selection_regret(res, splits=("bootstrap",))
+    with pytest.raises(ValueError, match="overlap"):
+        selection_regret(res, first=(1, 2), second=(2, 3))
+    with pytest.raises(ValueError, match="no movement"):
+        selection_regret(res, first=(1,), second=(9,))
+    with pytest.raises(ValueError, match="at least 2 users"):
+        selection_regret(_fake_results(np.ones((3, 8, 1))), splits="leave-one-user-out")
+
+
+def test_coupled_regret_takes_target2_elbow_from_the_selection_half(rng):
+    """Target 1's choice depends on the half; target 2's held-out figures must use that choice."""
+    users1, users2 = [], []
+    for _ in range(2):
+        maps = rng.normal(-65.0, 10.0, size=(5, 7))
+        users1.append(make_user(rng, samples=(10,) * 8, noise_db=6.0, repeat_after=4, radio_map=maps))
+        users2.append(make_user(rng, samples=(10,) * 8, noise_db=6.0, repeat_after=4, segment=1,
+                                proximal=np.zeros(3)))
+    tables = paper_tables(users1, users2, grid=SMALL, approaches="deterministic")
+    res1 = tables.target1
+    units = coupled_selection_regret(users1, users2, grid=SMALL, approaches="deterministic", splits="repetition",
+                                     results1=res1, by_unit=True)
+    # Target 1's global choice on movements 1-4 differs from the choice on all data (the leak's source).
+    first_half = select_settings(res1[res1["movement"] <= 4], per_movement=False).iloc[0]
+    on_all = tables.selection3[tables.selection3["target"] == 1].iloc[0]
+    assert first_half["config"] != on_all["config"]
+    # Rebuild the fold by hand: elbow from target 1's first-half choice, search target 2, select on 1-4.
+    setting = Setting.from_row(first_half)
+    elbows = [evaluate_setting(u, setting)["joints"] for u in users1]
+    res2 = search([u.with_proximal(e) for u, e in zip(users2, elbows, strict=True)], grid=SMALL,
+                  approaches="deterministic")
+    pick = select_settings(res2[res2["movement"] <= 4], per_movement=False).iloc[0]
+    second = res2[(res2["movement"] >= 5) & (res2["config"] == pick["config"])]
+    want = second.groupby("user")["pe_cm"].mean().to_numpy()
+    got = units[(units["target"] == 2) & (units["selection"] == "global")
+                & (units["fold"] == "select on movements {1, 2, 3, 4}")].sort_values("unit")
+    np.testing.assert_allclose(got["out_of_sample_cm"], want, atol=1e-9)
+    # The leaky version (elbow from the all-data choice) gives other numbers.
+    leaky = tables.target2_global
+    leaky_pick = select_settings(leaky[leaky["movement"] <= 4], per_movement=False).iloc[0]
+    leaky_out = leaky[(leaky["movement"] >= 5) & (leaky["config"] == leaky_pick["config"])]
+    assert not np.allclose(leaky_out.groupby("user")["pe_cm"].mean().to_numpy(), want)
+    # Regret >= 0 per fold for both targets; summary has both targets.
+    per_fold = units.groupby(["target", "selection", "fold"])["regret_cm"].mean()
+    assert (per_fold >= -1e-9).all()
+    summary = coupled_selection_regret(users1, users2, grid=SMALL, approaches="deterministic",
+                                       splits="repetition", results1=res1)
+    assert summary.index.names == ["target", "approach", "split", "selection"]
+    assert set(summary.index.get_level_values("target")) == {1, 2}
+    # Without results1 the target-1 search is done here, with the same outcome.
+    pd.testing.assert_frame_equal(summary, coupled_selection_regret(
+        users1, users2, grid=SMALL, approaches="deterministic", splits="repetition"))
+    mov_units = units[(units["target"] == 2) & (units["selection"] == "per_movement")]
+    assert len(mov_units) == 2 * 2

@@ -51,6 +51,9 @@ def test_selected_errors_reproduce_the_tables(campaign):
     expected = np.mean(np.mean(per_movement_means, axis=1))
     assert expected == pytest.approx(float(row["pe_cm"].iloc[0]), rel=1e-9)
     assert kinect_errors(inputs)["T2"].shape == errors["T2"].shape
+    # Per-row user labels, in the users' order, for intervals over users.
+    assert errors["user"].tolist() == sum(([u] * s for u, s in zip(users, sizes, strict=True)), [])
+    np.testing.assert_array_equal(kinect_errors(inputs)["user"], errors["user"])
 
 
 def test_pitch_errors_are_small_at_rest(campaign):
@@ -72,3 +75,80 @@ def test_true_joints_of_the_straight_arm_contain_both_targets(campaign):
     a, b = joints["elbow"], joints["wrist"]
     cross = np.linalg.norm(np.cross(b - a, t2 - a), axis=1) / np.linalg.norm(b - a, axis=1)
     assert np.median(cross) < 0.02
+
+
+def test_reference_error_moves_every_system_against_the_same_reference(campaign):
+    from wsnlib.posture_study import kinect_errors, with_reference_error
+
+    inputs = study_inputs(campaign)
+    same = with_reference_error(inputs, rng=np.random.default_rng(0), rotation_std_deg=0.0, timing_std_s=0.0)
+    for user in inputs.target1:
+        np.testing.assert_array_equal(same.target1[user].true_positions, inputs.target1[user].true_positions)
+    for key in ("T1", "T2"):
+        np.testing.assert_array_equal(kinect_errors(same)[key], kinect_errors(inputs)[key])
+    noisy = with_reference_error(inputs, rng=np.random.default_rng(1))
+    again = with_reference_error(inputs, rng=np.random.default_rng(1))
+    for user in inputs.target1:
+        for target in ("target1", "target2"):
+            ref = getattr(noisy, target)[user].true_positions
+            np.testing.assert_array_equal(ref, getattr(again, target)[user].true_positions)
+            assert ref.shape == getattr(inputs, target)[user].true_positions.shape
+        # Only the reference changes: RSS, pitch and Kinect are the same objects' values.
+        np.testing.assert_array_equal(noisy.target1[user].online_rss, inputs.target1[user].online_rss)
+        np.testing.assert_array_equal(noisy.kinect[user], inputs.kinect[user])
+    # The Kinect scored against a noisy reference looks worse, by "a few centimetres" at most.
+    clean, dirty = kinect_errors(inputs)["T2"].mean(), kinect_errors(noisy)["T2"].mean()
+    assert clean < dirty < clean + 6.0
+    with pytest.raises(ValueError, match="StudyInputs"):
+        with_reference_error({"U1": None}, rng=np.random.default_rng(0))
+
+
+def test_perturbed_channel_ranges():
+    from wsnlib.posture_study import RADIO_ASSUMPTIONS, perturbed_channel
+    from wsnlib.sim.radio import RadioChannel
+
+    nominal = RadioChannel()
+    assert perturbed_channel({}) == nominal
+    assert perturbed_channel({name: 0.0 for name, _, _ in RADIO_ASSUMPTIONS}) == nominal
+    high = perturbed_channel({"creeping_db_per_cm": 1.0, "onbody_los.exponent": -1.0, "link_loss_rate": 1.0,
+                              "antenna_floor_db": 1.0, "sensitivity_dbm": 1.0})
+    assert high.creeping_db_per_cm == pytest.approx(1.5 * nominal.creeping_db_per_cm)
+    assert high.onbody_los.exponent == pytest.approx(0.8 * nominal.onbody_los.exponent)
+    assert high.onbody_los.pl0_db == nominal.onbody_los.pl0_db
+    assert high.link_loss_rate == pytest.approx(2 * nominal.link_loss_rate)
+    assert high.antenna_floor_db == pytest.approx(-5.0)
+    assert high.sensitivity_dbm == pytest.approx(nominal.sensitivity_dbm + 3.0)
+    assert len(RADIO_ASSUMPTIONS) >= 20
+    with pytest.raises(ValueError, match="unknown"):
+        perturbed_channel({"frequency_hz": 0.5})
+    with pytest.raises(ValueError, match=r"\[-1, 1\]"):
+        perturbed_channel({"rssi_noise_db": 2.0})
+
+
+def test_radio_sensitivity_quick_zero_spread_and_determinism():
+    from wsnlib import optimize
+    from wsnlib.posture_study import RADIO_ASSUMPTIONS, radio_sensitivity, sensitivity_grid
+
+    result = radio_sensitivity(rng=np.random.default_rng(4), quick=True)
+    assert result.factors.shape == (3, len(RADIO_ASSUMPTIONS))                 # nominal + 2 draws
+    assert (result.factors.loc[0] == 0).all() and (result.factors.loc[1:].abs() <= 1).all().all()
+    assert result.summary.shape[0] == 2 * 8 * 2                                # targets × movements × approaches
+    assert np.isfinite(result.summary.to_numpy()).all()
+    assert (result.summary["range_cm"] >= 0).all()
+    again = radio_sensitivity(rng=np.random.default_rng(4), quick=True)
+    np.testing.assert_array_equal(result.pe["pe_cm"], again.pe["pe_cm"])
+    # Zero spread: every draw is the nominal channel and reproduces the unperturbed search.
+    zero = radio_sensitivity(rng=np.random.default_rng(4), quick=True, spread=0.0)
+    np.testing.assert_allclose(zero.summary["range_cm"], 0.0, atol=1e-12)
+    campaign = simulate_dynamic_campaign(1, rng=np.random.default_rng(2023), hold_s=4.0)
+    inputs = study_inputs(campaign)
+    tables = optimize.paper_tables(inputs.target1, inputs.target2, grid=sensitivity_grid())
+    want = tables.selection2.set_index(["target", "movement", "approach"])["pe_cm"].sort_index()
+    np.testing.assert_allclose(zero.summary["nominal_cm"].sort_index().to_numpy(), want.to_numpy(), rtol=1e-12)
+    np.testing.assert_allclose(zero.summary["median_cm"].sort_index().to_numpy(), want.to_numpy(), rtol=1e-12)
+    # A real perturbation moves something.
+    assert result.summary["range_cm"].max() > 0.01
+    with pytest.raises(ValueError, match="spread"):
+        radio_sensitivity(rng=np.random.default_rng(0), spread=2.0)
+    with pytest.raises(ValueError, match="rng"):
+        radio_sensitivity(rng=1)

@@ -11,7 +11,12 @@
   (Laidig et al., Data 6(7):72, 2021) and its example code.
 * Smoothness: RMS angular jerk of an orientation sequence (third time derivative of the
   rotation angle, from finite differences of the body angular velocity), in °/s³.  The
-  paper calls single-frame estimates "jerky" without a number; this is ours.
+  paper calls single-frame estimates "jerky" without a number; this is ours.  Over a record
+  with losses it is dominated by the single step an estimator makes when data return, so it
+  is split into the step at each gap's end (:func:`gap_end_steps_deg`) and the continuous
+  jitter without those steps (:func:`angle_jitter_rms_deg`).
+* Under loss: :func:`quantile_error` (a quantile instead of a maximum that shrinks as loss
+  rises) and :func:`error_by_phase` (lost samples, the seconds after a gap, the rest).
 
 Every function returns degrees or seconds, as its name says, and broadcasts over leading
 batch dimensions ``(..., T)``.
@@ -280,13 +285,18 @@ def angular_jerk_rms_deg(quat, fs) -> np.ndarray:
     fs = check_positive(fs, "fs")
     if quat.shape[-2] < 4:
         raise ValueError(f"quat needs at least 4 samples along time, got {quat.shape[-2]}")
+    jerk = _angular_jerk(quat, fs)
+    return np.degrees(np.sqrt(np.mean(np.sum(jerk**2, axis=-1), axis=-1)))
+
+
+def _angular_jerk(quat: np.ndarray, fs: float) -> np.ndarray:
+    """Angular jerk vectors (rad/s³), ``(..., T, 4) → (..., T − 3, 3)``."""
     delta = quat_ops.canonical(quat_ops.multiply(quat_ops.conjugate(quat[..., :-1, :]), quat[..., 1:, :]))
     sin_half = np.linalg.norm(delta[..., 1:], axis=-1, keepdims=True)
     angle = 2.0 * np.arctan2(sin_half, delta[..., :1])
     axis = np.divide(delta[..., 1:], sin_half, out=np.zeros_like(delta[..., 1:]), where=sin_half > 0)
     omega = axis * angle * fs
-    jerk = np.diff(omega, n=2, axis=-2) * fs**2
-    return np.degrees(np.sqrt(np.mean(np.sum(jerk**2, axis=-1), axis=-1)))
+    return np.diff(omega, n=2, axis=-2) * fs**2
 
 
 def angle_jerk_rms_deg(angle_deg, fs) -> np.ndarray:
@@ -297,6 +307,276 @@ def angle_jerk_rms_deg(angle_deg, fs) -> np.ndarray:
         raise ValueError(f"angle_deg needs at least 4 samples, got {angle_deg.shape[-1]}")
     jerk = np.diff(angle_deg, n=3, axis=-1) * fs**3
     return np.sqrt(np.mean(jerk**2, axis=-1))
+
+
+# --- Smoothness split: the step at a gap's end vs continuous jitter (issue 12) -------------
+# The RMS third difference over a whole record (``angle_jerk_rms_deg``) is dominated by the one
+# step an estimator makes when data return after a gap: a single jump of s degrees enters three
+# third-difference windows with weights 1, 3, 3 (…), i.e. adds about ``s·fs³·√(19/N)`` to the RMS
+# of N windows, whatever the estimate does elsewhere.  The two figures below separate that step
+# from the jitter of the rest of the record.
+
+
+def _received_mask(received, shape: tuple[int, ...]) -> np.ndarray:
+    received = np.asarray(received)
+    if received.dtype != np.bool_:
+        raise ValueError(f"received must be a boolean mask, got dtype {received.dtype}")
+    try:
+        return np.broadcast_to(received, shape)
+    except ValueError as exc:
+        raise ValueError(f"received has shape {received.shape}, which does not fit {shape}") from exc
+
+
+def gap_end_mask(received) -> np.ndarray:
+    """True at the first received sample after each run of lost samples, ``(..., T)``.
+
+    A gap at the very start of the record counts (the estimator outputs something during it,
+    e.g. its initial state); a gap still open at the record's end has no end and does not.
+    """
+    received = np.asarray(received)
+    if received.dtype != np.bool_ or received.ndim < 1:
+        raise ValueError(f"received must be a boolean mask with a time axis, got dtype {received.dtype}, "
+                         f"shape {received.shape}")
+    ends = np.zeros(received.shape, dtype=bool)
+    ends[..., 1:] = received[..., 1:] & ~received[..., :-1]
+    return ends
+
+
+def gap_end_steps_deg(angle_deg, received) -> dict[str, np.ndarray]:
+    """Step of an angle trace at the end of each gap: ``|x_e − x_{e−1}|`` (°).
+
+    ``e`` is the first received sample after a gap (:func:`gap_end_mask`), ``e − 1`` the last
+    output during the gap: the jump a user sees when data return.
+
+    Parameters
+    ----------
+    angle_deg : array_like, shape (..., T)
+        An angle, or an angle's error, in degrees (the step of the error equals the step of the
+        estimate minus the truth's own change over one sample).
+    received : array_like of bool, shape (..., T)
+        Loss mask; broadcast to ``angle_deg``.
+
+    Returns
+    -------
+    dict
+        ``"step_deg"`` (..., T): the step at gap ends, 0 elsewhere (``step_deg[gap_end]`` lists
+        the steps gap by gap); ``"gap_end"`` (..., T) bool; ``"max_deg"``, ``"mean_deg"`` (...):
+        largest and mean step over the gaps, 0 for a record without a closed gap (see
+        ``"n_gaps"``); ``"n_gaps"`` (...) int.
+    """
+    angle = as_float_array(angle_deg, "angle_deg")
+    if angle.shape[-1] < 2:
+        raise ValueError(f"angle_deg needs at least 2 samples, got {angle.shape[-1]}")
+    ends = gap_end_mask(_received_mask(received, angle.shape))
+    step = np.zeros(angle.shape)
+    step[..., 1:] = np.abs(np.diff(angle, axis=-1))
+    step = np.where(ends, step, 0.0)
+    n_gaps = np.count_nonzero(ends, axis=-1)
+    return {"step_deg": step, "gap_end": ends, "max_deg": step.max(axis=-1),
+            "mean_deg": step.sum(axis=-1) / np.maximum(n_gaps, 1), "n_gaps": n_gaps}
+
+
+def quat_gap_end_steps_deg(quat, received) -> dict[str, np.ndarray]:
+    """:func:`gap_end_steps_deg` for orientations: rotation angle between ``q_{e−1}`` and ``q_e`` (°).
+
+    ``quat`` (..., T, 4), ``received`` (..., T); same keys as :func:`gap_end_steps_deg`.
+    """
+    quat = as_float_array(quat, "quat", last_dim=4, min_ndim=2)
+    if quat.shape[-2] < 2:
+        raise ValueError(f"quat needs at least 2 samples along time, got {quat.shape[-2]}")
+    ends = gap_end_mask(_received_mask(received, quat.shape[:-1]))
+    step = np.zeros(quat.shape[:-1])
+    step[..., 1:] = np.degrees(quat_ops.angle_between(quat[..., 1:, :], quat[..., :-1, :]))
+    step = np.where(ends, step, 0.0)
+    n_gaps = np.count_nonzero(ends, axis=-1)
+    return {"step_deg": step, "gap_end": ends, "max_deg": step.max(axis=-1),
+            "mean_deg": step.sum(axis=-1) / np.maximum(n_gaps, 1), "n_gaps": n_gaps}
+
+
+def _windows_without_gap_ends(ends: np.ndarray, n_windows: int, width: int) -> np.ndarray:
+    """Windows of samples ``i … i + width`` that do not hold a gap-end step, ``(..., n_windows)``.
+
+    The step lives between samples ``e − 1`` and ``e``, so it is inside window ``i`` when
+    ``i + 1 <= e <= i + width``.
+    """
+    touched = np.zeros(ends.shape[:-1] + (n_windows,), dtype=bool)
+    for shift in range(1, width + 1):
+        touched |= ends[..., shift:shift + n_windows]
+    return ~touched
+
+
+def angle_jitter_rms_deg(angle_deg, fs, received) -> np.ndarray:
+    """Continuous jitter (°/s³): RMS third difference of an angle trace, gap-end steps excluded.
+
+    :func:`angle_jerk_rms_deg` without the third-difference windows that contain a gap-end
+    step (the three windows ``x[i..i+3]`` with ``i ∈ [e − 3, e − 1]`` for each gap end ``e``),
+    so it measures how jittery the output is between those steps — during gaps, during the
+    return to the data and with data.  With ``received`` all True it equals
+    :func:`angle_jerk_rms_deg`.
+
+    Parameters
+    ----------
+    angle_deg : array_like, shape (..., T)
+        Angle or angle error (°), ``T >= 4``.
+    fs : float
+        Sampling rate (Hz).
+    received : array_like of bool, shape (..., T)
+
+    Returns
+    -------
+    numpy.ndarray, shape (...)
+
+    Raises
+    ------
+    ValueError
+        If some record has no window left (gaps end on every few samples).
+    """
+    angle = as_float_array(angle_deg, "angle_deg")
+    fs = check_positive(fs, "fs")
+    if angle.shape[-1] < 4:
+        raise ValueError(f"angle_deg needs at least 4 samples, got {angle.shape[-1]}")
+    ends = gap_end_mask(_received_mask(received, angle.shape))
+    jerk = np.diff(angle, n=3, axis=-1) * fs**3
+    keep = _windows_without_gap_ends(ends, jerk.shape[-1], 3)
+    return _masked_rms(jerk**2, keep)
+
+
+def angular_jitter_rms_deg(quat, fs, received) -> np.ndarray:
+    """:func:`angular_jerk_rms_deg` without the windows that hold a gap-end step (°/s³).
+
+    The jerk window ``j`` spans quaternions ``j … j + 3`` (angular velocity from consecutive
+    pairs, then its second difference); windows with ``j ∈ [e − 3, e − 1]`` for a gap end ``e``
+    are left out.  ``quat`` (..., T, 4) with ``T >= 4``; ``received`` (..., T).
+    """
+    quat = as_float_array(quat, "quat", last_dim=4, min_ndim=2)
+    fs = check_positive(fs, "fs")
+    if quat.shape[-2] < 4:
+        raise ValueError(f"quat needs at least 4 samples along time, got {quat.shape[-2]}")
+    ends = gap_end_mask(_received_mask(received, quat.shape[:-1]))
+    jerk = _angular_jerk(quat, fs)
+    keep = _windows_without_gap_ends(ends, jerk.shape[-2], 3)
+    return np.degrees(_masked_rms(np.sum(jerk**2, axis=-1), keep))
+
+
+def _masked_rms(squares: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    count = np.count_nonzero(keep, axis=-1)
+    if np.any(count == 0):
+        bad = tuple(int(i) for i in np.argwhere(count == 0)[0])
+        raise ValueError(f"no jerk window is free of a gap-end step{f' (batch index {bad})' if bad else ''}; "
+                         "the jitter is undefined")
+    return np.sqrt(np.sum(np.where(keep, squares, 0.0), axis=-1) / count)
+
+
+def quantile_error(error, q: float = 0.95, where=None) -> np.ndarray:
+    """Quantile ``q`` of ``|error|`` over time (last axis), counting only samples in ``where``.
+
+    A replacement for :func:`max_abs_error` over received samples: the maximum of fewer samples
+    is smaller, so a maximum over the received samples shrinks as loss rises even when nothing
+    improves, while a quantile estimates the same number at every loss rate (for losses that
+    do not pick the worst samples).
+
+    Parameters
+    ----------
+    error : array_like, shape (..., T)
+    q : float
+        Quantile in [0, 1] (0.95 = the 95th percentile; 1 = the maximum).
+    where : array_like of bool, shape (..., T), optional
+        Samples that count (e.g. ``received``); default all.
+
+    Returns
+    -------
+    numpy.ndarray, shape (...)
+        Linear-interpolation quantile (numpy's default), in the unit of ``error``.
+
+    Raises
+    ------
+    ValueError
+        If some record has no counted sample.
+    """
+    error = as_float_array(error, "error")
+    if isinstance(q, bool) or not np.isscalar(q) or not 0.0 <= float(q) <= 1.0:
+        raise ValueError(f"q must be a number in [0, 1], got {q!r}")
+    magnitude = np.abs(error)
+    if where is not None:
+        where = np.asarray(where)
+        if where.dtype != np.bool_:
+            raise ValueError(f"where must be a boolean mask, got dtype {where.dtype}")
+        where = _received_mask(where, error.shape)
+        count = np.count_nonzero(where, axis=-1)
+        if np.any(count == 0):
+            bad = tuple(int(i) for i in np.argwhere(count == 0)[0])
+            raise ValueError(f"no sample counts (where is all False){f' at batch index {bad}' if bad else ''}")
+        magnitude = np.where(where, magnitude, np.nan)
+        return np.nanquantile(magnitude, float(q), axis=-1)
+    return np.quantile(magnitude, float(q), axis=-1)
+
+
+#: Phases of :func:`error_by_phase`, in order.
+PHASES = ("lost", "after_gap", "steady")
+
+
+def error_by_phase(error_deg, received, fs, *, after_s: float = 2.0, statistic: str = "rms") -> dict[str, np.ndarray]:
+    """Mean or RMS of an error trace split by phase: lost samples, just after a gap, the rest.
+
+    Phases (disjoint; together every sample):
+
+    * ``"lost"``: samples not received (the estimator runs without data);
+    * ``"after_gap"``: received samples within ``after_s`` seconds of a gap's end, i.e. from
+      the first received sample ``e`` after a gap to ``e + round(after_s·fs) − 1`` (the return
+      to the data);
+    * ``"steady"``: the other received samples.
+
+    Samples whose error is NaN (e.g. no reference) are skipped in every phase.
+
+    Parameters
+    ----------
+    error_deg : array_like, shape (..., T)
+        Error trace (°); NaN allowed (missing reference), inf not.
+    received : array_like of bool, shape (..., T)
+    fs : float
+        Sampling rate (Hz).
+    after_s : float
+        Length of the after-gap phase (s), >= 0.
+    statistic : {"rms", "mean"}
+        RMS of the error, or mean of ``|error|``.
+
+    Returns
+    -------
+    dict
+        For each phase in :data:`PHASES` its value (°, shape (...)) and ``"n_<phase>"`` its
+        number of samples (int, shape (...)).  A phase without a sample has value NaN and count
+        0 — explicitly, so pool over records with the counts, e.g.
+        ``sqrt(Σ n·v² / Σ n)`` for RMS.
+    """
+    error = np.asarray(error_deg, dtype=float)
+    if error.ndim < 1:
+        raise ValueError("error_deg must have a time axis")
+    if np.any(np.isinf(error)):
+        raise ValueError("error_deg contains inf")
+    if statistic not in ("rms", "mean"):
+        raise ValueError(f"statistic must be 'rms' or 'mean', got {statistic!r}")
+    fs = check_positive(fs, "fs")
+    window = int(round(check_nonnegative(after_s, "after_s") * fs))
+    received = _received_mask(received, error.shape)
+    ends = gap_end_mask(received)
+    # Samples since the latest gap end (large before the first one).
+    n = error.shape[-1]
+    index = np.arange(n)
+    last_end = np.maximum.accumulate(np.where(ends, index, -n - window - 1), axis=-1)
+    after = received & (index - last_end < window)
+    phases = {"lost": ~received, "after_gap": after, "steady": received & ~after}
+    valid = ~np.isnan(error)
+    value = np.abs(error) if statistic == "mean" else error**2
+    out: dict[str, np.ndarray] = {}
+    for name, mask in phases.items():
+        mask = mask & valid
+        count = np.count_nonzero(mask, axis=-1)
+        total = np.sum(np.where(mask, value, 0.0), axis=-1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mean = np.where(count > 0, total / np.maximum(count, 1), np.nan)
+        out[name] = np.sqrt(mean) if statistic == "rms" else mean
+        out[f"n_{name}"] = count
+    return out
 
 
 def _check_start(start: int, n_samples: int) -> None:
@@ -310,10 +590,14 @@ MEAN_ERROR = "mean |error| (°)"
 TIME_ABOVE = "time above threshold (s)"
 RECOVERY = "recovery time (s)"
 JERK = "RMS jerk (°/s³)"
+GAP_STEP_MAX = "max step at gap end (°)"
+GAP_STEP_MEAN = "mean step at gap end (°)"
+JITTER = "RMS jitter, gap ends excluded (°/s³)"
+P95_ERROR = "95th percentile |error|, received (°)"
 
 
 def loss_figures_of_merit(error_deg, *, fs, received, threshold_deg=5.0, start: int = 0,
-                          recovery_start: int | None = None) -> dict[str, np.ndarray]:
+                          recovery_start: int | None = None, extended: bool = False) -> dict[str, np.ndarray]:
     """The figures of merit used across notebooks for an angle error trace under loss.
 
     Parameters
@@ -332,6 +616,9 @@ def loss_figures_of_merit(error_deg, *, fs, received, threshold_deg=5.0, start: 
     recovery_start : int, optional
         Sample from which recovery is timed (e.g. the first received sample after a burst).
         Left out when None (it means nothing for scattered losses).
+    extended : bool
+        Also return the split of the jerk into the step at gap ends and the continuous jitter,
+        and a quantile in place of the maximum (see below).
 
     Returns
     -------
@@ -341,7 +628,11 @@ def loss_figures_of_merit(error_deg, *, fs, received, threshold_deg=5.0, start: 
         from ``start``: during a gap the user still sees an estimate),
         :data:`RECOVERY` (s, only with ``recovery_start``; ``inf`` if never) and :data:`JERK`
         (°/s³, RMS third derivative of the error trace over the whole record), each of shape
-        ``(...)``.
+        ``(...)``.  With ``extended``: :data:`GAP_STEP_MAX` and :data:`GAP_STEP_MEAN` (°, the
+        step of the error at the gap ends of the whole record, :func:`gap_end_steps_deg`; 0
+        without a closed gap), :data:`JITTER` (°/s³, :func:`angle_jitter_rms_deg`) and
+        :data:`P95_ERROR` (°, 95th percentile of ``|error|`` over received samples from
+        ``start``, :func:`quantile_error`).
     """
     error_deg = as_float_array(error_deg, "error_deg")
     received = np.asarray(received)
@@ -355,6 +646,13 @@ def loss_figures_of_merit(error_deg, *, fs, received, threshold_deg=5.0, start: 
     if recovery_start is not None:
         result[RECOVERY] = recovery_time_s(error_deg, threshold_deg, fs, start=recovery_start)
     result[JERK] = angle_jerk_rms_deg(error_deg, fs)
+    if extended:
+        full_received = np.broadcast_to(received, error_deg.shape)
+        steps = gap_end_steps_deg(error_deg, full_received)
+        result[GAP_STEP_MAX] = steps["max_deg"]
+        result[GAP_STEP_MEAN] = steps["mean_deg"]
+        result[JITTER] = angle_jitter_rms_deg(error_deg, fs, full_received)
+        result[P95_ERROR] = quantile_error(error_deg[..., start:], 0.95, where=full_received[..., start:])
     return result
 
 
