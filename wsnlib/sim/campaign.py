@@ -611,6 +611,25 @@ DYNAMIC_FILES = {
 }
 
 
+def _dynamic_campaign_from_seed(n_users: int, seed: int, hold_s: float) -> DynamicCampaign:
+    return simulate_dynamic_campaign(n_users, rng=np.random.default_rng(seed), hold_s=hold_s)
+
+
+def dynamic_campaign(n_users: int = 5, *, seed: int, hold_s: float = 30.0) -> DynamicCampaign:
+    """:func:`simulate_dynamic_campaign` from a fresh ``numpy.random.default_rng(seed)``, memoised.
+
+    Notebooks 07–09 and their solutions share one campaign; the first to run simulates it,
+    the others read it from ``build/cache/`` (:func:`wsnlib.cache.cached`, keyed by these
+    arguments and wsnlib's source).  The result is the same either way.
+    """
+    from wsnlib.cache import cached
+
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer):
+        raise ValueError(f"seed must be an integer, got {seed!r}")
+    arguments = {"n_users": int(n_users), "seed": int(seed), "hold_s": float(hold_s)}
+    return cached("dynamic_campaign", arguments, _dynamic_campaign_from_seed)
+
+
 def _chains_json(chains: dict[str, ArmChain]) -> dict:
     return {
         user: {"segment_lengths_m": list(c.segment_lengths_m), "device_offsets_m": list(c.device_offsets_m)}
