@@ -14,13 +14,14 @@ SHARED_BROAD := $(abspath ../shared/data/broad)
 ifneq ($(wildcard $(SHARED_BROAD)/*.mat),)
 export WSNLIB_BROAD_DIR ?= $(SHARED_BROAD)
 endif
-# The PABR BLE subset likewise (no download: a missing folder is an error naming the variable).
+# The PABR BLE subset likewise; without either, the loader downloads the files it needs
+# (verified against wsnlib/registry/pabr.tsv) into data/raw/pabr/.
 SHARED_PABR := $(abspath ../shared/data/pabr)
 ifneq ($(wildcard $(SHARED_PABR)/cnf),)
 export WSNLIB_PABR_DIR ?= $(SHARED_PABR)
 endif
 
-.PHONY: figures quick test lint lock clean-outputs book lab browser book-test
+.PHONY: figures quick test lint lock clean-outputs book lab browser book-test lab-test
 
 figures: $(STAMP)
 	$(PY) -m wsnlib.reproduce
@@ -62,6 +63,12 @@ browser:
 # build/book-screenshots/.
 book-test: $(STAMP) browser
 	$(PY) -m pytest -m browser tests/test_book_browser.py
+
+# The student's path in a real browser: JupyterLab from the venv (on a temporary quick-mode copy of
+# the notebooks, outputs to a temporary folder) runs every notebook in headless Chromium, Run → Run
+# All Cells, one kernel at a time; screenshots go to build/lab-screenshots/.
+lab-test: $(STAMP) browser
+	$(PY) -m pytest -m lab tests/test_lab_browser.py
 
 # The environment: exact pinned versions with hashes, then wsnlib itself (editable), then a
 # named Jupyter kernel inside the venv (--sys-prefix), which papermill finds by name.

@@ -1,12 +1,15 @@
 """Every notebook: committed clean, parameterised, and executed in quick mode — twice.
 
 The second run goes to another folder; every table and figure must come out byte-identical.
+The executed copies of the first run must show no warning, no stderr output and no list of
+paths, and the run times the notebooks state must match what the batch measured.
 The solutions notebooks (``notebooks/solutions/``) are held to the same rules, except that
 they need not write a figure.
 """
 
 import json
 import os
+import re
 import subprocess
 import sys
 
@@ -57,10 +60,16 @@ def _run_batch(output_dir):
     return json.loads((output_dir / "data" / "processed" / "manifest.json").read_text())
 
 
+@pytest.fixture(scope="module")
+def quick_batch(tmp_path_factory):
+    """The batch in quick mode, run twice into two folders: ``[(folder, manifest), (folder, manifest)]``."""
+    root = tmp_path_factory.mktemp("quick-batch")
+    return [(root / run, _run_batch(root / run)) for run in ("run1", "run2")]
+
+
 @pytest.mark.notebook
-def test_batch_runs_in_quick_mode_and_is_reproducible(tmp_path):
-    first = _run_batch(tmp_path / "run1")
-    second = _run_batch(tmp_path / "run2")
+def test_batch_runs_in_quick_mode_and_is_reproducible(quick_batch):
+    (run1, first), (_, second) = quick_batch
     ran = [entry["notebook"] for entry in first["notebooks"]]
     assert ran == [reproduce.notebook_name(nb) for nb in EVERY_NOTEBOOK]
     for entry in first["notebooks"]:
@@ -74,6 +83,89 @@ def test_batch_runs_in_quick_mode_and_is_reproducible(tmp_path):
     assert hashes[0] == hashes[1]
     # The manifest's list is complete: nothing in data/processed/ escaped it.
     listed = {p for p in hashes[0] if p.startswith("data/processed/")}
-    on_disk = {f"data/processed/{p.name}" for p in (tmp_path / "run1" / "data" / "processed").iterdir()
+    on_disk = {f"data/processed/{p.name}" for p in (run1 / "data" / "processed").iterdir()
                if p.name != reproduce.MANIFEST_NAME}
     assert listed == on_disk
+
+
+#: Tag of a code cell allowed to write to stderr; the cell must say why in a comment naming stderr.
+EXPECTED_STDERR_TAG = "expected-stderr"
+_WARNING = re.compile(r"\b[A-Z]\w*Warning\b")
+
+
+def _clutter(cell) -> list[str]:
+    """What a student should not see in an executed cell's outputs."""
+    found = []
+    for output in cell.get("outputs", []):
+        if output.get("output_type") == "stream":
+            text = output.get("text", "")
+            if output.get("name") == "stderr":
+                found.append(f"stderr output {text[:200]!r}")
+        else:
+            text = output.get("data", {}).get("text/plain", "")
+        if _WARNING.search(text):
+            found.append(f"a warning {text[:200]!r}")
+        if "PosixPath(" in text:
+            found.append(f"a list of paths {text[:120]!r} (end the savefig line with ';')")
+    return found
+
+
+@pytest.mark.notebook
+def test_executed_notebooks_show_no_warning_stderr_or_path_list(quick_batch):
+    """The student sees results only: no warning, no stderr, no ``[PosixPath(...)]`` from savefig."""
+    (run1, _), _ = quick_batch
+    problems = []
+    for notebook in EVERY_NOTEBOOK:
+        executed = nbformat.read(run1 / "build" / "executed" / reproduce.notebook_name(notebook), as_version=4)
+        for index, cell in enumerate(executed.cells):
+            if cell.cell_type != "code":
+                continue
+            if EXPECTED_STDERR_TAG in cell.metadata.get("tags", []):
+                explained = any(line.lstrip().startswith("#") and "stderr" in line for line in cell.source.splitlines())
+                if not explained:
+                    problems.append(f"{notebook.name}, cell {index}: tagged {EXPECTED_STDERR_TAG!r} without a "
+                                    "comment saying why it writes to stderr")
+                continue
+            problems += [f"{notebook.name}, cell {index}: {item}" for item in _clutter(cell)]
+    assert not problems, "\n".join(problems)
+
+
+#: The run-time sentence of every notebook's first cell (seconds measured by the batch runner).
+RUN_TIME = re.compile(r"\*\*Run time\*\* \(measured by the batch runner[^)]*\): (?P<full>\d+) s in full mode, "
+                      r"(?P<quick>\d+) s in quick mode\.")
+
+
+def _stated_run_time(notebook):
+    intro = nbformat.read(notebook, as_version=4).cells[0].source
+    return RUN_TIME.search(" ".join(intro.split()))   # the sentence may wrap across lines
+
+
+def test_every_notebook_states_its_measured_run_time():
+    for notebook in EVERY_NOTEBOOK:
+        assert _stated_run_time(notebook), f"{notebook.name}: no measured run time in the first cell"
+
+
+@pytest.mark.notebook
+def test_stated_quick_run_times_match_the_batch(quick_batch):
+    """The quick-mode seconds the notebooks state are within 2x of what the batch measures (or 3 s).
+
+    The stated seconds are first scaled by the ratio of the measured to the stated total, so a
+    faster or busier machine than the one that measured them does not fail the test; a notebook
+    whose share of the batch changed (a hand-written or stale number) does.
+    """
+    measured = {}
+    for _, manifest in quick_batch:
+        for entry in manifest["notebooks"]:
+            measured[entry["notebook"]] = min(entry["seconds"], measured.get(entry["notebook"], float("inf")))
+    statements = {reproduce.notebook_name(nb): _stated_run_time(nb) for nb in EVERY_NOTEBOOK}
+    missing = [name for name, statement in statements.items() if statement is None]
+    assert not missing, f"no measured run time in the first cell of {missing}"
+    stated = {name: float(statement["quick"]) for name, statement in statements.items()}
+    machine_speed = sum(measured[name] for name in stated) / sum(stated.values())
+    off = []
+    for name, seconds in stated.items():
+        expected = seconds * machine_speed
+        if not (measured[name] / 2 <= expected <= 2 * measured[name] or abs(expected - measured[name]) <= 3):
+            off.append(f"{name}: states {seconds:g} s in quick mode (x{machine_speed:.2f} for this machine: "
+                       f"{expected:.1f} s), the batch took {measured[name]:g} s")
+    assert not off, "\n".join(off) + "\n(measure again: the manifest holds each notebook's seconds)"

@@ -67,3 +67,67 @@ def test_heatmap_and_pareto_draw_and_validate(output_dir):
                          references={"data fusion": (4.0, 10.0)}, ax=ax_b)
     assert len(ax_b.collections) == 4   # two groups, the knee, one reference
     plt.close(fig)
+
+
+def _figure_with_text(width_in, fontsize):
+    plotting.use_style()
+    fig, ax = plt.subplots(figsize=(width_in, 3))
+    ax.plot([0, 1], [0, 1])
+    ax.tick_params(labelsize=fontsize)
+    ax.set_xlabel("x", fontsize=fontsize)
+    ax.text(0.5, 0.5, "note", fontsize=fontsize)
+    return fig
+
+
+def test_effective_font_sizes_shrink_with_a_figure_wider_than_the_notebook():
+    narrow = plotting.effective_font_sizes(_figure_with_text(5.0, 9.0))
+    assert {text for text, _ in narrow} >= {"x", "note", "0.0", "1.0"}
+    assert all(size == pytest.approx(9.0) for _, size in narrow)
+    wide = _figure_with_text(15.0, 9.0)
+    sizes = dict(plotting.effective_font_sizes(wide))
+    width_in = wide.get_tightbbox().width   # the saved image's width (savefig.bbox: tight)
+    assert sizes["note"] == pytest.approx(9.0 * plotting.DISPLAY_WIDTH_IN / width_in)
+    assert sizes["note"] < 6.0
+    # Hidden texts do not count: a turned-off axis has no tick labels to read.
+    wide.axes[0].axis("off")
+    assert "1.0" not in dict(plotting.effective_font_sizes(wide))
+    with pytest.raises(ValueError, match="display_width_in"):
+        plotting.effective_font_sizes(wide, display_width_in=0)
+    plt.close("all")
+
+
+def test_savefig_refuses_small_text_in_the_batch_and_warns_interactively(output_dir, monkeypatch):
+    small = _figure_with_text(6.0, 6.0)
+    monkeypatch.setenv("WSNLIB_BATCH", "1")
+    with pytest.raises(ValueError, match=r"'too_small': 14 text\(s\) smaller than 8 pt .*'0\.0' 6\.0 pt"):
+        plotting.savefig(small, "too_small")
+    assert not list((output_dir / "figures").glob("too_small.*"))
+    monkeypatch.delenv("WSNLIB_BATCH")
+    with pytest.warns(UserWarning, match="smaller than 8 pt"):
+        plotting.savefig(small, "too_small")
+    # Wide figures are shrunk in the notebook: 10 pt on a 20-inch figure is too small too.
+    monkeypatch.setenv("WSNLIB_BATCH", "1")
+    with pytest.raises(ValueError, match="too_wide"):
+        plotting.savefig(_figure_with_text(20.0, 10.0), "too_wide")
+    plotting.savefig(_figure_with_text(7.0, plotting.MIN_FONT_PT), "legible")
+    plt.close("all")
+
+
+def test_the_style_and_every_plot_helper_meet_the_minimum_size(output_dir, monkeypatch):
+    """Default sizes from use_style(), heatmap cell numbers, annotations, the Pareto legend."""
+    monkeypatch.setenv("WSNLIB_BATCH", "1")
+    plotting.use_style()
+    fig, axes = plt.subplots(2, 2, figsize=(7.5, 6), layout="constrained")
+    t = np.arange(50) / 50.0
+    plotting.plot_angle_traces(t, {"truth": t, "hybrid": t}, ax=axes[0, 0], title="traces")
+    plotting.plot_heatmap(np.arange(64.0).reshape(8, 8) / 7, list(range(8)), list(range(8)), ax=axes[0, 1],
+                          fmt="{:.3g}", title="heatmap")
+    plotting.plot_tradeoff([1.0, 2.0], [3.0, 1.0], ["β=0.1", "β=0.2"], ax=axes[1, 0], logy=True)
+    plotting.plot_pareto(np.array([1.0, 2.0]), np.array([2.0, 1.0]), front=[True, True], knee=0,
+                         references={"data fusion": (3.0, 3.0)}, ax=axes[1, 1])
+    fig.suptitle("all helpers")
+    sizes = plotting.effective_font_sizes(fig)
+    assert min(size for _, size in sizes) >= plotting.MIN_FONT_PT
+    assert {"traces", "heatmap", "β=0.1", "recommended (knee)", "all helpers"} <= {text for text, _ in sizes}
+    plotting.savefig(fig, "helpers")
+    plt.close(fig)

@@ -35,11 +35,13 @@ from matplotlib.figure import Figure
 #: Environment variable that marks an unattended (batch) run; "1" means batch.
 BATCH_ENV_VAR = "WSNLIB_BATCH"
 
-#: Size (inches) of one panel of the static figure, and of the live figure.
+#: Size (inches) of one panel of the static figure (narrower when ``ncols`` panels would be wider
+#: than a notebook shows a figure, :data:`wsnlib.plotting.DISPLAY_WIDTH_IN`), and of the live figure.
 PANEL_SIZE = (3.7, 2.7)
 LIVE_SIZE = (7.0, 3.6)
 
 _TITLE_WIDTH = 48  # characters per title line before wrapping
+_SMALL_PT = 8.0  # panel titles and legends (wsnlib.plotting.MIN_FONT_PT)
 
 
 def in_batch() -> bool:
@@ -67,7 +69,7 @@ class _Knob:
         return _format(value)
 
 
-def explore(draw: Callable, knobs: Mapping, *, static=None, start=None, ncols: int = 3, sharey: bool = True):
+def explore(draw: Callable, knobs: Mapping, *, static=None, start=None, ncols: int = 2, sharey: bool = True):
     """Explore how a result changes with a few knobs: widgets live, a static figure in the batch.
 
     Parameters
@@ -96,7 +98,7 @@ def explore(draw: Callable, knobs: Mapping, *, static=None, start=None, ncols: i
         Starting values of some list or dict knobs (e.g. the notebook's parameters), each
         among the knob's values; a widget starts at its own ``value``.
     ncols : int
-        Panels per row of the static figure.
+        Panels per row of the static figure (two fit a notebook's width at full panel size).
     sharey : bool
         Share the y axis between the static panels (compare magnitudes at a glance); they
         always share the x axis.
@@ -273,13 +275,17 @@ def _title(knobs: list[_Knob], values: dict) -> str:
 def _draw_panel(draw, knobs, ax, values) -> None:
     draw(ax, **values)
     if not ax.get_title():
-        ax.set_title(_title(knobs, values), fontsize=8)
+        ax.set_title(_title(knobs, values), fontsize=_SMALL_PT)
 
 
 def _static_figure(draw, knobs, settings, ncols, sharey) -> Figure:
     ncols = min(ncols, len(settings))
     nrows = -(-len(settings) // ncols)
-    fig = Figure(figsize=(PANEL_SIZE[0] * ncols, PANEL_SIZE[1] * nrows), layout="constrained")
+    from wsnlib.plotting import DISPLAY_WIDTH_IN
+
+    # No wider than a notebook shows it, so that its texts are not shrunk below legibility.
+    panel_width = min(PANEL_SIZE[0], DISPLAY_WIDTH_IN / ncols)
+    fig = Figure(figsize=(panel_width * ncols, PANEL_SIZE[1] * nrows), layout="constrained")
     axes = fig.subplots(nrows, ncols, sharex=True, sharey=sharey, squeeze=False).ravel()
     for ax in axes[len(settings):]:
         fig.delaxes(ax)
@@ -292,7 +298,7 @@ def _static_figure(draw, knobs, settings, ncols, sharey) -> Figure:
                 legend.remove()
             else:
                 for text in legend.get_texts():
-                    text.set_fontsize(7)
+                    text.set_fontsize(_SMALL_PT)
         # Axis labels on the outer panels only: the bottom panel of each column (rows may be
         # incomplete) and, with a shared y axis, the first column.
         has_panel_below = i + ncols < n_panels

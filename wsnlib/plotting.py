@@ -3,17 +3,27 @@
 :func:`use_style` must be called explicitly (importing this module changes nothing global).
 :func:`savefig` is the one way figures are written: PNG and PDF into the figures folder with
 fixed metadata, so that running the batch twice gives byte-identical files.
+
+Legibility: every text of a saved figure must be at least :data:`MIN_FONT_PT` tall as a student
+sees it in a notebook, where a figure wider than :data:`DISPLAY_WIDTH_IN` is shrunk to that
+width (:func:`effective_font_sizes`).  :func:`savefig` checks it: in the batch
+(``WSNLIB_BATCH=1``) a too-small text is a ``ValueError``, interactively a warning.
 """
 
 from __future__ import annotations
 
+import os
+import unittest.mock
+import warnings
 from pathlib import Path
 
 import matplotlib as mpl
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.text import Text
 
 from wsnlib import paths
+from wsnlib._files import atomic_path
 
 #: Colours per estimator, used consistently across notebooks (colour-blind safe, Okabe–Ito).
 METHOD_COLORS = {
@@ -43,7 +53,15 @@ _STYLE = {
     "figure.dpi": 100,
     "savefig.dpi": 150,
     "savefig.bbox": "tight",
+    # Every text at least 8 pt (MIN_FONT_PT) in a figure up to DISPLAY_WIDTH_IN wide.
     "font.size": 10,
+    "axes.titlesize": 10,
+    "axes.labelsize": 10,
+    "xtick.labelsize": 9,
+    "ytick.labelsize": 9,
+    "legend.fontsize": 9,
+    "legend.title_fontsize": 9,
+    "figure.titlesize": 11,
     "axes.grid": True,
     "grid.alpha": 0.3,
     "axes.spines.top": False,
@@ -60,6 +78,19 @@ _PNG_METADATA = {"Software": None}
 _PDF_METADATA = {"Creator": None, "Producer": None, "CreationDate": None, "ModDate": None}
 
 
+#: Width (inches) at which a notebook shows a figure at 100 % zoom: a wider figure is shrunk to it.
+DISPLAY_WIDTH_IN = 7.5
+
+#: Smallest legible text (points) as displayed in a notebook.
+MIN_FONT_PT = 8.0
+
+#: Font size (points) of in-plot notes: numbers in heatmap cells, labels next to points.
+ANNOTATION_FONT_PT = 8.0
+
+#: Environment variable that marks an unattended (batch) run (the same as wsnlib.interactive's).
+_BATCH_ENV_VAR = "WSNLIB_BATCH"
+
+
 def use_style() -> None:
     """Apply the project's plot style to matplotlib's rcParams (call once per notebook)."""
     mpl.rcParams.update(_STYLE)
@@ -74,27 +105,98 @@ def savefig(fig: mpl.figure.Figure, name: str, formats: tuple[str, ...] = ("png"
     name : str
         File stem, e.g. ``"a01_fig02_humerus_pitch"``; letters, digits, ``_`` and ``-`` only.
     formats : tuple of str
-        Any of ``"png"``, ``"pdf"``.
+        Any of ``"png"``, ``"pdf"`` (a single string is one format).  Every format is checked
+        before anything is written; each file is written to a temporary file in the figures
+        folder and renamed into place, so an interrupted save leaves the old file or none.
 
     Returns
     -------
     list of pathlib.Path
         The files written.
+
+    Raises
+    ------
+    ValueError
+        A bad ``name`` or ``formats``; in the batch (``WSNLIB_BATCH=1``), also a text of ``fig``
+        smaller than :data:`MIN_FONT_PT` as a notebook shows it (:func:`effective_font_sizes`),
+        which interactively is a warning instead.  Nothing is written then.
     """
     if not name or not all(ch.isalnum() or ch in "_-" for ch in name):
         raise ValueError(f"name must be a plain file stem (letters, digits, _ or -), got {name!r}")
+    if isinstance(formats, str):
+        formats = (formats,)
+    formats = tuple(formats)
+    metadata = {"png": _PNG_METADATA, "pdf": _PDF_METADATA}
+    bad = [fmt for fmt in formats if fmt not in metadata]
+    if bad or not formats:  # checked before anything is written
+        raise ValueError(f"formats may contain 'png' and 'pdf' (at least one), got {formats!r}")
+    _check_legibility(fig, name)
     written = []
-    for fmt in formats:
-        if fmt == "png":
-            metadata = _PNG_METADATA
-        elif fmt == "pdf":
-            metadata = _PDF_METADATA
-        else:
-            raise ValueError(f"formats may contain 'png' and 'pdf', got {fmt!r}")
+    for fmt in dict.fromkeys(formats):
         path = paths.figures() / f"{name}.{fmt}"
-        fig.savefig(path, format=fmt, metadata=metadata)
+        with atomic_path(path) as tmp:  # a killed batch leaves the old figure or none, never half
+            fig.savefig(tmp, format=fmt, metadata=metadata[fmt])
         written.append(path)
     return written
+
+
+def effective_font_sizes(fig: mpl.figure.Figure, display_width_in: float = DISPLAY_WIDTH_IN) -> list[tuple[str, float]]:
+    """Every visible, non-empty text of ``fig`` with its size (points) as shown in a notebook.
+
+    A figure wider than ``display_width_in`` is shrunk to that width, and its texts with it:
+    effective size = font size × min(1, display_width_in / figure width), the figure width
+    being that of the saved image (``savefig.bbox: tight`` crops or extends the canvas).
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    display_width_in : float
+        Width of the notebook's output area, inches (:data:`DISPLAY_WIDTH_IN`).
+
+    Returns
+    -------
+    list of (str, float)
+        Text and effective size in points, smallest first.
+    """
+    if not display_width_in > 0:
+        raise ValueError(f"display_width_in must be positive, got {display_width_in!r}")
+    drawn = []
+    original_draw = Text.draw
+
+    def record(text, renderer):
+        if text.get_visible() and text.get_text().strip():
+            drawn.append(text)
+        return original_draw(text, renderer)
+
+    # Draw once, noting every text matplotlib actually draws (not hidden tick labels, axes
+    # turned off, or tick labels outside the view).
+    with unittest.mock.patch.object(Text, "draw", record):
+        fig.draw_without_rendering()
+    if mpl.rcParams["savefig.bbox"] == "tight":
+        width_in = fig.get_tightbbox().width
+    else:
+        width_in = fig.get_size_inches()[0]
+    scale = min(1.0, display_width_in / float(width_in))
+    sizes = [(text.get_text(), float(text.get_fontsize()) * scale) for text in dict.fromkeys(drawn)]
+    return sorted(sizes, key=lambda item: item[1])
+
+
+def _too_small(fig: mpl.figure.Figure) -> list[tuple[str, float]]:
+    return [(text, size) for text, size in effective_font_sizes(fig) if size < MIN_FONT_PT - 1e-9]
+
+
+def _check_legibility(fig: mpl.figure.Figure, name: str) -> None:
+    """Raise (in the batch) or warn (interactively) when a text of ``fig`` is below :data:`MIN_FONT_PT`."""
+    small = _too_small(fig)
+    if not small:
+        return
+    shown = ", ".join(f"{text!r} {size:.1f} pt" for text, size in small[:5])
+    message = (f"figure {name!r}: {len(small)} text(s) smaller than {MIN_FONT_PT:g} pt at a notebook width of "
+               f"{DISPLAY_WIDTH_IN:g} in ({shown}{', …' if len(small) > 5 else ''}); use larger fonts or a "
+               "narrower figure")
+    if os.environ.get(_BATCH_ENV_VAR) == "1":
+        raise ValueError(message)
+    warnings.warn(message, stacklevel=3)
 
 
 def _axes(ax):
@@ -173,7 +275,7 @@ def plot_tradeoff(x, y, labels, *, ax=None, xlabel=None, ylabel=None, color=None
         raise ValueError("x, y and labels must have the same length")
     ax.plot(x, y, "o-", color=color)
     for xi, yi, text in zip(x, y, labels, strict=True):
-        ax.annotate(text, (xi, yi), textcoords="offset points", xytext=(4, 4), fontsize=8)
+        ax.annotate(text, (xi, yi), textcoords="offset points", xytext=(4, 4), fontsize=ANNOTATION_FONT_PT)
     if logy:
         ax.set_yscale("log")
     ax.set_xlabel(xlabel or "")
@@ -240,10 +342,10 @@ def plot_heatmap(values, row_values, col_values, *, ax=None, xlabel="", ylabel="
     ax.set_ylabel(ylabel)
     ax.grid(False)
     if title:
-        ax.set_title(title, fontsize=9)
+        ax.set_title(title)
     middle = np.nanmean(values)
     for (i, j), value in np.ndenumerate(values):
-        ax.text(j, i, fmt.format(value), ha="center", va="center", fontsize=6,
+        ax.text(j, i, fmt.format(value), ha="center", va="center", fontsize=ANNOTATION_FONT_PT,
                 color="white" if value < middle else "black")
     ax.figure.colorbar(image, ax=ax, fraction=0.046, pad=0.04)
     return ax
@@ -291,5 +393,5 @@ def plot_pareto(cost_x, cost_y, *, groups=None, front=None, knee=None, reference
         ax.set_yscale("log")
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
-    ax.legend(fontsize=7, loc="best")
+    ax.legend(loc="best")
     return ax

@@ -105,7 +105,9 @@ def write_recommendation(setting: dict) -> None:
     missing = required - set(setting)
     if missing:
         raise ValueError(f"setting lacks {sorted(missing)}")
-    pd.DataFrame([setting]).to_csv(paths.data_processed() / RECOMMENDATION_FILE, index=False)
+    from wsnlib._files import write_csv
+
+    write_csv(pd.DataFrame([setting]), paths.data_processed() / RECOMMENDATION_FILE, index=False)
 
 
 def read_recommendation() -> dict:

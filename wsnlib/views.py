@@ -25,7 +25,7 @@ import pandas as pd
 from wsnlib import fingerprint, loss, metrics, plotting
 from wsnlib.orientation import estimate_orientation, madgwick, triad
 
-_NOTE = {"ha": "right", "va": "top", "fontsize": 7}
+_NOTE = {"ha": "right", "va": "top", "fontsize": plotting.ANNOTATION_FONT_PT}
 
 
 def _burst(n_samples: int, loss_start: int, loss_packets: int, samples_per_packet: int):
@@ -93,7 +93,7 @@ def draw_loss_recovery(ax, recording, *, beta, loss_packets, loss_start, node="h
                                ylabel=f"|{node} pitch error| (°)", loss_spans=plotting.loss_spans(t, received))
     ax.plot(t, np.abs(error_df[1]), color="0.55", lw=0.8, label="data fusion, no loss")
     ax.axhline(threshold_deg, color="0.3", ls=":", lw=0.8)
-    ax.legend(loc="center right", fontsize=7)
+    ax.legend(loc="center right", fontsize=plotting.ANNOTATION_FONT_PT)
     shown_from = t[first_lost] - before_s if first_lost is not None else t[0]
     ax.set_xlim(max(t[0], shown_from), t[-1])
     ax.text(0.98, 0.97, _recovery_text("data fusion", error_df[0], received, first_lost, first_after,
@@ -147,7 +147,7 @@ def draw_hybrid_vs_fusion(ax, recording, *, rho, tau, loss_packets, beta, loss_s
     t = recording.time_s
     plotting.plot_angle_traces(t, {"truth": truth, **elbow}, ax=ax, ylabel="elbow angle (°)",
                                loss_spans=plotting.loss_spans(t, received))
-    ax.legend(loc="center right", fontsize=7)
+    ax.legend(loc="center right", fontsize=plotting.ANNOTATION_FONT_PT)
     if first_lost is not None:
         ax.set_xlim(t[first_lost] - before_s, min(t[-1], t[first_lost] + after_s))
     notes = [_recovery_text(name, value - truth, received, first_lost, first_after, recording.fs, threshold_deg)
@@ -195,7 +195,7 @@ def draw_static_fingerprinting(ax, train, online, *, n_neighbors, power, anchors
     table.plot.bar(ax=ax, rot=0, width=0.75)
     ax.set_xlabel("posture")
     ax.set_ylabel("mean position error (cm)")
-    ax.legend(title=None, loc="upper left", fontsize=7)
+    ax.legend(title=None, loc="upper left", fontsize=plotting.ANNOTATION_FONT_PT)
     by_target = pd.Series(error_cm).groupby(np.asarray(online.target)).mean()
     ax.text(0.98, 0.97, "mean: " + ", ".join(f"{t} {v:.1f} cm" for t, v in by_target.items()),
             transform=ax.transAxes, **_NOTE)
