@@ -670,6 +670,12 @@ def broad_trials(present_only: bool = False, data_dir=None) -> list[str]:
     return names
 
 
+def broad_trial_numbers(trials) -> str:
+    """``"02, 07, 16"``: the leading numbers of BROAD trial names, for sentences; ``"none"`` if empty."""
+    numbers = [str(trial).split("_", 1)[0] for trial in trials]
+    return ", ".join(numbers) or "none"
+
+
 def broad_dir(data_dir=None) -> Path:
     """Folder of the BROAD files: ``data_dir``, else ``$WSNLIB_BROAD_DIR``, else ``<ROOT>/data/raw/broad``.
 

@@ -1,0 +1,82 @@
+"""Write the batch's measured run times into the notebooks' "Run time" sentences.
+
+Each notebook's first cell states how long it runs, in a fixed sentence that
+``tests/test_notebooks.py`` checks against a fresh quick batch::
+
+    **Run time** (measured by the batch runner, `python -m wsnlib.reproduce`, on a shared 2-core
+    machine in <Month YYYY>): N s in full mode, M s in quick mode.
+
+The numbers are not typed in: after a full and a quick batch (each writes ``manifest.json``),
+
+    python -m wsnlib.run_times FULL_MANIFEST QUICK_MANIFEST
+
+rewrites N and M of every notebook the two manifests list (rounded seconds), and the month.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import re
+import sys
+from pathlib import Path
+
+import nbformat
+
+from wsnlib import paths
+
+SENTENCE = re.compile(
+    r"\*\*Run time\*\* \(measured by the batch runner, `python -m wsnlib\.reproduce`, on a shared 2-core"
+    r"(?P<space1>\s+)machine in (?P<month>[A-Z][a-z]+ \d{4})\): (?P<full>\d+) s in full mode,(?P<space2>\s+)"
+    r"(?P<quick>\d+) s in quick mode\."
+)
+
+
+def _seconds(manifest: Path) -> dict[str, float]:
+    entries = json.loads(Path(manifest).read_text())["notebooks"]
+    bad = [e["notebook"] for e in entries if e.get("status") != "ok"]
+    if bad:
+        raise ValueError(f"{manifest}: not every notebook ran ok ({', '.join(bad)}); rerun the batch first")
+    return {e["notebook"]: float(e["seconds"]) for e in entries}
+
+
+def update_run_times(full_manifest, quick_manifest, month: str | None = None) -> list[str]:
+    """Rewrite the run-time sentence of every notebook in both manifests; returns those changed.
+
+    Raises ``ValueError`` if a manifest holds a failed notebook, or a listed notebook has no
+    run-time sentence in its first cell.
+    """
+    full, quick = _seconds(full_manifest), _seconds(quick_manifest)
+    month = month or datetime.date.today().strftime("%B %Y")
+    changed = []
+    for name in sorted(set(full) & set(quick)):
+        path = paths.NOTEBOOKS / name
+        nb = nbformat.read(path, as_version=4)
+        intro = nb.cells[0].source
+        match = SENTENCE.search(intro)
+        if match is None:
+            raise ValueError(f"{name}: no run-time sentence in its first cell (see wsnlib.run_times)")
+        sentence = (f"**Run time** (measured by the batch runner, `python -m wsnlib.reproduce`, on a shared 2-core"
+                    f"{match['space1']}machine in {month}): {round(full[name])} s in full mode,{match['space2']}"
+                    f"{round(quick[name])} s in quick mode.")
+        updated = intro[: match.start()] + sentence + intro[match.end() :]
+        if updated != intro:
+            nb.cells[0].source = updated
+            nbformat.write(nb, path)
+            changed.append(name)
+    return changed
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("full_manifest", type=Path)
+    parser.add_argument("quick_manifest", type=Path)
+    args = parser.parse_args(argv)
+    for name in update_run_times(args.full_manifest, args.quick_manifest):
+        print(f"updated {name}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
