@@ -16,7 +16,9 @@ run on identical data: integrating the first gyroscope sample after a gap over
 ``(1 + λ)Δt`` (``method="dt_extension"``), linear interpolation of the gyroscope across the
 gap (``"gyro_interpolation"``), and a step size β that depends on λ (``"adaptive_beta"``).
 ``"hold_last"`` is plain Madgwick under loss (:func:`wsnlib.orientation.madgwick`), the
-baseline, and ``"hybrid"`` is eqs. (3)–(4).
+baseline, and ``"hybrid"`` is eqs. (3)–(4).  ``method="kalman"`` runs the gap-aware
+error-state Kalman filter (:func:`wsnlib.orientation.kalman_orientation`) on the same inputs
+instead of Madgwick's filter.
 
 Two questions the paper leaves open
 -----------------------------------
@@ -46,20 +48,26 @@ branches are the methods (read it beside this docstring); λ_eff is updated in t
 
 Held output
 -----------
-On a lost sample every method outputs the previous output (the receiver has nothing new to
-show), as :func:`wsnlib.orientation.madgwick` does.  Before a batch element's first received
+On a lost sample every Madgwick-family method outputs the previous output (the receiver has
+nothing new to show), as :func:`wsnlib.orientation.madgwick` does, unless ``gap="constant_rate"``
+(and ``"kalman"``, whose default is ``gap="constant_rate"``).  Before a batch element's first received
 sample the output is the initial estimate.
 """
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from wsnlib.orientation import _batch as B
 from wsnlib.orientation import _kernels as K
+from wsnlib.orientation.kalman import KalmanSettings, kalman_orientation
 
-#: Loss-handling methods of :func:`estimate_orientation`.
+#: Loss-handling methods of :func:`estimate_orientation` built on Madgwick's filter.
 METHODS = ("hold_last", "dt_extension", "gyro_interpolation", "adaptive_beta", "hybrid")
+#: Every ``method`` of :func:`estimate_orientation`: :data:`METHODS` and the gap-aware Kalman filter.
+ALL_METHODS = METHODS + ("kalman",)
 #: λ schedules of :func:`effective_lost_run`.
 SCHEDULES = ("decay", "hold", "instant")
 #: Where the hybrid's SLERP acts.
@@ -199,7 +207,7 @@ def estimate_orientation(
     mag=None,
     *,
     fs: float,
-    beta,
+    beta=None,
     received=None,
     method: str = "hybrid",
     rho=2.0,
@@ -209,11 +217,12 @@ def estimate_orientation(
     blend: str = "output",
     beta_max=None,
     q0=None,
-    gap: str = "hold",
+    gap: str | None = None,
     gap_time_constant=None,
     return_weight: bool = False,
+    kalman_settings: KalmanSettings | None = None,
 ):
-    """Madgwick's filter under packet loss with a choice of loss handling, batched.
+    """Madgwick's filter under packet loss with a choice of loss handling, or the Kalman filter, batched.
 
     Every method runs Madgwick's filter (:mod:`wsnlib.orientation.madgwick`) on the received
     samples and outputs the previous output on lost ones; they differ in what happens once
@@ -250,6 +259,13 @@ def estimate_orientation(
       Madgwick's state runs as in ``"hold_last"`` and only the output is blended;
       ``blend="feedback"``: ``q_f`` replaces the state after each received update.  Needs
       ``mag``.
+    * ``"kalman"`` (issue 11): not Madgwick's filter but the gap-aware error-state Kalman
+      filter, :func:`wsnlib.orientation.kalman_orientation` with ``kalman_settings`` (default:
+      the settings tuned on BROAD).  It uses ``gyr``, ``acc``, ``mag`` (optional), ``fs``,
+      ``received``, ``q0``, ``gap`` (default ``"constant_rate"``: it always predicts over a
+      gap) and ``gap_time_constant``; ``beta``, ``rho``, ``tau``, ``schedule``,
+      ``hold_window``, ``blend`` and ``beta_max`` are not used (ignored), ``return_weight``
+      is refused.
 
     Parameters
     ----------
@@ -262,11 +278,12 @@ def estimate_orientation(
         Sampling rate (Hz), > 0; Δt = 1/fs.
     beta : float or array_like
         Gain β (rad/s), >= 0; an array gives one per batch element (it broadcasts against
-        the leading dimensions of the signals).
+        the leading dimensions of the signals).  Required by every method except
+        ``"kalman"``.
     received : array_like of bool, shape (..., T), optional
         True = received; lost samples are never read (they may hold NaN).  ``None``: all
         received.
-    method : {"hybrid", "hold_last", "dt_extension", "gyro_interpolation", "adaptive_beta"}
+    method : {"hybrid", "hold_last", "dt_extension", "gyro_interpolation", "adaptive_beta", "kalman"}
     rho, tau : float or array_like
         ρ, τ of eq. (3), finite and > 0 (positive integers in the paper; defaults ρ = 2,
         τ = 6, so μ = 1/2 at λ_eff = 12 samples).  Arrays broadcast against the leading
@@ -290,23 +307,28 @@ def estimate_orientation(
         received sample.  A gap before that sample is then no gap of the filter, which had
         not started: λ_eff is 0 up to that sample, and nothing is replayed or extended.
         With ``q0`` a gap at the start is a gap like any other.
-    gap : {"hold", "constant_rate"}
+    gap : {"hold", "constant_rate"}, optional
         During a gap: hold the previous output (the paper's receiver), or keep turning the
         state by the last received angular rate (dead reckoning, gyroscope only; then the
         output on a lost sample is that prediction, and the method acts from there when the
         gap ends).  ``"constant_rate"`` cannot be combined with ``"dt_extension"`` or
         ``"gyro_interpolation"``, which fill the same gap with the gyroscope their own way.
+        Default (None): ``"hold"``, except ``"constant_rate"`` for ``"kalman"``, which always
+        predicts inside; its ``"hold"`` holds only the output on lost samples.
     gap_time_constant : float, optional
-        With ``"constant_rate"``: the extrapolated rate decays as ``exp(−t/τ)``, τ in s.
+        With ``"constant_rate"``: the extrapolated rate decays as ``exp(−t/τ)``, τ in s (for
+        ``"kalman"`` it replaces ``kalman_settings.gap_rate_decay_s``).
     return_weight : bool
-        Also return μ.
+        Also return μ (not with ``"kalman"``).
+    kalman_settings : KalmanSettings, optional
+        Only for ``"kalman"``: its noise levels and gates (default ``KalmanSettings()``).
 
     Returns
     -------
     quat : numpy.ndarray, shape (..., T, 4)
         ENU unit quaternions (body → earth).  ``...`` is the broadcast of the leading
-        dimensions of the signals, ``received``, ``q0``, ``beta``, and of the parameters the
-        method uses (``rho``, ``tau``, ``hold_window`` for ``"hybrid"`` and
+        dimensions of the signals, ``received``, ``q0``, ``beta`` (except for ``"kalman"``),
+        and of the parameters the method uses (``rho``, ``tau``, ``hold_window`` for ``"hybrid"`` and
         ``"adaptive_beta"``, ``beta_max`` for ``"adaptive_beta"``); parameters a method does
         not use add no dimension.  Lost samples hold the previous output (or, with
         ``gap="constant_rate"``, the prediction).
@@ -318,7 +340,9 @@ def estimate_orientation(
     Raises
     ------
     ValueError
-        Naming the argument: an unknown ``method``, ``schedule`` or ``blend``; ρ or τ <= 0,
+        Naming the argument: an unknown ``method``, ``schedule`` or ``blend``; ``beta``
+        missing (other than ``"kalman"``); ``kalman_settings`` with another method or not a
+        :class:`KalmanSettings`; ``return_weight`` with ``"kalman"``; ρ or τ <= 0,
         NaN or inf; β < 0 or not finite; ``beta_max`` < β or not finite; ``hold_window`` not
         a positive integer with ``schedule="hold"`` or given with another schedule;
         ``mag`` None for ``"hybrid"``; and everything :func:`wsnlib.orientation.madgwick`
@@ -337,7 +361,14 @@ def estimate_orientation(
     schedule either: it runs once on the un-broadcast batch, and the blend is applied
     afterwards, in one vectorised pass over the blended samples.
     """
-    method = B.check_choice(method, "method", METHODS)
+    method = B.check_choice(method, "method", ALL_METHODS)
+    if method == "kalman":
+        return _kalman(gyr, acc, mag, fs=fs, received=received, q0=q0, gap=gap, gap_time_constant=gap_time_constant,
+                       return_weight=return_weight, kalman_settings=kalman_settings)
+    if kalman_settings is not None:
+        raise ValueError(f"kalman_settings is only used with method='kalman', not method={method!r}")
+    if beta is None:
+        raise ValueError(f"beta (rad/s) is required for method={method!r} (Madgwick's gain)")
     schedule = B.check_choice(schedule, "schedule", SCHEDULES)
     blend = B.check_choice(blend, "blend", BLENDS)
     fs = B.check_fs(fs)
@@ -349,7 +380,7 @@ def estimate_orientation(
     rho = B.positive_array(rho, "rho")
     tau = B.positive_array(tau, "tau")
     window = B.check_hold_window(hold_window, schedule, DEFAULT_HOLD_WINDOW)
-    gap, gap_time_constant = B.check_gap(gap, gap_time_constant, method)
+    gap, gap_time_constant = B.check_gap("hold" if gap is None else gap, gap_time_constant, method)
     if method == "hybrid" and mag is None:
         raise ValueError("mag is required for method='hybrid': TRIAD (q_s) needs the magnetometer")
 
@@ -387,6 +418,21 @@ def estimate_orientation(
     mu = rho[..., None] / (lam / tau[..., None] + rho[..., None])
     mu_batch = np.broadcast_shapes(quat.shape[:-2], mu.shape[:-1])
     return quat, np.array(np.broadcast_to(mu, mu_batch + mu.shape[-1:]))
+
+
+def _kalman(gyr, acc, mag, *, fs, received, q0, gap, gap_time_constant, return_weight, kalman_settings):
+    """``estimate_orientation(..., method="kalman")``: the parameters it uses, checked, then
+    :func:`wsnlib.orientation.kalman_orientation`."""
+    if return_weight:
+        raise ValueError("return_weight is not available for method='kalman' (it has no SLERP weight μ)")
+    gap, gap_time_constant = B.check_gap("constant_rate" if gap is None else gap, gap_time_constant, "kalman")
+    if kalman_settings is None:
+        kalman_settings = KalmanSettings()
+    if not isinstance(kalman_settings, KalmanSettings):
+        raise ValueError(f"kalman_settings must be a KalmanSettings, got {type(kalman_settings).__name__}")
+    if gap_time_constant is not None:
+        kalman_settings = dataclasses.replace(kalman_settings, gap_rate_decay_s=gap_time_constant)
+    return kalman_orientation(gyr, acc, mag, fs=fs, received=received, q0=q0, settings=kalman_settings, gap=gap)
 
 
 def blend_with_single_frame(

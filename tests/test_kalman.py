@@ -1,0 +1,318 @@
+"""Gap-aware error-state Kalman filter: reference step, loss behaviour, gates, validation."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from wsnlib import frames
+from wsnlib import quaternion as Q
+from wsnlib.orientation import estimate_orientation, madgwick
+from wsnlib.orientation.kalman import KalmanSettings, kalman_orientation
+from wsnlib.sim.arm import arm_kinematics, movement_set
+from wsnlib.sim.imu import ideal_imu
+
+FS = 50.0
+
+
+def _turning_recording(n=600, fs=FS, seed=0):
+    """Exact signals of a smoothly turning sensor (rates ≤ ~1.5 rad/s), truth included."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / fs
+    freqs, phases, amps = rng.uniform(0.1, 0.5, 3), rng.uniform(0, 2 * np.pi, 3), rng.uniform(0.5, 1.2, 3)
+    gyr = amps * np.sin(2 * np.pi * freqs * t[:, None] + phases)
+    quat = np.empty((n, 4))
+    quat[0] = Q.from_axis_angle([1.0, 0.0, 0.0], 0.3)
+    for k in range(1, n):  # q_k = q_{k-1} ⊗ Exp(ω_k Δt), as the filter integrates
+        quat[k] = Q.normalize(Q.multiply(quat[k - 1], Q.from_rotation_vector(gyr[k] / fs)))
+    acc = Q.rotate_inverse(quat, frames.gravity_specific_force_enu())
+    mag = Q.rotate_inverse(quat, np.broadcast_to(frames.magnetic_field_enu(), (n, 3)))
+    return gyr, acc, mag, quat
+
+
+def _error_deg(q_est, q_true):
+    return np.degrees(Q.angle_between(q_est, q_true))
+
+
+# ------------------------------------------------------------------------------------------
+# Pure-numpy reference of the filter (matrix form), for small cases
+# ------------------------------------------------------------------------------------------
+
+
+def _rotvec_quat(v):
+    return Q.from_rotation_vector(np.asarray(v, dtype=float))
+
+
+def _reference_filter(gyr, acc, mag, received, fs, st: KalmanSettings):
+    """The module docstring's equations with numpy matrices (joint 2-D accelerometer update)."""
+    dt = 1.0 / fs
+    n = len(gyr)
+    first = int(np.argmax(received))
+    from wsnlib.orientation.triad import triad
+
+    q = triad(acc[first], mag[first])
+    b = np.zeros(3)
+    P = np.diag([st.initial_tilt_sigma**2] * 2 + [st.initial_heading_sigma**2] + [st.initial_bias_sigma**2] * 3)
+    out = np.empty((n, 4))
+    out[: first + 1] = q
+    held = np.zeros(3)
+    lost_run = 0
+    gap_sigma = 0.0
+    ref = None
+    for t in range(first + 1, n):
+        if received[t]:
+            held = gyr[t] - b
+            lost_run = 0
+        else:
+            held = held * math.exp(-dt / st.gap_rate_decay_s)
+            lost_run += 1
+        q = Q.normalize(Q.multiply(q, _rotvec_quat(held * dt)))
+        R = Rotation.from_quat(q[[1, 2, 3, 0]]).as_matrix()
+        F = np.eye(6)
+        F[:3, 3:] = -R * dt
+        Qn = np.diag([st.gyro_noise**2 * dt] * 3 + [st.bias_noise**2 * dt] * 3)
+        if not received[t]:
+            if lost_run == 1:
+                gap_sigma = st.gap_rate_noise + st.gap_rate_relative_noise * np.linalg.norm(held)
+            Qn[:3, :3] += np.eye(3) * (gap_sigma * dt) ** 2 * (2 * lost_run - 1)
+        P = F @ P @ F.T + Qn
+        if not received[t]:
+            out[t] = q
+            continue
+        # accelerometer
+        a_norm = np.linalg.norm(acc[t])
+        dev = abs(a_norm - st.gravity)
+        if dev <= st.acc_norm_gate and np.linalg.norm(held) <= st.acc_rate_gate:
+            e = Q.rotate(q, acc[t] / a_norm)
+            axis = np.cross(e, [0.0, 0.0, 1.0])
+            phi = math.atan2(np.linalg.norm(axis), e[2]) * axis / np.linalg.norm(axis)
+            r = st.acc_noise**2 + (dev / st.gravity) ** 2
+            H = np.zeros((2, 6))
+            H[0, 0] = H[1, 1] = 1.0
+            S = H @ P @ H.T + r * np.eye(2)
+            d2 = phi[:2] @ np.linalg.solve(S, phi[:2])
+            if d2 > st.acc_innovation_gate:
+                tilt_var = 0.5 * (P[0, 0] + P[1, 1])
+                r = math.sqrt(d2 / st.acc_innovation_gate) * (tilt_var + r) - tilt_var
+                S = H @ P @ H.T + r * np.eye(2)
+            K = P @ H.T @ np.linalg.inv(S)
+            dx = K @ phi[:2]
+            IKH = np.eye(6) - K @ H
+            P = IKH @ P @ IKH.T + r * K @ K.T
+            q = Q.normalize(Q.multiply(_rotvec_quat(dx[:3]), q))
+            b = np.clip(b + dx[3:], -st.bias_limit, st.bias_limit)
+        # magnetometer (the test data are undisturbed: the gate always accepts)
+        m_e = Q.rotate(q, mag[t])
+        dip = math.atan2(-m_e[2], math.hypot(m_e[0], m_e[1]))
+        if ref is None:
+            ref = (np.linalg.norm(mag[t]), dip)
+        assert abs(np.linalg.norm(mag[t]) - ref[0]) < st.mag_norm_gate * ref[0] and abs(dip - ref[1]) < st.mag_dip_gate
+        psi = math.atan2(m_e[0], m_e[1])
+        H = np.zeros((1, 6))
+        H[0, 2] = 1.0
+        S = P[2, 2] + st.mag_noise**2
+        K = P @ H.T / S
+        K[:2] = 0.0
+        dx = (K * psi)[:, 0]
+        IKH = np.eye(6) - K @ H
+        P = IKH @ P @ IKH.T + st.mag_noise**2 * K @ K.T
+        q = Q.normalize(Q.multiply(_rotvec_quat(dx[:3]), q))
+        b = np.clip(b + dx[3:], -st.bias_limit, st.bias_limit)
+        out[t] = q
+    return out, P
+
+
+def test_kernel_matches_numpy_reference_to_1e12():
+    gyr, acc, mag, _ = _turning_recording(n=40)
+    rng = np.random.default_rng(3)
+    acc = acc + rng.normal(0, 0.3, acc.shape)  # innovations large enough to trigger the robust gate
+    gyr = gyr + 0.01
+    received = np.ones(40, bool)
+    received[[0, 9, 10, 11, 25]] = False
+    st = KalmanSettings(gap_rate_decay_s=0.2)
+    got = kalman_orientation(gyr, acc, mag, fs=FS, received=received, settings=st, full_output=True)
+    want, want_P = _reference_filter(gyr, acc, mag, received, FS, st)
+    np.testing.assert_allclose(Q.canonical(got.quat), Q.canonical(want), atol=1e-12)
+    np.testing.assert_allclose(got.covariance[-1], want_P, atol=1e-12, rtol=1e-10)
+
+
+# ------------------------------------------------------------------------------------------
+# Behaviour
+# ------------------------------------------------------------------------------------------
+
+
+def test_no_loss_close_to_lossless_madgwick_on_simulated_arm():
+    truth = arm_kinematics(movement_set(fs=FS)["extension fast"])
+    imu = ideal_imu(truth)
+    q_k = kalman_orientation(imu.gyr, imu.acc, imu.mag, fs=FS)
+    q_m = madgwick(imu.gyr, imu.acc, imu.mag, fs=FS, beta=0.041)
+    err_k = _error_deg(q_k, truth.quat)
+    err_m = _error_deg(q_m, truth.quat)
+    assert np.sqrt(np.mean(err_k**2)) < np.sqrt(np.mean(err_m**2)) + 2.0
+    assert err_k.max() < 5.0
+
+
+def test_prediction_continues_through_a_gap_instead_of_freezing():
+    gyr, acc, mag, truth = _turning_recording()
+    received = np.ones(len(gyr), bool)
+    received[200:218] = False  # 3 packets of 6 samples, 0.36 s
+    q = kalman_orientation(gyr, acc, mag, fs=FS, received=received)
+    held = madgwick(gyr, acc, mag, fs=FS, beta=0.041, received=received)
+    # exact gyroscope: constant-rate extrapolation is far better than holding
+    assert _error_deg(q, truth)[200:218].mean() < 0.5 * _error_deg(held, truth)[200:218].mean()
+    assert not np.allclose(q[201], q[200])  # the estimate moves on lost samples
+
+
+def test_covariance_grows_over_a_gap_and_shrinks_after():
+    gyr, acc, mag, _ = _turning_recording()
+    received = np.ones(len(gyr), bool)
+    received[300:330] = False
+    out = kalman_orientation(gyr, acc, mag, fs=FS, received=received, full_output=True)
+    tilt_var = out.covariance[:, 0, 0]
+    assert np.all(np.diff(tilt_var[300:330]) > 0)  # grows at every lost sample
+    assert tilt_var[329] > 100 * tilt_var[299]
+    # growth is (σ_gap · elapsed)²: faster than linear in the gap length
+    assert tilt_var[329] - tilt_var[299] > 3 * (tilt_var[309] - tilt_var[299]) * 2
+    assert tilt_var[330] < 0.5 * tilt_var[329]  # the first sample after the gap gets a large gain (> 1/2)
+    assert not out.acc_used[300:330].any() and out.acc_used[330]
+
+
+def test_accelerometer_gated_under_large_acceleration():
+    gyr, acc, mag, truth = _turning_recording()
+    bad = acc.copy()
+    # 2 g of linear acceleration sideways for 1 s: the direction is off by ~60°
+    push = np.array([2 * frames.STANDARD_GRAVITY, 0.0, 0.0])
+    bad[300:350] = Q.rotate_inverse(truth[300:350], frames.gravity_specific_force_enu() + push)
+    out = kalman_orientation(gyr, bad, mag, fs=FS, full_output=True)
+    assert not out.acc_used[300:350].any()
+    assert _error_deg(out.quat, truth)[300:360].max() < 1.0
+    # the norm gate is what excluded them: without it they are used (with inflated noise)
+    ungated = kalman_orientation(gyr, bad, mag, fs=FS, full_output=True, settings=KalmanSettings(
+        acc_norm_gate=math.inf))
+    assert ungated.acc_used[300:350].all()
+    assert not np.array_equal(ungated.quat[300:360], out.quat[300:360])
+
+
+def test_magnetic_disturbance_rejected_and_never_tilts():
+    gyr, acc, mag, truth = _turning_recording()
+    disturbed = mag.copy()
+    disturbed[300:400] += Q.rotate_inverse(truth[300:400], [40.0, 0.0, 0.0])  # a magnet: norm and dip change
+    out = kalman_orientation(gyr, acc, disturbed, fs=FS, full_output=True)
+    assert not out.mag_used[300:400].all()
+    assert _error_deg(out.quat, truth)[300:400].max() < 2.0
+    # heading-only: without its gate the magnet turns the heading but does not tilt
+    ungated = kalman_orientation(gyr, acc, disturbed, fs=FS, settings=KalmanSettings(mag_norm_gate=math.inf,
+                                                                                      mag_dip_gate=math.inf))
+    clean = kalman_orientation(gyr, acc, mag, fs=FS)
+    err = Q.multiply(ungated, Q.conjugate(clean))  # earth-frame difference
+    tilt = np.degrees(2 * np.arctan2(np.hypot(err[..., 1], err[..., 2]), np.hypot(err[..., 0], err[..., 3])))
+    heading = np.degrees(2 * np.arctan2(np.abs(err[..., 3]), np.abs(err[..., 0])))
+    assert heading[300:400].max() > 5.0
+    assert tilt[300:400].max() < 0.2 * heading[300:400].max()
+
+
+def test_batch_equals_loop_and_broadcasts():
+    gyr, acc, mag, _ = _turning_recording(n=200)
+    rng = np.random.default_rng(5)
+    masks = rng.random((3, 200)) > 0.2
+    masks[:, 0] = True
+    batch = kalman_orientation(gyr, acc, mag, fs=FS, received=masks)
+    assert batch.shape == (3, 200, 4)
+    for i in range(3):
+        np.testing.assert_array_equal(batch[i], kalman_orientation(gyr, acc, mag, fs=FS, received=masks[i]))
+    np.testing.assert_allclose(np.linalg.norm(batch, axis=-1), 1.0, atol=1e-12)
+
+
+def test_lost_samples_may_hold_nan_and_imu_form_runs():
+    gyr, acc, mag, _ = _turning_recording(n=100)
+    received = np.ones(100, bool)
+    received[40:50] = False
+    gyr, acc, mag = gyr.copy(), acc.copy(), mag.copy()
+    gyr[40:50] = acc[40:50] = mag[40:50] = np.nan
+    assert np.all(np.isfinite(kalman_orientation(gyr, acc, mag, fs=FS, received=received)))
+    assert np.all(np.isfinite(kalman_orientation(gyr, acc, None, fs=FS, received=received)))
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"fs": 0.0}, "fs"),
+        ({"fs": 1e-300}, "fs"),
+        ({"received": np.ones(50)}, "received"),
+        ({"q0": [0, 0, 0, 0]}, "q0"),
+        ({"settings": {"acc_noise": 1}}, "settings"),
+    ],
+)
+def test_rejects_bad_arguments(kwargs, match):
+    gyr, acc, mag, _ = _turning_recording(n=50)
+    args = {"fs": FS} | kwargs
+    with pytest.raises(ValueError, match=match):
+        kalman_orientation(gyr, acc, mag, **args)
+
+
+def test_rejects_nan_in_received_sample_and_bad_settings():
+    gyr, acc, mag, _ = _turning_recording(n=50)
+    acc = acc.copy()
+    acc[10] = np.nan
+    with pytest.raises(ValueError, match="acc"):
+        kalman_orientation(gyr, acc, mag, fs=FS)
+    with pytest.raises(ValueError, match="acc_noise"):
+        KalmanSettings(acc_noise=-1.0)
+    with pytest.raises(ValueError, match="gyro_noise"):
+        KalmanSettings(gyro_noise=math.inf)
+
+
+# ------------------------------------------------------------------------------------------
+# estimate_orientation(..., method="kalman") and the gap option
+# ------------------------------------------------------------------------------------------
+
+
+def test_estimate_orientation_kalman_is_kalman_orientation():
+    gyr, acc, mag, _ = _turning_recording(n=200)
+    rng = np.random.default_rng(6)
+    masks = rng.random((2, 200)) > 0.2
+    got = estimate_orientation(gyr, acc, mag, fs=FS, received=masks, method="kalman")
+    np.testing.assert_array_equal(got, kalman_orientation(gyr, acc, mag, fs=FS, received=masks))
+    st = KalmanSettings(acc_noise=0.1)
+    np.testing.assert_array_equal(
+        estimate_orientation(gyr, acc, None, fs=FS, received=masks, method="kalman", kalman_settings=st, gap="hold"),
+        kalman_orientation(gyr, acc, None, fs=FS, received=masks, settings=st, gap="hold"))
+    # gap_time_constant is the settings' gap_rate_decay_s
+    np.testing.assert_array_equal(
+        estimate_orientation(gyr, acc, mag, fs=FS, received=masks, method="kalman", gap_time_constant=0.3),
+        kalman_orientation(gyr, acc, mag, fs=FS, received=masks, settings=KalmanSettings(gap_rate_decay_s=0.3)))
+
+
+def test_gap_hold_holds_the_output_and_changes_nothing_else():
+    gyr, acc, mag, _ = _turning_recording(n=200)
+    received = np.ones(200, bool)
+    received[[0, 1]] = False  # leading gap (q0 None: the output there is the initial estimate)
+    received[50:70] = False
+    received[199] = False  # a gap at the end
+    predicted = kalman_orientation(gyr, acc, mag, fs=FS, received=received, full_output=True)
+    held = kalman_orientation(gyr, acc, mag, fs=FS, received=received, gap="hold", full_output=True)
+    np.testing.assert_array_equal(held.quat[received], predicted.quat[received])
+    np.testing.assert_array_equal(held.quat[50:70], np.broadcast_to(predicted.quat[49], (20, 4)))
+    np.testing.assert_array_equal(held.quat[199], predicted.quat[198])
+    np.testing.assert_array_equal(held.covariance, predicted.covariance)  # the state still predicts
+    assert not np.allclose(predicted.quat[60], predicted.quat[49])
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"method": "kalman", "return_weight": True}, "return_weight"),
+        ({"method": "kalman", "kalman_settings": {"acc_noise": 1}}, "kalman_settings"),
+        ({"method": "kalman", "gap": "freeze"}, "gap"),
+        ({"method": "kalman", "gap": "hold", "gap_time_constant": 1.0}, "gap_time_constant"),
+        ({"method": "hold_last", "beta": 0.1, "kalman_settings": KalmanSettings()}, "kalman_settings"),
+        ({"method": "hybrid"}, "beta"),
+    ],
+)
+def test_estimate_orientation_rejects_parameters_of_the_other_family(kwargs, match):
+    gyr, acc, mag, _ = _turning_recording(n=50)
+    with pytest.raises(ValueError, match=match):
+        estimate_orientation(gyr, acc, mag, fs=FS, **kwargs)

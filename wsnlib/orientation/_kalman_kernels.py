@@ -1,0 +1,358 @@
+"""Compiled kernels of the gap-aware error-state Kalman filter (:mod:`wsnlib.orientation.kalman`).
+
+One numba function per step of the filter's equations (prediction, accelerometer and
+magnetometer corrections, the scalar update, the injection), the loop over time of one
+recording (:func:`kalman_stream`) and its parallel batch driver (:func:`run_kalman`).  The
+scalar quaternion helpers are those of :mod:`._kernels`, shared with Madgwick's filter.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from wsnlib.orientation._kernels import (
+    COMPILE,
+    quat_exp,
+    quat_multiply,
+    quat_normalize,
+    quat_rotate,
+    rotation_matrix,
+    vec_norm,
+)
+
+# ------------------------------------------------------------------------------------------
+# Gap-aware error-state Kalman filter (wsnlib.orientation.kalman): the settings vector
+# ------------------------------------------------------------------------------------------
+
+# Positions in the settings vector handed to the kernels.
+_DT, _GYRO_VAR, _BIAS_VAR, _ACC_VAR, _MAG_VAR, _GAP_VAR, _GAP_DECAY, _GRAVITY = range(8)
+_ACC_NORM_GATE, _ACC_RATE_GATE, _MAG_NORM_GATE, _MAG_DIP_GATE, _MAG_REF_GAIN = range(8, 13)
+_MAG_NEW_TIME, _MAG_NEW_MIN_RATE, _MAG_MAX_REJECT, _MAG_REJECT_VAR_FACTOR = range(13, 17)
+_INIT_TILT_VAR, _INIT_HEADING_VAR, _INIT_BIAS_VAR, _BIAS_LIMIT = range(17, 21)
+_ACC_INNOVATION_GATE, _GAP_NOISE, _GAP_RELATIVE_NOISE = range(21, 24)
+_N_SETTINGS = 24
+#: Positions of Δt and of the variances (which must be finite and > 0) in the settings vector.
+KALMAN_DT = _DT
+KALMAN_VARIANCES = (_GYRO_VAR, _BIAS_VAR, _ACC_VAR, _MAG_VAR, _GAP_VAR)
+
+# Gate state per stream: reference norm (0 = unset) and dip, candidate norm/dip/time, time
+# rejected, and the number of samples lost in a row.
+_REF_NORM, _REF_DIP, _CAND_NORM, _CAND_DIP, _CAND_T, _REJECT_T, _LOST_RUN, _GAP_SIGMA = range(8)
+_N_GATE = 8
+
+
+def kalman_settings_vector(settings, dt: float) -> np.ndarray:
+    """What the Kalman kernels read from a ``KalmanSettings`` and Δt (s): variances per sample and
+    gates, in the order of the indices above (plain Python; checked by the caller)."""
+    s = settings
+    vector = np.empty(_N_SETTINGS)
+    vector[_DT] = dt
+    vector[_GYRO_VAR] = s.gyro_noise**2 * dt
+    vector[_BIAS_VAR] = s.bias_noise**2 * dt
+    vector[_ACC_VAR] = s.acc_noise**2
+    vector[_MAG_VAR] = s.mag_noise**2
+    vector[_GAP_VAR] = (s.gap_rate_noise * dt) ** 2
+    vector[_GAP_NOISE] = s.gap_rate_noise
+    vector[_GAP_RELATIVE_NOISE] = s.gap_rate_relative_noise
+    vector[_GAP_DECAY] = math.exp(-dt / s.gap_rate_decay_s)
+    vector[_GRAVITY] = s.gravity
+    vector[_ACC_NORM_GATE] = s.acc_norm_gate
+    vector[_ACC_RATE_GATE] = s.acc_rate_gate
+    vector[_MAG_NORM_GATE] = s.mag_norm_gate
+    vector[_MAG_DIP_GATE] = s.mag_dip_gate
+    vector[_MAG_REF_GAIN] = -math.expm1(-dt / s.mag_reference_tau_s)
+    vector[_MAG_NEW_TIME] = s.mag_new_time_s
+    vector[_MAG_NEW_MIN_RATE] = s.mag_new_min_rate
+    vector[_MAG_MAX_REJECT] = s.mag_max_rejection_s
+    vector[_MAG_REJECT_VAR_FACTOR] = s.mag_rejection_factor**2
+    vector[_INIT_TILT_VAR] = s.initial_tilt_sigma**2
+    vector[_INIT_HEADING_VAR] = s.initial_heading_sigma**2
+    vector[_INIT_BIAS_VAR] = s.initial_bias_sigma**2
+    vector[_BIAS_LIMIT] = s.bias_limit
+    vector[_ACC_INNOVATION_GATE] = s.acc_innovation_gate
+    return vector
+
+
+# ------------------------------------------------------------------------------------------
+# Kalman filter: one sample (equations in wsnlib.orientation.kalman's docstring)
+# ------------------------------------------------------------------------------------------
+
+
+@njit(**COMPILE)
+def kalman_scalar_update(P, dx, i, innovation, r, heading_only, K, row):
+    """Scalar Kalman update with ``H = e_iᵀ``: ``S = P_ii + r``, ``K = P_·i/S``, Joseph form."""
+    S = P[i, i] + r
+    for a in range(6):
+        K[a] = P[a, i] / S
+        row[a] = P[i, a]
+    if heading_only:  # the magnetometer must not tilt: zero the gain's tilt rows
+        K[0] = 0.0
+        K[1] = 0.0
+    for a in range(6):
+        dx[a] += K[a] * innovation
+    # P ← P − K P_i· − P_·i Kᵀ + S K Kᵀ   ((I − K H) P (I − K H)ᵀ + r K Kᵀ, any K)
+    for a in range(6):
+        for b in range(6):
+            P[a, b] += -K[a] * row[b] - row[a] * K[b] + S * K[a] * K[b]
+
+
+@njit(**COMPILE)
+def kalman_inject(q, bias, dx, bias_limit):
+    """``q ← Exp(δθ) ⊗ q``, ``b ← b + δb`` (clipped), ``δx ← 0``; returns the new ``q``."""
+    q = quat_normalize(quat_multiply(quat_exp((dx[0], dx[1], dx[2])), q))
+    for a in range(3):
+        bias[a] = min(max(bias[a] + dx[3 + a], -bias_limit), bias_limit)
+    for a in range(6):
+        dx[a] = 0.0
+    return q
+
+
+@njit(**COMPILE)
+def kalman_predict(q, bias, P, held_rate, gate, gyr, received, s, R, F, FP):
+    """Prediction of one sample (module docstring); returns ``q⁻``.
+
+    ``q`` 4-tuple; ``bias`` (3,) read; ``P`` (6, 6), ``held_rate`` (3,) (the bias-corrected
+    rate used, on return) and ``gate`` (_N_GATE,) updated in place; ``gyr`` (3,) read only if
+    ``received``.  On return ``R`` (3, 3) holds R(q⁻), which defines F; ``F``, ``FP`` (6, 6)
+    are scratch.
+    """
+    dt = s[_DT]
+    # --- Angular rate of the prediction: measured, or extrapolated over a gap -------------
+    if received:
+        for a in range(3):
+            held_rate[a] = gyr[a] - bias[a]
+        gate[_LOST_RUN] = 0.0
+    else:
+        for a in range(3):
+            held_rate[a] *= s[_GAP_DECAY]
+        gate[_LOST_RUN] += 1.0
+    omega = (held_rate[0], held_rate[1], held_rate[2])
+
+    # --- Strapdown prediction: q⁻ = q ⊗ Exp((ω − b) Δt) -----------------------------------
+    q = quat_normalize(quat_multiply(q, quat_exp((omega[0] * dt, omega[1] * dt, omega[2] * dt))))
+    rotation_matrix(q, R)
+
+    # --- Error propagation: P⁻ = F P Fᵀ + Q, F = [[I, −R Δt], [0, I]] ---------------------
+    for a in range(6):
+        for b in range(6):
+            F[a, b] = 1.0 if a == b else 0.0
+    for a in range(3):
+        for b in range(3):
+            F[a, 3 + b] = -R[a, b] * dt
+    for a in range(6):  # FP = F P
+        for b in range(6):
+            acc_ab = 0.0
+            for c in range(6):
+                acc_ab += F[a, c] * P[c, b]
+            FP[a, b] = acc_ab
+    for a in range(6):  # P = (F P) Fᵀ
+        for b in range(6):
+            acc_ab = 0.0
+            for c in range(6):
+                acc_ab += FP[a, c] * F[b, c]
+            P[a, b] = acc_ab
+    # Q: gyro noise and bias random walk; over a gap, the extrapolated rate's error.
+    extra = 0.0
+    if not received:
+        if gate[_LOST_RUN] == 1.0:  # std of the extrapolated rate's error, fixed for the gap
+            gate[_GAP_SIGMA] = s[_GAP_NOISE] + s[_GAP_RELATIVE_NOISE] * vec_norm(omega)
+        extra = (gate[_GAP_SIGMA] * dt) ** 2 * (2.0 * gate[_LOST_RUN] - 1.0)
+    for a in range(3):
+        P[a, a] += s[_GYRO_VAR] + extra
+        P[3 + a, 3 + a] += s[_BIAS_VAR]
+    return q
+
+
+@njit(**COMPILE)
+def kalman_correct(q, bias, P, gate, acc, mag, has_mag, omega, s, dx, K, row):
+    """Measurement updates of one received sample; returns ``(q, acc_used, mag_used)``.
+
+    ``q`` = q⁻ (4-tuple), ``omega`` the bias-corrected rate of the sample (3-tuple, for the
+    rate gates); ``bias``, ``P``, ``gate`` updated in place; ``dx``, ``K``, ``row`` (6,)
+    scratch.
+    """
+    # --- Accelerometer: tilt update -----------------------------------------------------
+    acc_used = False
+    acc_norm = vec_norm(acc)
+    deviation = abs(acc_norm - s[_GRAVITY])
+    if deviation <= s[_ACC_NORM_GATE] and vec_norm(omega) <= s[_ACC_RATE_GATE]:
+        e = quat_rotate(q, (acc[0] / acc_norm, acc[1] / acc_norm, acc[2] / acc_norm))
+        cx, cy = e[1], -e[0]  # e × e_z
+        sin_angle = math.hypot(cx, cy)
+        angle = math.atan2(sin_angle, e[2])
+        if sin_angle > 0.0:
+            phi_x, phi_y = angle * cx / sin_angle, angle * cy / sin_angle
+        else:
+            phi_x, phi_y = (angle, 0.0) if e[2] < 0.0 else (0.0, 0.0)
+        r = s[_ACC_VAR] + (deviation / s[_GRAVITY]) ** 2
+        # Innovation gate (robust, Huber): d² = φᵀ S⁻¹ φ with S = P_tilt + r I (2 × 2).  Beyond
+        # the gate the sample is not dropped but S is scaled by d/√gate (r enlarged to match),
+        # so its pull is bounded: an outlier moves the estimate little, while a filter that is
+        # really off (e.g. after a long gap in fast motion) keeps being pulled back.
+        s00, s01, s11 = P[0, 0] + r, P[0, 1], P[1, 1] + r
+        d2 = (s11 * phi_x * phi_x - 2.0 * s01 * phi_x * phi_y + s00 * phi_y * phi_y) / (s00 * s11 - s01 * s01)
+        if d2 > s[_ACC_INNOVATION_GATE]:
+            scale = math.sqrt(d2 / s[_ACC_INNOVATION_GATE])
+            tilt_var = 0.5 * (P[0, 0] + P[1, 1])
+            r = scale * (tilt_var + r) - tilt_var
+        kalman_scalar_update(P, dx, 0, phi_x - dx[0], r, False, K, row)
+        kalman_scalar_update(P, dx, 1, phi_y - dx[1], r, False, K, row)
+        q = kalman_inject(q, bias, dx, s[_BIAS_LIMIT])
+        acc_used = True
+    return kalman_correct_mag(q, bias, P, gate, mag, has_mag, omega, s, dx, K, row, acc_used)
+
+
+@njit(**COMPILE)
+def kalman_correct_mag(q, bias, P, gate, mag, has_mag, omega, s, dx, K, row, acc_used):
+    """Magnetometer part of :func:`kalman_correct`; returns ``(q, acc_used, mag_used)``."""
+    dt = s[_DT]
+    # --- Magnetometer: heading update, gated on norm and dip ----------------------------
+    mag_used = False
+    if has_mag:
+        m_norm = vec_norm(mag)
+        m_e = quat_rotate(q, (mag[0], mag[1], mag[2]))
+        dip = math.atan2(-m_e[2], math.hypot(m_e[0], m_e[1]))
+        if gate[_REF_NORM] == 0.0:  # first sample: it defines the reference
+            gate[_REF_NORM], gate[_REF_DIP] = m_norm, dip
+            gate[_CAND_NORM], gate[_CAND_DIP] = m_norm, dip
+        undisturbed = (abs(m_norm - gate[_REF_NORM]) < s[_MAG_NORM_GATE] * gate[_REF_NORM]
+                       and abs(dip - gate[_REF_DIP]) < s[_MAG_DIP_GATE])
+        if undisturbed:
+            gate[_REF_NORM] += s[_MAG_REF_GAIN] * (m_norm - gate[_REF_NORM])
+            gate[_REF_DIP] += s[_MAG_REF_GAIN] * (dip - gate[_REF_DIP])
+            gate[_REJECT_T] = 0.0
+        else:
+            # A new field that stays consistent while the sensor turns becomes the reference.
+            if (abs(m_norm - gate[_CAND_NORM]) < s[_MAG_NORM_GATE] * gate[_CAND_NORM]
+                    and abs(dip - gate[_CAND_DIP]) < s[_MAG_DIP_GATE]):
+                if vec_norm(omega) >= s[_MAG_NEW_MIN_RATE]:
+                    gate[_CAND_T] += dt
+                gate[_CAND_NORM] += s[_MAG_REF_GAIN] * (m_norm - gate[_CAND_NORM])
+                gate[_CAND_DIP] += s[_MAG_REF_GAIN] * (dip - gate[_CAND_DIP])
+            else:
+                gate[_CAND_T] = 0.0
+                gate[_CAND_NORM], gate[_CAND_DIP] = m_norm, dip
+            if gate[_CAND_T] >= s[_MAG_NEW_TIME]:
+                gate[_REF_NORM], gate[_REF_DIP] = gate[_CAND_NORM], gate[_CAND_DIP]
+                gate[_CAND_T] = 0.0
+                gate[_REJECT_T] = 0.0
+                undisturbed = True
+            else:
+                gate[_REJECT_T] += dt
+        r = s[_MAG_VAR]
+        use = undisturbed
+        if not undisturbed and gate[_REJECT_T] > s[_MAG_MAX_REJECT]:
+            use = True
+            r *= s[_MAG_REJECT_VAR_FACTOR]
+        if use and math.hypot(m_e[0], m_e[1]) > 0.0:
+            psi = math.atan2(m_e[0], m_e[1])  # heading error δθ_z
+            kalman_scalar_update(P, dx, 2, psi - dx[2], r, True, K, row)
+            q = kalman_inject(q, bias, dx, s[_BIAS_LIMIT])
+            mag_used = True
+    return q, acc_used, mag_used
+
+
+# ------------------------------------------------------------------------------------------
+# Kalman filter: one stream (also the forward pass of the smoother), a batch in parallel
+# ------------------------------------------------------------------------------------------
+
+
+@njit(**COMPILE)
+def kalman_initial_covariance(s, P):
+    """``P0 = diag(σ_tilt², σ_tilt², σ_heading², σ_b², σ_b², σ_b²)`` into ``P`` (6, 6)."""
+    for a in range(6):
+        for b in range(6):
+            P[a, b] = 0.0
+    P[0, 0] = s[_INIT_TILT_VAR]
+    P[1, 1] = s[_INIT_TILT_VAR]
+    P[2, 2] = s[_INIT_HEADING_VAR]
+    for a in range(3, 6):
+        P[a, a] = s[_INIT_BIAS_VAR]
+
+
+@njit(**COMPILE)
+def kalman_stream(gyr, acc, mag, has_mag, received, q_init, start, init_only, s,
+                  out_q, out_bias, out_P, keep_P, acc_used, mag_used, record, pred_q, pred_bias, pred_P, pred_R):
+    """The filter over one recording ``(T, 3)`` into ``out_q`` (T, 4), ``out_bias`` (T, 3).
+
+    ``start``: first sample the filter sees; ``init_only``: that sample only initialises
+    (``q0=None``), else it is filtered from ``q_init`` like any other.  Samples before the
+    start output ``q_init``.  ``keep_P``: write ``P⁺`` into ``out_P`` (T, 6, 6).  ``record``:
+    also write the predictions ``q⁻``, ``b⁻``, ``P⁻`` and ``R(q⁻)`` of every sample (for the
+    RTS smoother).  ``acc_used``, ``mag_used`` (T,) say which measurements were taken.
+    """
+    n_t = out_q.shape[0]
+    P = np.empty((6, 6))
+    R = np.empty((3, 3))
+    F = np.empty((6, 6))
+    FP = np.empty((6, 6))
+    bias = np.zeros(3)
+    held_rate = np.zeros(3)
+    gate = np.zeros(_N_GATE)
+    dx = np.zeros(6)
+    K = np.zeros(6)
+    row = np.zeros(6)
+    kalman_initial_covariance(s, P)
+    q = (q_init[0], q_init[1], q_init[2], q_init[3])
+    first = start + 1 if init_only else start
+    for t in range(min(first, n_t)):
+        for a in range(4):
+            out_q[t, a] = q[a]
+        for a in range(3):
+            out_bias[t, a] = 0.0
+        if keep_P:
+            out_P[t] = P
+        acc_used[t] = False
+        mag_used[t] = False
+        if record:
+            for a in range(4):
+                pred_q[t, a] = q[a]
+            pred_bias[t] = bias
+            pred_P[t] = P
+            rotation_matrix(q, pred_R[t])
+    for t in range(first, n_t):
+        ok = received[t]
+        q = kalman_predict(q, bias, P, held_rate, gate, gyr[t], ok, s, R, F, FP)
+        if record:
+            for a in range(4):
+                pred_q[t, a] = q[a]
+            pred_bias[t] = bias
+            pred_P[t] = P
+            pred_R[t] = R
+        used_a, used_m = False, False
+        if ok:
+            omega = (held_rate[0], held_rate[1], held_rate[2])
+            q, used_a, used_m = kalman_correct(q, bias, P, gate, acc[t], mag[t if has_mag else 0], has_mag, omega, s,
+                                         dx, K, row)
+        for a in range(4):
+            out_q[t, a] = q[a]
+        for a in range(3):
+            out_bias[t, a] = bias[a]
+        if keep_P:
+            out_P[t] = P
+        acc_used[t] = used_a
+        mag_used[t] = used_m
+
+
+@njit(parallel=True, **COMPILE)
+def run_kalman(gyr, acc, mag, has_mag, received, index, q_init, start, init_only, s,
+                  out_q, out_bias, out_P, keep_P, acc_used, mag_used):
+    """:func:`kalman_stream` on every element ``n`` of a flattened batch, in parallel.
+
+    ``index`` (N, 4): for element ``n`` the rows of ``gyr``, ``acc``, ``mag`` (each
+    ``(M, T, 3)``) and ``received`` ``(M', T)`` it reads (broadcasting without copies).
+    """
+    p_stride = 1 if keep_P else 0
+    n_batch = out_q.shape[0]
+    none4 = np.empty((1, 4))
+    none3 = np.empty((1, 3))
+    none66 = np.empty((1, 6, 6))
+    none33 = np.empty((1, 3, 3))
+    for n in prange(n_batch):
+        p = n * p_stride  # row of out_P: n, or 0 when P is not kept
+        kalman_stream(gyr[index[n, 0]], acc[index[n, 1]], mag[index[n, 2]], has_mag, received[index[n, 3]],
+                      q_init[n], start[n], init_only, s, out_q[n], out_bias[n], out_P[p], keep_P,
+                      acc_used[n], mag_used[n], False, none4, none3, none66, none33)

@@ -1,0 +1,409 @@
+"""Gap-aware error-state Kalman filter for orientation under packet loss (issue 11).
+
+A multiplicative extended Kalman filter (MEKF; F. L. Markley, "Attitude error representations
+for Kalman filtering", J. Guidance Control Dyn. 26(2):311–317, 2003; J. Solà, "Quaternion
+kinematics for the error-state Kalman filter", arXiv:1711.02508, 2017, Sec. 7) on the
+quaternion ``q`` (body → ENU) and the gyroscope bias ``b`` (rad/s), with a 6-state error
+
+    δx = [δθ, δb],   q_true = Exp(δθ) ⊗ q̂   (δθ: rotation vector in the EARTH frame, rad),
+                     b_true = b̂ + δb        (rad/s, body frame).
+
+With the error in the earth frame, gravity observes exactly the horizontal components
+(δθ_x, δθ_y: tilt) and the magnetometer's heading exactly δθ_z, so every measurement below is
+a scalar update with ``H`` a unit row (no Jacobian to differentiate by hand).
+
+Equations (one sample, Δt = 1/fs; names used in the kernel's comments)
+-----------------------------------------------------------------------
+* **Strapdown prediction**: ``q⁻ = q ⊗ Exp((ω − b̂) Δt)``, ``b⁻ = b̂``.
+* **Error propagation**: ``δθ⁻ = δθ − R(q⁻) δb Δt``, i.e. ``F = [[I, −R Δt], [0, I]]``, and
+  ``P⁻ = F P Fᵀ + Q``, ``Q = diag(σ_g² Δt I, σ_b² Δt I)`` (gyro white noise density σ_g,
+  bias random walk σ_b; both isotropic, so ``R σ_g² Rᵀ = σ_g² I``).
+* **Gap**: on a lost sample nothing is measured; the prediction goes on with the last received
+  bias-corrected rate, optionally decaying, ``ω_k = ω_last · exp(−kΔt/τ_decay)``, and the
+  error of that extrapolated rate (std ``σ_gap``, constant across the gap) adds
+  ``σ_gap² Δt² (2k − 1)`` to the attitude variances at the k-th lost sample, so that after
+  ``k`` lost samples the added variance is ``(σ_gap · kΔt)²``: the covariance grows with the
+  elapsed gap, and the first measurements after it get large gains by construction.
+* **Accelerometer (tilt) update**: ``e = R(q⁻) a/‖a‖`` should be earth up ``e_z``; the
+  measured tilt error is the rotation taking ``e`` onto ``e_z``,
+  ``φ = atan2(‖e × e_z‖, e·e_z) · (e × e_z)/‖e × e_z‖`` (exact for large errors, e.g. after a
+  gap), and ``φ_x = δθ_x``, ``φ_y = δθ_y`` (two scalar updates, ``H = e_0ᵀ, e_1ᵀ``).
+* **Magnetometer (heading) update**: ``m_E = R(q⁻) m``; the heading error is
+  ``ψ = atan2(m_E,x, m_E,y)`` (as VQF's "disagreement angle") and ``ψ = δθ_z``
+  (``H = e_2ᵀ``).  Heading only: the gain's tilt rows are set to zero, so a disturbed field
+  can never tilt the estimate (VQF and Fusion also correct heading about the vertical only);
+  the covariance is updated in Joseph form, which is exact for any gain.
+* **Scalar update** (each of the above, ``H = e_iᵀ``, noise variance ``r``):
+  ``S = P_ii + r``, ``K = P_·i / S``, ``δx += K (z − δx_i)``,
+  ``P ← P − K P_i· − P_·i Kᵀ + S K Kᵀ`` (Joseph form ``(I − KH)P(I − KH)ᵀ + r K Kᵀ``).
+* **Injection** after each sensor: ``q ← Exp(δθ) ⊗ q``, ``b ← b + δb``, ``δx ← 0``
+  (the covariance reset Jacobian is taken as the identity, as usual for small δθ).
+
+Gates (where they come from)
+----------------------------
+* Accelerometer, hard: used only if ``|‖a‖ − g| ≤ acc_norm_gate`` and ``‖ω − b̂‖ ≤
+  acc_rate_gate``.  Soft: inside the gate the noise variance is inflated to ``σ_a² +
+  ((‖a‖ − g)/g)²``, since a linear acceleration that changes the norm by ``d`` tilts the
+  direction by at least about ``d/g`` rad.  Rejecting outright far from ``g`` (rather than
+  only inflating) keeps impacts and fast swings out of the tilt, which under loss matters
+  more than usual: after a gap the gain is large and one bad sample would be taken almost
+  whole.  Fusion rejects by the angle between measured and estimated gravity instead; that
+  angle is also large after a gap, when the measurement is most needed, so we gate on what
+  the sensor shows regardless of the estimate.
+* Magnetometer: VQF's magnetic disturbance detection (Laidig & Seel 2023, Sec. 3.4; its
+  parameters ``magNormTh``, ``magDipTh``, ``magRefTau``, ``magNewTime``, ``magNewMinGyr``,
+  ``magMaxRejectionTime``, ``magRejectionFactor`` with the same defaults): the field is used
+  only while its norm is within ``mag_norm_gate`` (relative) and its dip angle within
+  ``mag_dip_gate`` of a reference that is learned online (set from the first received sample,
+  then low-pass filtered on accepted samples); a new field that stays consistent for
+  ``mag_new_time_s`` while the sensor turns faster than ``mag_new_min_rate`` becomes the new
+  reference; after ``mag_max_rejection_s`` of rejection the field is used again with its
+  variance multiplied by ``mag_rejection_factor²`` (VQF divides its gain by the factor).
+  Timers count received samples (time the sensor was observed).
+
+Initialisation: with ``q0=None`` each batch element starts at its first received sample from
+TRIAD (``mag`` given) or the tilt (no ``mag``, zero heading), as Madgwick's filter in wsnlib
+does; that sample only initialises.  Output before it: the initial estimate.
+
+Gap (the ``gap`` argument, as for Madgwick's filter): the filter always predicts over a gap;
+``gap="constant_rate"`` (default) outputs that prediction on lost samples, ``gap="hold"``
+holds the previous output there (the state still predicts inside).
+
+Implementation: the arithmetic is in :mod:`wsnlib.orientation._kalman_kernels` (numba, cached), one
+function per step above — :func:`~._kalman_kernels.kalman_predict`, :func:`~._kalman_kernels.kalman_correct`
+(accelerometer), :func:`~._kalman_kernels.kalman_correct_mag`, :func:`~._kalman_kernels.kalman_scalar_update`,
+:func:`~._kalman_kernels.kalman_inject` — and the loop :func:`~._kalman_kernels.kalman_stream` (also the
+forward pass of :func:`wsnlib.orientation.smooth_orientation`); a batch runs in parallel over
+its flattened elements (:func:`~._kalman_kernels.run_kalman`).  The argument checks are Madgwick's
+(:mod:`wsnlib.orientation._batch`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from wsnlib.orientation import _batch as B
+from wsnlib.orientation._kalman_kernels import KALMAN_VARIANCES, kalman_settings_vector, run_kalman
+from wsnlib.orientation._kernels import run_hold_lost
+from wsnlib.orientation.triad import tilt_quaternion, triad
+
+# ==========================================================================================
+# Settings
+# ==========================================================================================
+
+
+@dataclass(frozen=True)
+class KalmanSettings:
+    """Noise levels and gates of :func:`kalman_orientation` (and :func:`smooth_orientation`).
+
+    Defaults: the noise levels ``acc_noise`` and ``gap_rate_noise`` are the values chosen most
+    often by leave-one-trial-out tuning on the shared BROAD trials at 50 Hz under
+    Gilbert–Elliott loss (10 %, mean burst 3 packets of 6 samples), see
+    ``benchmarks/eval_loss_tolerance.py``; the other numbers are as documented per field.
+
+    Attributes
+    ----------
+    gyro_noise : float
+        Angular-rate white noise density σ_g (rad/s/√Hz): attitude variance grows by
+        ``σ_g² Δt`` per sample.  Far above a MEMS datasheet (≈ 1e-4): at 50 Hz the
+        first-order integration of real, fast motion dominates the error.  Default 0.002
+        (best of 0.01 and 0.002 on the shared BROAD trials, lossless).
+    bias_noise : float
+        Gyroscope bias random walk σ_b (rad/s/√s).  Default 1e-4 (slow thermal drift).
+    initial_bias_sigma : float
+        Prior std of the bias (rad/s).  Default 0.5 °/s, VQF's ``biasSigmaInit``.
+    bias_limit : float
+        Each bias component is clipped to ±this (rad/s).  Default 2 °/s, VQF's ``biasClip``.
+    initial_tilt_sigma, initial_heading_sigma : float
+        Prior std (rad) of the initial estimate's inclination and heading.  Defaults 5° and
+        20°: TRIAD on one sample is exact at rest, but its heading is off by tens of degrees
+        near a disturbance or under acceleration (BROAD, notebook 05).
+    acc_noise : float
+        Std of the measured tilt error (rad) of an accepted accelerometer sample.  Default 0.4,
+        chosen most often by LOTO from {0.05, 0.1, 0.2, 0.4} (eval_loss_tolerance.py).
+    mag_noise : float
+        Std of the measured heading error (rad) of an accepted magnetometer sample.
+        Default 0.2 rad.
+    gap_rate_noise : float
+        Std of the error of the extrapolated angular rate during a gap (rad/s).  Default 0.3,
+        chosen most often by LOTO from {0.3, 1.0} (eval_loss_tolerance.py).
+    gap_rate_relative_noise : float
+        Added to ``gap_rate_noise`` times the last received rate's norm (dimensionless): the
+        faster the motion, the less the rate at the start of a gap says about the rest of it.
+    gap_rate_decay_s : float
+        Time constant (s) with which the extrapolated rate decays to 0 during a gap; ``inf``
+        (default) keeps it constant.
+    gravity : float
+        Norm of gravity (m/s²); default standard gravity.
+    acc_norm_gate : float
+        Accelerometer used only if ``|‖a‖ − g| ≤`` this (m/s²).  Default 0.2 g ≈ 1.96 m/s².
+    acc_rate_gate : float
+        Accelerometer used only if the bias-corrected rate is at most this (rad/s): fast
+        rotation adds centripetal and tangential acceleration.  Default 10 rad/s.
+    mag_norm_gate : float
+        Relative norm tolerance, VQF's ``magNormTh`` = 0.1.
+    mag_dip_gate : float
+        Dip angle tolerance (rad), VQF's ``magDipTh`` = 10°.
+    mag_reference_tau_s : float
+        Time constant (s) of the reference norm/dip low-pass, VQF's ``magRefTau`` = 20 s.
+    mag_new_time_s : float
+        Consistent time (s) after which a new field becomes the reference, VQF's
+        ``magNewTime`` = 20 s.
+    mag_new_min_rate : float
+        Only time spent turning faster than this (rad/s) counts for ``mag_new_time_s``, VQF's
+        ``magNewMinGyr`` = 20 °/s.
+    mag_max_rejection_s : float
+        After this long rejected (s) the field is used again, with inflated noise; VQF's
+        ``magMaxRejectionTime`` = 60 s.
+    mag_rejection_factor : float
+        Noise std multiplier for fields used after ``mag_max_rejection_s``; VQF's
+        ``magRejectionFactor`` = 2.
+    acc_innovation_gate : float
+        Beyond this normalised innovation ``d² = φᵀ S⁻¹ φ`` (2 degrees of freedom) the
+        accelerometer's variance is enlarged so that its pull stays bounded (Huber-type
+        robust update); default 13.8, the χ²₂ 99.9 % quantile.  ``inf``: off.
+    """
+
+    gyro_noise: float = 0.002
+    bias_noise: float = 1e-4
+    initial_bias_sigma: float = math.radians(0.5)
+    bias_limit: float = math.radians(2.0)
+    initial_tilt_sigma: float = math.radians(5.0)
+    initial_heading_sigma: float = math.radians(20.0)
+    acc_noise: float = 0.4
+    mag_noise: float = 0.2
+    gap_rate_noise: float = 0.3
+    gap_rate_relative_noise: float = 0.5
+    gap_rate_decay_s: float = math.inf
+    gravity: float = 9.80665
+    acc_norm_gate: float = 0.2 * 9.80665
+    acc_rate_gate: float = 10.0
+    mag_norm_gate: float = 0.1
+    mag_dip_gate: float = math.radians(10.0)
+    mag_reference_tau_s: float = 20.0
+    mag_new_time_s: float = 20.0
+    mag_new_min_rate: float = math.radians(20.0)
+    mag_max_rejection_s: float = 60.0
+    mag_rejection_factor: float = 2.0
+    acc_innovation_gate: float = 13.8
+
+    def __post_init__(self):
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            try:
+                number = float(value)
+            except (TypeError, ValueError) as exc:
+                raise ValueError(f"KalmanSettings.{f.name} must be a number, got {value!r}") from exc
+            if math.isnan(number) or number <= 0.0:
+                raise ValueError(f"KalmanSettings.{f.name} must be > 0, got {value!r}")
+            if math.isinf(number) and f.name not in _MAY_BE_INFINITE:
+                raise ValueError(f"KalmanSettings.{f.name} must be finite, got {value!r}")
+            if number > _LARGEST_SETTING and not math.isinf(number):
+                raise ValueError(f"KalmanSettings.{f.name} = {value!r} is too large (> {_LARGEST_SETTING:g})")
+            object.__setattr__(self, f.name, number)
+
+
+#: Settings that may be ``inf`` (switches the feature off).
+_MAY_BE_INFINITE = frozenset({"gap_rate_decay_s", "acc_innovation_gate", "acc_norm_gate", "acc_rate_gate",
+                              "mag_norm_gate", "mag_dip_gate", "mag_reference_tau_s", "mag_new_time_s",
+                              "mag_max_rejection_s",
+                              "bias_limit"})
+#: Finite settings above this would overflow when squared.
+_LARGEST_SETTING = 1e100
+
+# ==========================================================================================
+# Input checks (outside the kernels) and the public function
+# ==========================================================================================
+
+
+@dataclass(frozen=True)
+class KalmanInputs:
+    """Checked inputs of :func:`kalman_orientation` / :func:`smooth_orientation`, flattened.
+
+    ``gyr``, ``acc``, ``mag`` ``(M, T, 3)`` (``mag`` a dummy ``(1, 1, 3)`` without
+    magnetometer), ``received`` ``(M', T)``, ``index`` ``(N, 4)`` rows read by batch element
+    ``n``, ``q_init`` ``(N, 4)``, ``start`` ``(N,)``, ``init_only``, ``batch`` (the output's
+    leading shape), ``n_t``.
+    """
+
+    gyr: np.ndarray
+    acc: np.ndarray
+    mag: np.ndarray
+    has_mag: bool
+    received: np.ndarray
+    index: np.ndarray
+    q_init: np.ndarray
+    start: np.ndarray
+    init_only: bool
+    batch: tuple
+    n_t: int
+
+
+def prepare_inputs(gyr, acc, mag, received, q0) -> KalmanInputs:
+    """Check the arguments with Madgwick's checks (:mod:`._batch`) and flatten them.
+
+    ``ValueError`` naming the argument, as :func:`wsnlib.orientation.madgwick`: lost samples
+    are never read (they may hold NaN); received ones must be finite, ``acc`` and ``mag``
+    non-zero; with ``q0=None`` every batch element must receive a sample.
+    """
+    signals, mask, q0, shapes = B.check_inputs(gyr, acc, mag, received, q0)
+    n_t = signals["gyr"].shape[-2]
+    if mask is None:
+        mask = np.ones(n_t, dtype=bool)
+    shapes["received"] = mask.shape[:-1]
+    batch = B.broadcast_batch(shapes)
+    if q0 is None and n_t == 0:
+        raise ValueError("no samples (T = 0): pass q0 to define the output")
+    if n_t:
+        B.check_usable(signals, mask)
+    if q0 is None:
+        B.check_has_sample(mask, batch)
+    has_mag = mag is not None
+    rows = {name: B.index_into(arr.shape[:-2], batch) for name, arr in signals.items()}
+    index = np.stack([rows["gyr"], rows["acc"], rows["mag"] if has_mag else np.zeros_like(rows["gyr"]),
+                      B.index_into(mask.shape[:-1], batch)], axis=-1)
+    flat = {name: B.flat(arr, 2) for name, arr in signals.items()}
+    flat_mask = B.flat(mask, 1)
+    if q0 is None:  # start at the first received sample, from TRIAD (or the tilt)
+        start = flat_mask.argmax(axis=-1)[index[:, 3]].astype(np.int64)
+        acc0 = flat["acc"][index[:, 1], start]
+        q_init = triad(acc0, flat["mag"][index[:, 2], start]) if has_mag else tilt_quaternion(acc0)
+    else:
+        q_init = np.broadcast_to(q0, batch + (4,)).reshape(-1, 4)
+        start = np.zeros(index.shape[0], dtype=np.int64)
+    return KalmanInputs(
+        gyr=flat["gyr"], acc=flat["acc"], mag=flat["mag"] if has_mag else np.ones((1, 1, 3)), has_mag=has_mag,
+        received=flat_mask, index=index, q_init=np.ascontiguousarray(q_init, dtype=float), start=start,
+        init_only=q0 is None, batch=tuple(batch), n_t=n_t,
+    )
+
+
+def settings_vector(settings, fs) -> np.ndarray:
+    """Checked ``settings`` (None: defaults) and ``fs`` as the kernels' settings vector."""
+    fs = B.check_fs(fs)
+    if settings is None:
+        settings = KalmanSettings()
+    if not isinstance(settings, KalmanSettings):
+        raise ValueError(f"settings must be a KalmanSettings, got {type(settings).__name__}")
+    vector = kalman_settings_vector(settings, 1.0 / fs)
+    variances = vector[list(KALMAN_VARIANCES)]
+    if not (np.all(np.isfinite(variances)) and np.all(variances > 0.0)):
+        raise ValueError(f"fs = {fs!r} Hz with these settings gives noise variances that are not finite and > 0")
+    return vector
+
+
+def check_finite_output(quat: np.ndarray) -> np.ndarray:
+    """Raise instead of returning NaN (extreme settings or ``fs`` can overflow in the kernel)."""
+    if not np.all(np.isfinite(quat)):
+        raise ValueError("the filter produced NaN/inf: fs or the settings are too extreme for double precision")
+    return quat
+
+
+@dataclass(frozen=True)
+class KalmanOutput:
+    """Everything :func:`kalman_orientation` computes (``full_output=True``).
+
+    Attributes
+    ----------
+    quat : numpy.ndarray, shape (..., T, 4)
+        ENU unit quaternions (body → earth).
+    gyro_bias : numpy.ndarray, shape (..., T, 3)
+        Estimated gyroscope bias (rad/s, body frame) after each sample.
+    covariance : numpy.ndarray, shape (..., T, 6, 6)
+        Error covariance after each sample, order ``[δθ_x, δθ_y, δθ_z, δb_x, δb_y, δb_z]``:
+        δθ the attitude error in the earth frame (rad; x, y tilt, z heading), δb the bias
+        error (rad/s).
+    acc_used, mag_used : numpy.ndarray of bool, shape (..., T)
+        Whether the sample's accelerometer / magnetometer passed the gates and was used.
+    """
+
+    quat: np.ndarray
+    gyro_bias: np.ndarray
+    covariance: np.ndarray
+    acc_used: np.ndarray
+    mag_used: np.ndarray
+
+
+def kalman_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None, settings=None,
+                       gap: str = "constant_rate", full_output: bool = False):
+    """Gap-aware error-state Kalman filter (MEKF with gyro bias) over whole recordings, batched.
+
+    See the module docstring for the equations and gates.  The filter always *predicts* over
+    a gap: its state is turned by the last received angular rate (minus bias; decaying if
+    ``settings.gap_rate_decay_s`` is finite) and its covariance grows with the elapsed gap,
+    so that the first received samples after a gap correct it strongly.  ``gap`` only says
+    what is output on lost samples.
+
+    Parameters
+    ----------
+    gyr, acc : array_like, shape (..., T, 3)
+        Angular rate (rad/s) and specific force (m/s², +g up at rest), body frame.
+    mag : array_like, shape (..., T, 3), optional
+        Magnetic field, body frame (µT; any unit works, only its norm relative to the learned
+        reference and its direction are used).  ``None``: no heading correction (heading from
+        the gyroscope, zero at the start).
+    fs : float
+        Sampling rate (Hz), in [1e-6, 1e9]; Δt = 1/fs, lost samples included.
+    received : array_like of bool, shape (..., T), optional
+        True = received; lost samples are never read (they may hold NaN).  ``None``: all.
+    q0 : array_like, shape (4,) or (..., 4), optional
+        ENU estimate before the first sample (prior std ``settings.initial_*_sigma``); every
+        received sample then updates it.  ``None``: each batch element starts at its first
+        received sample, from TRIAD (or the tilt without ``mag``); that sample only
+        initialises, and the output before it is that initial estimate.
+    settings : KalmanSettings, optional
+        Noise levels and gates; default ``KalmanSettings()`` (tuned on BROAD, see there).
+    gap : {"constant_rate", "hold"}
+        During a gap (the words of :func:`wsnlib.orientation.estimate_orientation`):
+        ``"constant_rate"`` (default) keeps turning by the last received angular rate (dead
+        reckoning, gyroscope only): the output on a lost sample is the filter's prediction.
+        ``"hold"`` holds the previous output (the paper's receiver); the filter still
+        predicts inside, so the output from the first sample after the gap on is the same
+        for both.
+    full_output : bool
+        Return a :class:`KalmanOutput` (quaternions, bias, covariance, gate decisions)
+        instead of the quaternions alone.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., T, 4), or KalmanOutput
+        ENU unit quaternions (body → earth); ``...`` is the broadcast of the leading
+        dimensions of the signals, ``received`` and ``q0``.  (With ``gap="hold"`` only
+        ``quat`` is held; bias and covariance are the filter's state.)
+
+    Raises
+    ------
+    ValueError
+        Naming the argument: wrong shapes, mismatched T, leading dimensions that do not
+        broadcast, NaN/inf (or a zero ``acc``/``mag`` vector) in a received sample, a
+        non-boolean ``received``, ``fs`` outside [1e-6, 1e9], a zero ``q0``, a batch element
+        with nothing received when ``q0`` is None, settings that are not a
+        :class:`KalmanSettings`, an unknown ``gap``; or a result that is not finite.
+    MemoryError
+        At once, with the size, if the outputs would not fit in memory.
+    """
+    s = settings_vector(settings, fs)
+    gap = B.check_choice(gap, "gap", B.GAPS)
+    inputs = prepare_inputs(gyr, acc, mag, received, q0)
+    n_batch, n_t, batch = inputs.index.shape[0], inputs.n_t, inputs.batch
+    n_floats = 4 + 3 + (36 if full_output else 0)  # quaternion, bias, covariance per sample
+    B.check_memory((8 * n_floats + 2) * n_t * n_batch, f"kalman_orientation's output for batch {batch}, T = {n_t}")
+    out_q = np.empty((n_batch, n_t, 4))
+    out_bias = np.empty((n_batch, n_t, 3))
+    out_P = np.empty((n_batch if full_output else 1, n_t if full_output else 1, 6, 6))
+    acc_used = np.empty((n_batch, n_t), dtype=bool)
+    mag_used = np.empty((n_batch, n_t), dtype=bool)
+    run_kalman(inputs.gyr, inputs.acc, inputs.mag, inputs.has_mag, inputs.received, inputs.index, inputs.q_init,
+               inputs.start, inputs.init_only, s, out_q, out_bias, out_P, full_output, acc_used, mag_used)
+    if gap == "hold" and n_t:
+        run_hold_lost(out_q, inputs.received, np.ascontiguousarray(inputs.index[:, 3]))
+    quat = check_finite_output(out_q.reshape(batch + (n_t, 4)))
+    if not full_output:
+        return quat
+    return KalmanOutput(quat=quat, gyro_bias=out_bias.reshape(batch + (n_t, 3)),
+                        covariance=out_P.reshape(batch + (n_t, 6, 6)), acc_used=acc_used.reshape(batch + (n_t,)),
+                        mag_used=mag_used.reshape(batch + (n_t,)))

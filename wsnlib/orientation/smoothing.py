@@ -1,0 +1,200 @@
+"""Offline orientation for recorded sessions: RTS smoothing of the gap-aware Kalman filter.
+
+:func:`smooth_orientation` runs :func:`wsnlib.orientation.kalman.kalman_orientation`'s
+error-state filter forward, then a Rauch–Tung–Striebel pass backward (H. E. Rauch, F. Tung,
+C. T. Striebel, AIAA J. 3(8):1445–1450, 1965), in error-state form (Solà 2017, Sec. 7):
+
+    C_k = P⁺_k F_{k+1}ᵀ (P⁻_{k+1})⁻¹,
+    δ_k = C_k [Log(q^s_{k+1} ⊗ q⁻*_{k+1}),  b^s_{k+1} − b⁻_{k+1}],
+    q^s_k = Exp(δθ_k) ⊗ q⁺_k,   b^s_k = b⁺_k + δb_k,
+
+starting from ``q^s_{T−1} = q⁺_{T−1}`` (so at the last sample the smoother equals the filter).
+Then, across each gap with received samples ``s0`` before and ``s1`` after it, the estimate is
+replaced by a cubic Hermite curve on the rotation vector relative to ``q^s_{s0}``,
+
+    q(u) = q^s_{s0} ⊗ Exp(r(u)),  u = (t − s0)/(s1 − s0),
+    r(u) = h10(u) ω0 h + h01(u) r1 + h11(u) J_r⁻¹(r1) ω1 h,
+    r1 = Log(q^s_{s0}* ⊗ q^s_{s1}),  h = (s1 − s0) Δt,
+
+with the Hermite basis ``h10 = u³ − 2u² + u``, ``h01 = 3u² − 2u³``, ``h11 = u³ − u²`` and
+``ω0``, ``ω1`` the bias-corrected rates received at both ends, so orientation *and* angular
+rate match at both ends (``J_r`` is the right Jacobian of SO(3)).  ``r1`` is taken as the
+rotation by ``‖r1‖ + 2πn`` (n ∈ {−1, 0, 1}) closest to ``h (ω0 + ω1)/2``, so a fast turn of
+more than 180° through a gap is not unwound the short way.  A gap at the end is the filter's
+extrapolation (nothing after it), one at the start (before the first received sample, ``q0``
+None) holds the initial estimate, as the filter does.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from wsnlib.orientation import _batch as B
+from wsnlib.orientation._kalman_kernels import KALMAN_DT, kalman_stream
+from wsnlib.orientation._kernels import (
+    COMPILE,
+    cross3,
+    quat_conjugate,
+    quat_exp,
+    quat_log,
+    quat_multiply,
+    quat_normalize,
+)
+from wsnlib.orientation.kalman import check_finite_output, prepare_inputs, settings_vector
+
+
+@njit(**COMPILE)
+def _inverse_right_jacobian_times(r, v):
+    """``J_r⁻¹(r) v`` on SO(3): ``v + ½ r × v + (1/θ² − (1 + cos θ)/(2θ sin θ)) r × (r × v)``."""
+    theta = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
+    if theta < 1e-6:
+        c = 1.0 / 12.0
+    else:
+        c = 1.0 / (theta * theta) - (1.0 + math.cos(theta)) / (2.0 * theta * math.sin(theta))
+    rv = cross3(r, v)
+    rrv = cross3(r, rv)
+    return (v[0] + 0.5 * rv[0] + c * rrv[0], v[1] + 0.5 * rv[1] + c * rrv[1], v[2] + 0.5 * rv[2] + c * rrv[2])
+
+
+@njit(**COMPILE)
+def _hermite_gap(out_q, s0, s1, q0, q1, w0, w1, dt):
+    """Fill ``out_q[s0 + 1 : s1]`` with the cubic Hermite curve of the module docstring."""
+    h = (s1 - s0) * dt
+    r1 = quat_log(quat_multiply(quat_conjugate(q0), q1))
+    theta = math.sqrt(r1[0] ** 2 + r1[1] ** 2 + r1[2] ** 2)
+    if theta > 0.0:  # unwrap: the turn closest to the mean received rate
+        guess = (0.5 * (w0[0] + w1[0]) * h, 0.5 * (w0[1] + w1[1]) * h, 0.5 * (w0[2] + w1[2]) * h)
+        best, best_r = 1e300, r1
+        for n in (-1, 0, 1):
+            k = (theta + 2.0 * math.pi * n) / theta
+            cand = (k * r1[0], k * r1[1], k * r1[2])
+            dist = (cand[0] - guess[0]) ** 2 + (cand[1] - guess[1]) ** 2 + (cand[2] - guess[2]) ** 2
+            if dist < best:
+                best, best_r = dist, cand
+        r1 = best_r
+    m0 = (w0[0] * h, w0[1] * h, w0[2] * h)
+    m1 = _inverse_right_jacobian_times(r1, (w1[0] * h, w1[1] * h, w1[2] * h))
+    for t in range(s0 + 1, s1):
+        u = (t - s0) / (s1 - s0)
+        h10 = u * u * u - 2.0 * u * u + u
+        h01 = 3.0 * u * u - 2.0 * u * u * u
+        h11 = u * u * u - u * u
+        r = (h10 * m0[0] + h01 * r1[0] + h11 * m1[0], h10 * m0[1] + h01 * r1[1] + h11 * m1[1],
+             h10 * m0[2] + h01 * r1[2] + h11 * m1[2])
+        q = quat_normalize(quat_multiply(q0, quat_exp(r)))
+        for a in range(4):
+            out_q[t, a] = q[a]
+
+
+@njit(**COMPILE)
+def _smooth_stream(gyr, acc, mag, has_mag, received, q_init, start, init_only, s, out_q, interpolate_gaps):
+    """Forward filter, RTS pass and (``interpolate_gaps``) Hermite gaps for one recording."""
+    n_t = out_q.shape[0]
+    filt_q = np.empty((n_t, 4))
+    filt_b = np.empty((n_t, 3))
+    filt_P = np.empty((n_t, 6, 6))
+    pred_q = np.empty((n_t, 4))
+    pred_b = np.empty((n_t, 3))
+    pred_P = np.empty((n_t, 6, 6))
+    pred_R = np.empty((n_t, 3, 3))
+    acc_used = np.empty(n_t, dtype=np.bool_)
+    mag_used = np.empty(n_t, dtype=np.bool_)
+    kalman_stream(gyr, acc, mag, has_mag, received, q_init, start, init_only, s, filt_q, filt_b, filt_P, True,
+                  acc_used, mag_used, True, pred_q, pred_b, pred_P, pred_R)
+    out_q[:] = filt_q
+    if n_t == 0:
+        return
+    smooth_b = filt_b.copy()
+    dt = s[KALMAN_DT]
+    F = np.empty((6, 6))
+    first = start  # the first sample the filter's state exists at
+    for k in range(n_t - 2, first - 1, -1):
+        # F_{k+1} = [[I, −R(q⁻_{k+1}) Δt], [0, I]]
+        for a in range(6):
+            for b in range(6):
+                F[a, b] = 1.0 if a == b else 0.0
+        for a in range(3):
+            for b in range(3):
+                F[a, 3 + b] = -pred_R[k + 1, a, b] * dt
+        # C_kᵀ = (P⁻_{k+1})⁻¹ F P⁺_k   (both covariances symmetric)
+        Ct = np.linalg.solve(pred_P[k + 1], F @ filt_P[k])
+        q_next = (out_q[k + 1, 0], out_q[k + 1, 1], out_q[k + 1, 2], out_q[k + 1, 3])
+        q_pred = (pred_q[k + 1, 0], pred_q[k + 1, 1], pred_q[k + 1, 2], pred_q[k + 1, 3])
+        d_theta = quat_log(quat_multiply(q_next, quat_conjugate(q_pred)))
+        delta = np.empty(6)
+        for a in range(3):
+            delta[a] = d_theta[a]
+            delta[3 + a] = smooth_b[k + 1, a] - pred_b[k + 1, a]
+        correction = Ct.T @ delta
+        q = quat_normalize(quat_multiply(quat_exp((correction[0], correction[1], correction[2])),
+                                         (filt_q[k, 0], filt_q[k, 1], filt_q[k, 2], filt_q[k, 3])))
+        for a in range(4):
+            out_q[k, a] = q[a]
+        for a in range(3):
+            smooth_b[k, a] = filt_b[k, a] + correction[3 + a]
+    if not interpolate_gaps:
+        return
+    last_received = -1
+    for t in range(first, n_t):
+        if not (received[t] or t == first):
+            continue
+        if last_received >= 0 and t - last_received > 1:
+            s0, s1 = last_received, t
+            w0 = (gyr[s0, 0] - smooth_b[s0, 0], gyr[s0, 1] - smooth_b[s0, 1], gyr[s0, 2] - smooth_b[s0, 2])
+            w1 = (gyr[s1, 0] - smooth_b[s1, 0], gyr[s1, 1] - smooth_b[s1, 1], gyr[s1, 2] - smooth_b[s1, 2])
+            if not received[s0]:  # q0 given and nothing received before: no rate at s0
+                w0 = w1
+            q_a = (out_q[s0, 0], out_q[s0, 1], out_q[s0, 2], out_q[s0, 3])
+            q_b = (out_q[s1, 0], out_q[s1, 1], out_q[s1, 2], out_q[s1, 3])
+            _hermite_gap(out_q, s0, s1, q_a, q_b, w0, w1, dt)
+        last_received = t
+
+
+@njit(parallel=True, **COMPILE)
+def _smooth_batch(gyr, acc, mag, has_mag, received, index, q_init, start, init_only, s, out_q, interpolate_gaps):
+    for n in prange(out_q.shape[0]):
+        _smooth_stream(gyr[index[n, 0]], acc[index[n, 1]], mag[index[n, 2]], has_mag, received[index[n, 3]],
+                       q_init[n], start[n], init_only, s, out_q[n], interpolate_gaps)
+
+
+def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, settings=None, q0=None,
+                       interpolate_gaps: bool = True) -> np.ndarray:
+    """Offline orientation: forward Kalman filter, backward RTS pass, Hermite curves across gaps.
+
+    Uses every received sample, also those after a sample (module docstring).  For recorded
+    sessions; the output at sample ``t`` depends on later samples, so it cannot stream.
+
+    Parameters
+    ----------
+    gyr, acc, mag, fs, received, q0, settings
+        As in :func:`wsnlib.orientation.kalman.kalman_orientation` (same filter, same
+        defaults: ``settings=None`` gives the tuned :class:`~wsnlib.orientation.kalman.KalmanSettings`).
+    interpolate_gaps : bool
+        Replace the smoothed estimate across each gap by the cubic Hermite curve (default);
+        ``False`` keeps the RTS estimate there (for comparison).
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., T, 4)
+        ENU unit quaternions (body → earth), ``...`` the broadcast leading dimensions.  At the
+        last sample equal to the filter's output.
+
+    Raises
+    ------
+    ValueError
+        As :func:`~wsnlib.orientation.kalman.kalman_orientation`.
+    """
+    s = settings_vector(settings, fs)
+    inputs = prepare_inputs(gyr, acc, mag, received, q0)
+    if not isinstance(interpolate_gaps, bool):
+        raise ValueError(f"interpolate_gaps must be True or False, got {interpolate_gaps!r}")
+    # Output, plus each thread's scratch: filtered and predicted q, b, P and R(q⁻) per sample.
+    B.check_memory(8 * inputs.n_t * (4 * inputs.index.shape[0] + 2 * 96),
+                   f"smooth_orientation's output for batch {inputs.batch}, T = {inputs.n_t}")
+    out_q = np.empty((inputs.index.shape[0], inputs.n_t, 4))
+    _smooth_batch(inputs.gyr, inputs.acc, inputs.mag, inputs.has_mag, inputs.received, inputs.index, inputs.q_init,
+                  inputs.start, inputs.init_only, s, out_q, interpolate_gaps)
+    return check_finite_output(out_q.reshape(inputs.batch + (inputs.n_t, 4)))
