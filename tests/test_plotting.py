@@ -131,3 +131,37 @@ def test_the_style_and_every_plot_helper_meet_the_minimum_size(output_dir, monke
     assert {"traces", "heatmap", "β=0.1", "recommended (knee)", "all helpers"} <= {text for text, _ in sizes}
     plotting.savefig(fig, "helpers")
     plt.close(fig)
+
+
+def test_style_cycles_okabe_ito_and_paper_002_methods_have_palette_colours():
+    with matplotlib.rc_context():
+        plotting.use_style()
+        cycle = [c["color"] for c in matplotlib.rcParams["axes.prop_cycle"]]
+    assert set(cycle) <= set(plotting.OKABE_ITO.values())
+    for name in ("deterministic", "probabilistic", "kinect", "radio only", "hybrid", "none", "gating", "lowpass"):
+        assert plotting.METHOD_COLORS[name] in plotting.OKABE_ITO.values()
+    # Within paper 002's comparison figure, each approach has its own colour and marker.
+    compared = ("deterministic", "probabilistic", "kinect", "radio only", "hybrid")
+    assert len({plotting.METHOD_COLORS[n] for n in compared}) == len(compared)
+    assert len({plotting.METHOD_MARKERS[n] for n in compared}) == len(compared)
+
+
+def test_method_style_gives_colour_marker_label_and_refuses_unknown_names():
+    style = plotting.method_style("kinect", ls=":")
+    assert style == {"color": plotting.METHOD_COLORS["kinect"], "marker": "^", "label": "kinect", "ls": ":"}
+    with pytest.raises(ValueError, match="METHOD_COLORS"):
+        plotting.method_style("no such method")
+
+
+def test_break_at_gaps_inserts_nan_after_each_jump_only():
+    x = np.array([0.0, 0.1, 0.2, 1.0, 1.1, 3.0])
+    y = np.arange(6.0)
+    xb, yb = plotting.break_at_gaps(x, y)
+    np.testing.assert_array_equal(np.isnan(xb), [0, 0, 0, 1, 0, 0, 1, 0])
+    np.testing.assert_array_equal(yb[~np.isnan(yb)], y)
+    xb, yb = plotting.break_at_gaps(x, y, max_step=5.0)
+    np.testing.assert_array_equal(xb, x)
+    with pytest.raises(ValueError, match="increasing"):
+        plotting.break_at_gaps(x[::-1], y)
+    with pytest.raises(ValueError, match="length"):
+        plotting.break_at_gaps(x, y[:3])

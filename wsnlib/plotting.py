@@ -25,7 +25,24 @@ from matplotlib.text import Text
 from wsnlib import paths
 from wsnlib._files import atomic_path
 
+#: The Okabe–Ito palette (colour-blind safe): the only colours of the notebooks' figures, plus
+#: ``"grey"`` for references and context.  :func:`use_style` makes it matplotlib's colour cycle.
+OKABE_ITO = {
+    "blue": "#0072B2",
+    "orange": "#E69F00",
+    "bluish green": "#009E73",
+    "vermillion": "#D55E00",
+    "sky blue": "#56B4E9",
+    "reddish purple": "#CC79A7",
+    "yellow": "#F0E442",
+    "black": "#000000",
+    "grey": "#999999",
+}
+
 #: Colours per estimator, used consistently across notebooks (colour-blind safe, Okabe–Ito).
+#: With more methods than colours, a colour is reused across papers (never within a figure's
+#: notebook for two methods); :data:`METHOD_MARKERS` tells them apart.  :func:`method_style`
+#: gives both.
 METHOD_COLORS = {
     "truth": "#000000",
     "data fusion": "#0072B2",
@@ -46,7 +63,65 @@ METHOD_COLORS = {
     "VQF": "#9467BD",
     "VQF + hybrid (output)": "#17BECF",
     "VQF + hybrid (feedback)": "#E377C2",
+    # Paper 002 (notebooks 06-09): fingerprinting approaches, estimates and the baseline.
+    "deterministic": OKABE_ITO["blue"],            # kNN (Shepard-weighted)
+    "probabilistic": OKABE_ITO["orange"],          # p-kNN
+    "kinect": OKABE_ITO["reddish purple"],         # Kinect-like optical baseline
+    "radio only": OKABE_ITO["sky blue"],           # position from the fingerprint alone
+    # Accelerometer pitch (notebook 07): raw eq. (6), the paper's gravity gate, a low-pass.
+    "none": OKABE_ITO["grey"],
+    "gating": OKABE_ITO["vermillion"],
+    "lowpass": OKABE_ITO["blue"],
+    # Targets of paper 002: target 1 sits on the upper arm (elbow), target 2 on the forearm (wrist).
+    "T1": OKABE_ITO["vermillion"],
+    "T2": OKABE_ITO["blue"],
 }
+
+#: Marker per estimator (lines get it every few points, scatters on every point); the second
+#: channel besides colour, so a figure survives greyscale printing.
+METHOD_MARKERS = {
+    "truth": "",
+    "data fusion": "o",
+    "single frame": "s",
+    "hybrid": "D",
+    "deterministic": "o",
+    "probabilistic": "s",
+    "kinect": "^",
+    "radio only": "v",
+    "none": "x",
+    "gating": "o",
+    "lowpass": "s",
+    "T1": "o",
+    "T2": "s",
+}
+
+
+def method_style(name: str, **overrides) -> dict:
+    """Keyword arguments for ``Axes.plot``/``scatter`` drawing method ``name`` in its colour and marker.
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`METHOD_COLORS` (e.g. ``"deterministic"``, ``"hybrid"``, ``"kinect"``).
+    **overrides
+        Replace or add keyword arguments (e.g. ``ls="--"``, ``label="ours"``).
+
+    Returns
+    -------
+    dict
+        ``color``, ``marker`` (may be ``""``) and ``label`` (``name``), updated with ``overrides``.
+
+    Raises
+    ------
+    ValueError
+        ``name`` has no colour: add it to :data:`METHOD_COLORS` rather than falling back on the
+        colour cycle, so that one method keeps one colour in every notebook.
+    """
+    if name not in METHOD_COLORS:
+        raise ValueError(f"name must be a key of METHOD_COLORS ({', '.join(METHOD_COLORS)}), got {name!r}")
+    style = {"color": METHOD_COLORS[name], "marker": METHOD_MARKERS.get(name, ""), "label": name}
+    style.update(overrides)
+    return style
 
 _STYLE = {
     "figure.figsize": (7.0, 3.6),
@@ -71,6 +146,9 @@ _STYLE = {
     # Embed fonts as Type 42 so PDFs are portable; hash salt fixed for reproducible SVG ids.
     "pdf.fonttype": 42,
     "svg.hashsalt": "wsn-motion",
+    # Unnamed series cycle through the Okabe–Ito colours, never matplotlib's tab10.
+    "axes.prop_cycle": mpl.cycler(color=[OKABE_ITO[name] for name in (
+        "blue", "orange", "bluish green", "vermillion", "sky blue", "reddish purple", "yellow", "black")]),
 }
 
 # Matplotlib writes a creation date and version into files unless told otherwise.
@@ -249,6 +327,45 @@ def loss_spans(time_s, received) -> list[tuple[float, float]]:
     ]
 
 
+def break_at_gaps(x, *ys, max_step=None):
+    """Insert a NaN row wherever ``x`` jumps by more than ``max_step``, so plotted lines break there.
+
+    Matplotlib joins consecutive points with a line whatever lies between them; across a gap in
+    the data (rejected samples, two recordings put end to end) that line shows data that do not
+    exist.  A NaN breaks it.
+
+    Parameters
+    ----------
+    x : array_like, shape (N,)
+        Increasing abscissa (e.g. time, s).
+    *ys : array_like, shape (N,) or (N, ...)
+        Series to break at the same places; NaN values already in them break lines too.
+    max_step : float, optional
+        Largest step of ``x`` still drawn as a line; default 1.5 × the median step.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(x, *ys)`` with one NaN row after every gap (``x`` is NaN there too).
+    """
+    x = np.asarray(x, dtype=float)
+    if x.ndim != 1:
+        raise ValueError(f"x must be 1-D, got shape {x.shape}")
+    columns = [np.asarray(y, dtype=float) for y in ys]
+    for y in columns:
+        if y.shape[:1] != x.shape:
+            raise ValueError(f"every series must have x's length {x.size} on axis 0, got shape {y.shape}")
+    steps = np.diff(x)
+    if np.any(steps < 0):
+        raise ValueError("x must be increasing (sort the samples first)")
+    if max_step is None:
+        max_step = 1.5 * float(np.median(steps)) if steps.size else np.inf
+    elif not max_step > 0:
+        raise ValueError(f"max_step must be positive, got {max_step!r}")
+    gaps = np.flatnonzero(steps > max_step) + 1
+    return (np.insert(x, gaps, np.nan), *(np.insert(y, gaps, np.nan, axis=0) for y in columns))
+
+
 def plot_band(x, samples, *, ax=None, label=None, color=None, quantiles=(0.1, 0.9)):
     """Median line and a quantile band of Monte Carlo ``samples`` (runs along axis 0) over ``x``."""
     ax = _axes(ax)
@@ -349,6 +466,58 @@ def plot_heatmap(values, row_values, col_values, *, ax=None, xlabel="", ylabel="
                 color="white" if value < middle else "black")
     ax.figure.colorbar(image, ax=ax, fraction=0.046, pad=0.04)
     return ax
+
+
+def plot_heatmap_panels(panels, row_values, col_values, *, axes, xlabel="", ylabel="", fmt="{:.2g}",
+                        cmap="viridis", colorbar_label=""):
+    """Several heatmaps of the same grid on one shared colour scale, with one colour bar.
+
+    Parameters
+    ----------
+    panels : mapping title → array_like, shape (n_rows, n_cols)
+        One grid per panel, in the order of ``axes``; NaN cells are left blank.
+    row_values, col_values : sequence
+        Values along rows (y axis) and columns (x axis), shown as tick labels.
+    axes : array of matplotlib.axes.Axes
+        At least ``len(panels)`` axes of one figure; extra axes are hidden.
+    fmt : str
+        Format of the cell annotations.
+    colorbar_label : str
+        Label of the shared colour bar (quantity and unit).
+
+    Returns
+    -------
+    matplotlib.colorbar.Colorbar
+    """
+    grids = {title: np.asarray(values, dtype=float) for title, values in panels.items()}
+    flat_axes = np.asarray(axes).ravel()
+    if len(grids) > flat_axes.size:
+        raise ValueError(f"panels has {len(grids)} grids but axes only {flat_axes.size} axes")
+    for title, values in grids.items():
+        if values.shape != (len(row_values), len(col_values)):
+            raise ValueError(f"panel {title!r} has shape {values.shape}, expected "
+                             f"({len(row_values)}, {len(col_values)})")
+    stacked = np.stack(list(grids.values()))
+    if not np.isfinite(stacked).any():
+        raise ValueError("panels hold no finite value")
+    vmin, vmax = float(np.nanmin(stacked)), float(np.nanmax(stacked))
+    middle = 0.5 * (vmin + vmax)
+    image = None
+    for ax, (title, values) in zip(flat_axes[:len(grids)], grids.items(), strict=True):
+        image = ax.imshow(values, origin="lower", aspect="auto", cmap=cmap, vmin=vmin, vmax=vmax)
+        ax.set_xticks(range(len(col_values)), [_tick_label(v) for v in col_values])
+        ax.set_yticks(range(len(row_values)), [_tick_label(v) for v in row_values])
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
+        ax.set_title(title)
+        ax.grid(False)
+        for (i, j), value in np.ndenumerate(values):
+            if np.isfinite(value):
+                ax.text(j, i, fmt.format(value), ha="center", va="center", fontsize=ANNOTATION_FONT_PT,
+                        color="white" if value < middle else "black")
+    for ax in flat_axes[len(grids):]:
+        ax.set_visible(False)
+    return flat_axes[0].figure.colorbar(image, ax=list(flat_axes[:len(grids)]), label=colorbar_label)
 
 
 def _tick_label(value) -> str:
