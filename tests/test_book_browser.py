@@ -16,19 +16,13 @@ import threading
 import urllib.error
 import urllib.parse
 import urllib.request
-from pathlib import Path
 
 import pytest
+from _chromium import headless_chromium
 
 from wsnlib import book, paths
 
 pytestmark = pytest.mark.browser
-
-CHROMIUM = Path("/usr/bin/chromium")
-CHROMEDRIVER = Path("/usr/bin/chromedriver")
-CHROMIUM_ARGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                 "--disable-background-networking", "--disable-component-update", "--disable-sync",
-                 "--disable-dev-shm-usage", "--window-size=1280,1400")
 
 _LINKS = """return {
   anchors: Array.from(document.querySelectorAll('a[href]'), a => a.href),
@@ -58,24 +52,9 @@ def site():
 
 @pytest.fixture(scope="module")
 def driver(tmp_path_factory):
-    if not (CHROMIUM.is_file() and CHROMEDRIVER.is_file()):
-        pytest.fail(f"{CHROMIUM} or {CHROMEDRIVER} is missing: run `make browser` (installs Debian's chromium "
-                    "and chromium-driver; needs root)")
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
-
-    options = webdriver.ChromeOptions()
-    options.binary_location = str(CHROMIUM)
-    for arg in CHROMIUM_ARGS:
-        options.add_argument(arg)
-    options.add_argument(f"--user-data-dir={tmp_path_factory.mktemp('chromium-profile')}")
-    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setenv("SE_OFFLINE", "true")  # Selenium Manager: never fetch a browser or a driver
-        chrome = webdriver.Chrome(options=options, service=Service(executable_path=str(CHROMEDRIVER)))
-    chrome.set_page_load_timeout(60)
-    yield chrome
-    chrome.quit()
+    profile = tmp_path_factory.mktemp("chromium-profile")
+    with headless_chromium(profile, window_size="1280,1400", browser_logs=True) as chrome:
+        yield chrome
 
 
 def _status(url: str) -> int:

@@ -28,16 +28,11 @@ from pathlib import Path
 
 import nbformat
 import pytest
+from _chromium import headless_chromium
 
 from wsnlib import paths, reproduce
 
 pytestmark = pytest.mark.lab
-
-CHROMIUM = Path("/usr/bin/chromium")
-CHROMEDRIVER = Path("/usr/bin/chromedriver")
-CHROMIUM_ARGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                 "--disable-background-networking", "--disable-component-update", "--disable-sync",
-                 "--disable-dev-shm-usage", "--window-size=1400,1000")
 
 NOTEBOOKS = reproduce.list_notebooks()
 WIDGET_NOTEBOOK = "01_loss_effects.ipynb"
@@ -134,23 +129,8 @@ def lab(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def driver(tmp_path_factory):
-    if not (CHROMIUM.is_file() and CHROMEDRIVER.is_file()):
-        pytest.fail(f"{CHROMIUM} or {CHROMEDRIVER} is missing: run `make browser` (installs Debian's chromium "
-                    "and chromium-driver; needs root)")
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
-
-    options = webdriver.ChromeOptions()
-    options.binary_location = str(CHROMIUM)
-    for arg in CHROMIUM_ARGS:
-        options.add_argument(arg)
-    options.add_argument(f"--user-data-dir={tmp_path_factory.mktemp('chromium-profile')}")
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setenv("SE_OFFLINE", "true")  # Selenium Manager: never fetch a browser or a driver
-        chrome = webdriver.Chrome(options=options, service=Service(executable_path=str(CHROMEDRIVER)))
-    chrome.set_page_load_timeout(60)
-    yield chrome
-    chrome.quit()
+    with headless_chromium(tmp_path_factory.mktemp("chromium-profile"), window_size="1400,1000") as chrome:
+        yield chrome
 
 
 @pytest.fixture(scope="module")
