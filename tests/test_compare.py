@@ -40,3 +40,23 @@ def test_output_hybrids_equal_the_wrappers_own_output_stage(rng):
     for library, run in (("Fusion", fusion_ahrs), ("VQF", vqf_orientation)):
         direct = run(*per_mask, fs=50.0, received=masks, hybrid="output", rho=3.0, tau=6.0, schedule="decay")
         np.testing.assert_array_equal(out[f"{library} + hybrid (output)"], direct)
+
+
+def test_peer_settings_reach_the_peers_and_their_hybrids(rng):
+    truth = arm_kinematics(arm_extension(duration_s=3.0))
+    gyr, acc, mag = (x[0, 0] for x in simulate_imu(truth, rng=rng, n_runs=1))
+    n = gyr.shape[0]
+    masks = np.stack([np.ones(n, bool), loss.burst_mask(n, 60, 4)])
+    setting = {"rho": 3.0, "tau": 6.0, "schedule": "decay", "blend": "feedback"}
+    out = run_estimators(gyr, acc, mag, fs=50.0, beta=0.041, received=masks, hybrid=setting,
+                         fusion_gain=2.0, vqf_params={"tauAcc": 0.5})
+    per_mask = [np.broadcast_to(x, masks.shape + (3,)) for x in (gyr, acc, mag)]
+    shape = {"rho": 3.0, "tau": 6.0, "schedule": "decay"}
+    for library, run, option in (("Fusion", fusion_ahrs, {"gain": 2.0}),
+                                 ("VQF", vqf_orientation, {"params": {"tauAcc": 0.5}})):
+        np.testing.assert_array_equal(out[library], run(*per_mask, fs=50.0, received=masks, **option))
+        np.testing.assert_array_equal(out[f"{library} + hybrid (feedback)"],
+                                      run(*per_mask, fs=50.0, received=masks, hybrid="feedback", **shape, **option))
+    default = run_estimators(gyr, acc, mag, fs=50.0, beta=0.041, received=masks, hybrid=setting)
+    for library in ("Fusion", "VQF"):  # the settings change the result
+        assert not np.allclose(out[library], default[library])

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from wsnlib import exercises, quaternion, tuning
+from wsnlib.fingerprint import SHEPARD_EPS
 from wsnlib.orientation import madgwick_step, slerp_weight, triad
 
 
@@ -101,3 +102,73 @@ def test_the_reference_gyro_interpolation_is_linear_inside_a_gap():
     received = np.array([True, False, False, False, True])
     filled = exercises._reference_gyro_interpolation(gyr, received)
     np.testing.assert_allclose(filled[:, 0], [1, 2, 3, 4, 5])
+
+
+# ------------------------------------------------------------------------------------------
+# Paper 002: notebooks 06–09
+# ------------------------------------------------------------------------------------------
+
+
+def _shepard_knn(radio_map, positions, rss, n_neighbors, power, metric, *, eps=SHEPARD_EPS):
+    difference = radio_map - rss
+    distance = (np.sqrt(np.sum(difference ** 2, axis=1)) if metric == "euclidean"
+                else np.sum(np.abs(difference), axis=1))
+    nearest = np.argsort(distance, kind="stable")[:n_neighbors]
+    weights = 1.0 / (distance[nearest] ** power + eps)
+    return weights @ positions[nearest] / weights.sum()
+
+
+def _gated_pitch(acc, xi, gravity, *, hold=True):
+    magnitude = np.linalg.norm(acc, axis=1)
+    pitch = np.arcsin(np.clip(acc[:, 0] / magnitude, -1.0, 1.0))
+    if not hold:
+        return pitch  # forgets the gate
+    accepted = np.abs(magnitude - gravity) <= xi
+    last = np.maximum.accumulate(np.where(accepted, np.arange(acc.shape[0]), -1))
+    last[last < 0] = np.flatnonzero(accepted)[0]
+    return pitch[last]
+
+
+CORRECT_002 = {
+    exercises.check_shepard_knn: _shepard_knn,
+    exercises.check_gated_pitch: _gated_pitch,
+    exercises.check_mean_position_error: lambda est, true: np.linalg.norm(est - true, axis=-1).mean(),
+    exercises.check_precision_at_accuracy: lambda errors, accuracy: np.mean(errors <= accuracy),
+}
+
+WRONG_002 = {
+    # Manhattan computed as Euclidean (the metric argument ignored).
+    exercises.check_shepard_knn: lambda m, p, r, k, s, metric: _shepard_knn(m, p, r, k, s, "euclidean"),
+    exercises.check_gated_pitch: lambda acc, xi, g: _gated_pitch(acc, xi, g, hold=False),
+    # RMS instead of the mean distance.
+    exercises.check_mean_position_error: lambda est, true: np.sqrt(np.mean(np.sum((est - true) ** 2, axis=-1))),
+    # Strictly lower than the accuracy: misses the errors equal to it.
+    exercises.check_precision_at_accuracy: lambda errors, accuracy: np.mean(errors < accuracy),
+}
+
+
+@pytest.mark.parametrize("checker", list(CORRECT_002), ids=lambda c: c.__name__)
+def test_a_correct_function_passes_paper_002(checker):
+    report = checker(CORRECT_002[checker], rng=_rng(), n_cases=60)
+    assert report.n_cases == 60
+    assert report.max_abs_difference <= 1e-9
+    assert "passed" in str(report)
+
+
+@pytest.mark.parametrize("checker", list(WRONG_002), ids=lambda c: c.__name__)
+def test_a_plausible_mistake_fails_with_a_message_paper_002(checker):
+    with pytest.raises(AssertionError, match="expected|returned"):
+        checker(WRONG_002[checker], rng=_rng())
+
+
+def test_shepard_knn_checker_catches_weights_without_the_epsilon():
+    # Only online vectors lying on a fingerprint (d = 0) tell the two apart: 1/0 is not finite.
+    with pytest.raises(AssertionError):
+        exercises.check_shepard_knn(lambda *args: _shepard_knn(*args, eps=0.0), rng=_rng())
+
+
+def test_paper_002_checkers_name_a_bad_argument():
+    with pytest.raises(ValueError, match="rng"):
+        exercises.check_shepard_knn(_shepard_knn, rng=12)
+    with pytest.raises(ValueError, match="student_function"):
+        exercises.check_precision_at_accuracy("np.mean", rng=_rng())

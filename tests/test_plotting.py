@@ -140,6 +140,15 @@ def test_style_cycles_okabe_ito_and_paper_002_methods_have_palette_colours():
     assert set(cycle) <= set(plotting.OKABE_ITO.values())
     for name in ("deterministic", "probabilistic", "kinect", "radio only", "hybrid", "none", "gating", "lowpass"):
         assert plotting.METHOD_COLORS[name] in plotting.OKABE_ITO.values()
+    # Notebook 05's estimators: every one in the palette, each with a marker; a peer's hybrid
+    # variants share its colour, so colour and marker together tell all of them apart.
+    from wsnlib.orientation import compare
+
+    loss_study = (*compare.OUR_METHODS, compare.SINGLE_FRAME, *compare.PEER_ESTIMATORS)
+    assert all(plotting.METHOD_COLORS[name] in plotting.OKABE_ITO.values() for name in loss_study)
+    assert all(plotting.METHOD_MARKERS.get(name) for name in loss_study)
+    pairs = {(plotting.METHOD_COLORS[name], plotting.METHOD_MARKERS[name]) for name in loss_study}
+    assert len(pairs) == len(loss_study)
     # Within paper 002's comparison figure, each approach has its own colour and marker.
     compared = ("deterministic", "probabilistic", "kinect", "radio only", "hybrid")
     assert len({plotting.METHOD_COLORS[n] for n in compared}) == len(compared)
@@ -165,3 +174,25 @@ def test_break_at_gaps_inserts_nan_after_each_jump_only():
         plotting.break_at_gaps(x[::-1], y)
     with pytest.raises(ValueError, match="length"):
         plotting.break_at_gaps(x, y[:3])
+
+
+def test_heatmap_panels_share_one_colour_scale_and_validate():
+    fig, axes = plt.subplots(1, 3, figsize=(7.5, 2.5), layout="constrained")
+    low = np.arange(6.0).reshape(2, 3)
+    high = low + 10.0
+    high[0, 0] = np.nan                                   # left blank, not annotated
+    colorbar = plotting.plot_heatmap_panels({"low": low, "high": high}, [1, 2], ["a", "b", "c"], axes=axes,
+                                            xlabel="col", ylabel="row", fmt="{:.0f}", colorbar_label="cost (s)")
+    images = [ax.get_images()[0] for ax in axes[:2]]
+    assert [image.get_clim() for image in images] == [(0.0, 15.0), (0.0, 15.0)]   # shared: min and max of both
+    assert colorbar.ax.get_ylabel() == "cost (s)"
+    assert [ax.get_title() for ax in axes[:2]] == ["low", "high"]
+    assert [text.get_text() for text in axes[1].texts] == ["11", "12", "13", "14", "15"]
+    assert not axes[2].get_visible()                      # the extra axes is hidden
+    with pytest.raises(ValueError, match="shape"):
+        plotting.plot_heatmap_panels({"bad": np.zeros((3, 2))}, [1, 2], [1, 2, 3], axes=axes)
+    with pytest.raises(ValueError, match="only 1 axes"):
+        plotting.plot_heatmap_panels({"a": low, "b": low}, [1, 2], [1, 2, 3], axes=axes[:1])
+    with pytest.raises(ValueError, match="no finite value"):
+        plotting.plot_heatmap_panels({"a": np.full((2, 3), np.nan)}, [1, 2], [1, 2, 3], axes=axes)
+    plt.close(fig)

@@ -56,13 +56,14 @@ METHOD_COLORS = {
     "dt_extension": "#56B4E9",
     "gyro_interpolation": "#E69F00",
     "adaptive_beta": "#CC79A7",
-    # Peer filters (notebook 05).
-    "Fusion": "#7F7F7F",
-    "Fusion + hybrid (output)": "#BCBD22",
-    "Fusion + hybrid (feedback)": "#8C564B",
-    "VQF": "#9467BD",
-    "VQF + hybrid (output)": "#17BECF",
-    "VQF + hybrid (feedback)": "#E377C2",
+    # Peer filters (notebook 05): one colour per library, the hybrid variants told apart by
+    # marker (and, in notebook 05's figures, line style).
+    "Fusion": OKABE_ITO["grey"],
+    "Fusion + hybrid (output)": OKABE_ITO["grey"],
+    "Fusion + hybrid (feedback)": OKABE_ITO["grey"],
+    "VQF": OKABE_ITO["black"],
+    "VQF + hybrid (output)": OKABE_ITO["black"],
+    "VQF + hybrid (feedback)": OKABE_ITO["black"],
     # Paper 002 (notebooks 06-09): fingerprinting approaches, estimates and the baseline.
     "deterministic": OKABE_ITO["blue"],            # kNN (Shepard-weighted)
     "probabilistic": OKABE_ITO["orange"],          # p-kNN
@@ -84,6 +85,18 @@ METHOD_MARKERS = {
     "data fusion": "o",
     "single frame": "s",
     "hybrid": "D",
+    # Loss-handling options and peer filters (notebooks 04-05); a peer's hybrid variants share
+    # its colour and differ in marker.
+    "hold_last": "o",
+    "dt_extension": ">",
+    "gyro_interpolation": "<",
+    "adaptive_beta": "d",
+    "Fusion": "v",
+    "Fusion + hybrid (output)": "p",
+    "Fusion + hybrid (feedback)": "h",
+    "VQF": "^",
+    "VQF + hybrid (output)": "p",
+    "VQF + hybrid (feedback)": "h",
     "deterministic": "o",
     "probabilistic": "s",
     "kinect": "^",

@@ -25,6 +25,7 @@ SINGLE_FRAME = "single frame"
 
 
 def run_estimators(gyr, acc, mag, *, fs: float, beta: float, received, hybrid: dict, peers: bool = True,
+                   fusion_gain: float = 0.5, vqf_params: dict | None = None,
                    progress: bool = False) -> dict[str, np.ndarray]:
     """Run every estimator on one recording under a batch of loss masks.
 
@@ -44,6 +45,12 @@ def run_estimators(gyr, acc, mag, *, fs: float, beta: float, received, hybrid: d
         our hybrid, by adaptive β (its β schedule uses the same μ) and by the peers' hybrids.
     peers : bool
         Also run Fusion and VQF.
+    fusion_gain : float
+        Fusion's gain (``gain=`` of :func:`~wsnlib.orientation.peers.fusion_ahrs`, default 0.5,
+        Fusion's own), for Fusion and its hybrids.
+    vqf_params : dict, optional
+        VQF parameters (``params=`` of :func:`~wsnlib.orientation.peers.vqf_orientation`, e.g.
+        ``{"tauAcc": 3.0}``; None = VQF's defaults), for VQF and its hybrids.
     progress : bool
         Show a progress bar over estimators.
 
@@ -78,7 +85,8 @@ def run_estimators(gyr, acc, mag, *, fs: float, beta: float, received, hybrid: d
                 results[name] = blend_with_single_frame(results[library], acc, mag, received, **shape)
                 continue
             run = fusion_ahrs if library == "Fusion" else vqf_orientation
-            extra = shape if mode else {}
+            extra = dict(shape) if mode else {}
+            extra.update({"gain": fusion_gain} if library == "Fusion" else {"params": vqf_params})
             per_mask = [np.broadcast_to(x, received.shape + (3,)) for x in (gyr, acc, mag)]
             results[name] = run(*per_mask, fs=fs, received=received, hybrid=mode, **extra)
     return results
