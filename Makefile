@@ -23,11 +23,14 @@ endif
 
 .PHONY: figures quick test lint lock clean-outputs book lab browser book-test lab-test
 
+# Notebooks run two at a time (one per core): each is independent of the others.
+JOBS ?= 2
+
 figures: $(STAMP)
-	$(PY) -m wsnlib.reproduce
+	$(PY) -m wsnlib.reproduce --jobs $(JOBS)
 
 quick: $(STAMP)
-	$(PY) -m wsnlib.reproduce --quick
+	$(PY) -m wsnlib.reproduce --quick --jobs $(JOBS)
 
 test: $(STAMP)
 	$(VENV)/bin/ruff check .

@@ -54,7 +54,7 @@ def test_notebook_defines_no_functions():
 
 def _run_batch(output_dir):
     env = {**os.environ, paths.OUTPUT_ENV_VAR: str(output_dir)}
-    result = subprocess.run([sys.executable, "-m", "wsnlib.reproduce", "--quick"], env=env,
+    result = subprocess.run([sys.executable, "-m", "wsnlib.reproduce", "--quick", "--jobs", "2"], env=env,
                             capture_output=True, text=True, timeout=1800)
     assert result.returncode == 0, result.stderr[-4000:]
     return json.loads((output_dir / "data" / "processed" / "manifest.json").read_text())

@@ -201,3 +201,68 @@ def test_unknown_parameters_and_an_empty_only_are_refused(output_dir, tmp_path, 
 
     assert reproduce.notebook_parameters(nb_dir / "01_first.ipynb") == ["quick", "seed"]
     reproduce.check_parameters(reproduce.list_batch(), {"seed": 3})  # a known name passes
+
+
+def _save(name, sleep_s=0.0):
+    return (f"import time\ntime.sleep({sleep_s})\nimport pandas as pd\nfrom wsnlib.outputs import save_table\n"
+            f"save_table(pd.DataFrame({{'a': [1]}}), {name!r})")
+
+
+def test_notebooks_side_by_side_each_list_only_what_they_wrote(output_dir, tmp_path, monkeypatch):
+    nb_dir = tmp_path / "nbs"
+    for i, sleep_s in enumerate((1.5, 0.0, 0.5), start=1):
+        _write_notebook(nb_dir / f"0{i}_n.ipynb", _save(f"a0{i}_early"), _save(f"a0{i}_late", sleep_s))
+    monkeypatch.setattr(paths, "NOTEBOOKS", nb_dir)
+
+    assert reproduce.main(["--quick", "--jobs", "2"]) == 0
+
+    entries = _manifest(output_dir)["notebooks"]
+    assert [e["notebook"] for e in entries] == ["01_n.ipynb", "02_n.ipynb", "03_n.ipynb"]
+    for i, entry in enumerate(entries, start=1):
+        assert entry["status"] == "ok"
+        assert [o["path"] for o in entry["outputs"]] == [f"data/processed/a0{i}_early.csv",
+                                                          f"data/processed/a0{i}_late.csv"]
+
+
+def test_side_by_side_a_failure_starts_nothing_more(output_dir, tmp_path, monkeypatch):
+    nb_dir = tmp_path / "nbs"
+    _write_notebook(nb_dir / "01_fails.ipynb", "raise RuntimeError('deliberate failure')")
+    _write_notebook(nb_dir / "02_running.ipynb", _save("a02_table", 3.0))
+    _write_notebook(nb_dir / "03_waiting.ipynb", _save("a03_table"))
+    monkeypatch.setattr(paths, "NOTEBOOKS", nb_dir)
+
+    assert reproduce.main(["--quick", "--jobs", "2"]) == 1
+
+    fails, running, waiting = _manifest(output_dir)["notebooks"]
+    assert fails["status"] == "failed" and fails["error"]["evalue"] == "deliberate failure"
+    assert running["status"] == "ok"  # already running: it finishes
+    assert [o["path"] for o in running["outputs"]] == ["data/processed/a02_table.csv"]
+    assert waiting["status"] == "not run"
+
+
+def test_side_by_side_a_signal_stops_every_running_kernel(output_dir, tmp_path, monkeypatch):
+    nb_dir = tmp_path / "nbs"
+    _write_notebook(nb_dir / "01_signals.ipynb", _save("a01_table"),
+                    "import os, signal, time\ntime.sleep(1.0)\nos.kill(os.getppid(), signal.SIGTERM)\ntime.sleep(60)")
+    _write_notebook(nb_dir / "02_sleeps.ipynb", "import time\ntime.sleep(60)")
+    _write_notebook(nb_dir / "03_waits.ipynb", "pass")
+    monkeypatch.setattr(paths, "NOTEBOOKS", nb_dir)
+    started = time.monotonic()
+
+    assert reproduce.main(["--quick", "--jobs", "2"]) == 128 + signal.SIGTERM
+
+    assert time.monotonic() - started < 50  # the sleeping kernels were stopped, not waited for
+    signals, sleeps, waits = _manifest(output_dir)["notebooks"]
+    assert signals["status"] == sleeps["status"] == "interrupted"
+    assert "SIGTERM" in sleeps["error"]["evalue"]
+    assert [o["path"] for o in signals["outputs"]] == ["data/processed/a01_table.csv"]
+    assert waits["status"] == "not run"
+    assert all("exit_code" not in e for e in (signals, sleeps, waits))
+
+
+def test_jobs_must_be_positive(output_dir, capsys):
+    with pytest.raises(SystemExit):
+        reproduce.main(["--quick", "--jobs", "0"])
+    assert "--jobs" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="jobs"):
+        reproduce.run([], {}, quick=True, jobs=0)

@@ -29,6 +29,19 @@ def sha256_of(path: Path) -> str:
     return digest.hexdigest()
 
 
+#: When set (the batch runner sets it per notebook), every file written through
+#: :func:`atomic_path` is appended to the file it names, one absolute path per line: how a
+#: batch that runs notebooks side by side knows which notebook wrote what.
+WRITTEN_LOG_ENV = "WSNLIB_WRITTEN_LOG"
+
+
+def _note_written(path: Path) -> None:
+    log = os.environ.get(WRITTEN_LOG_ENV)
+    if log:
+        with open(log, "a", encoding="utf-8") as handle:  # one short line per write: appends do not interleave
+            handle.write(f"{Path(path).resolve()}\n")
+
+
 def is_temporary(path: Path) -> bool:
     """Whether ``path`` is a temporary file of :func:`atomic_path` (``.<name>.<hex>.tmp``)."""
     name = Path(path).name
@@ -53,6 +66,7 @@ def atomic_path(path) -> Iterator[Path]:
         if not tmp.exists():
             raise OSError(f"{path}: nothing was written to the temporary file {tmp.name}")
         os.replace(tmp, path)
+        _note_written(path)
     except BaseException:
         with contextlib.suppress(OSError):
             tmp.unlink()

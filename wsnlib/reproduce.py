@@ -2,11 +2,12 @@
 
 Usage::
 
-    python -m wsnlib.reproduce [--quick] [--only PATTERN] [-p NAME VALUE ...] [--cell-timeout SECONDS]
+    python -m wsnlib.reproduce [--quick] [--only PATTERN] [-p NAME VALUE ...] [--cell-timeout SECONDS] [--jobs N]
 
 Notebooks ``notebooks/NN_*.ipynb`` run in name order with the project's Jupyter kernel
 (:data:`wsnlib.paths.KERNEL_NAME`), then the solutions ``notebooks/solutions/NN_*.ipynb``
-in name order.  Executed copies go to ``build/executed/`` and ``build/executed/solutions/``
+in name order; ``--jobs N`` runs up to N of them at a time, each in its own kernel (they
+do not depend on one another).  Executed copies go to ``build/executed/`` and ``build/executed/solutions/``
 (gitignored).  ``data/processed/manifest.json`` records, per notebook (a solutions notebook
 as ``solutions/<name>``), the parameters, the run time, the status and every file it wrote
 below ``figures/``, ``data/processed/`` or ``data/raw/`` with its SHA-256:
@@ -29,8 +30,12 @@ below ``figures/``, ``data/processed/`` or ``data/raw/`` with its SHA-256:
 
 The manifest is written before the first notebook and after every notebook (atomically),
 so a batch that stops leaves a manifest that says how far it got.  At the first notebook
-that does not end ``ok`` the runner stops, prints the notebook and the cell, and exits with
-status 1 (``failed``, ``timeout``) or 128 + the signal number (``interrupted``).
+that does not end ``ok`` the runner stops (with ``--jobs``, no further notebook starts and
+the running ones finish; a signal stops them all), prints the notebook and the cell, and
+exits with status 1 (``failed``, ``timeout``) or 128 + the signal number (``interrupted``).
+Which files a notebook wrote is known from the time they were written, or with ``--jobs``
+from the notebook's write log (:data:`wsnlib._files.WRITTEN_LOG_ENV`), since every wsnlib
+writer goes through :func:`wsnlib._files.atomic_path`.
 
 Before the batch runs, the files that the previous manifest listed for each selected
 notebook are moved aside to ``build/stale/`` (the entry's ``moved_aside`` lists them), so a
@@ -71,7 +76,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from wsnlib import paths
-from wsnlib._files import atomic_write_text, is_temporary, sha256_of
+from wsnlib._files import WRITTEN_LOG_ENV, atomic_write_text, is_temporary, sha256_of
 
 MANIFEST_NAME = "manifest.json"
 SOLUTIONS = "solutions"
@@ -296,8 +301,12 @@ def _failing_cell(executed: Path) -> dict:
     return {}
 
 
-def _ipc_kernel_manager(folder: Path):
-    """A kernel manager class whose kernels use IPC sockets in ``folder`` instead of TCP."""
+def _ipc_kernel_manager(folder: Path, env: dict | None = None, started: list | None = None):
+    """A kernel manager class whose kernels use IPC sockets in ``folder`` instead of TCP.
+
+    ``env``: variables added to the kernel's environment (e.g. the notebook's write log);
+    ``started``: a list that receives every manager created (to stop kernels on a signal).
+    """
     from jupyter_client.manager import AsyncKernelManager
 
     class IPCKernelManager(AsyncKernelManager):
@@ -305,30 +314,38 @@ def _ipc_kernel_manager(folder: Path):
             kwargs.setdefault("transport", "ipc")
             kwargs.setdefault("ip", str(folder / "kernel"))
             super().__init__(**kwargs)
+            if started is not None:
+                started.append(self)
+
+        async def _async_pre_start_kernel(self, **kw):
+            if env:
+                kw["env"] = {**(kw.get("env") or os.environ), **env}
+            return await super()._async_pre_start_kernel(**kw)
 
     return IPCKernelManager
 
 
 def run(notebooks: list[Path], parameters: dict, quick: bool, kernel: str = paths.KERNEL_NAME,
-        cell_timeout: float = DEFAULT_CELL_TIMEOUT_S) -> int:
-    """Execute ``notebooks`` in order and write the manifest.
+        cell_timeout: float = DEFAULT_CELL_TIMEOUT_S, jobs: int = 1) -> int:
+    """Execute ``notebooks`` (in order; with ``jobs`` > 1, that many at a time) and write the manifest.
 
     Returns 0 if all ran, 1 at the first failure or cell timeout, 128 + the signal number
     when SIGINT or SIGTERM stopped the batch.
     """
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise ValueError(f"jobs must be a positive integer, got {jobs!r}")
     socket_folder = Path(tempfile.mkdtemp(prefix="wsnlib-kernel-"))
     try:
         with _batch_environment(), _signals_interrupt():
+            if jobs > 1 and len(notebooks) > 1:
+                return _run_parallel(notebooks, parameters, quick, kernel, cell_timeout, socket_folder, jobs)
             return _run(notebooks, parameters, quick, kernel, cell_timeout, socket_folder)
     finally:
         shutil.rmtree(socket_folder, ignore_errors=True)
 
 
-def _run(notebooks, parameters, quick, kernel, cell_timeout, socket_folder) -> int:
-    import papermill
-    from nbclient.exceptions import CellTimeoutError
-    from tqdm.auto import tqdm
-
+def _initial_entries(notebooks: list[Path], quick: bool) -> list[dict]:
+    """Manifest entries, all "not run", after moving aside what the last run listed for them."""
     previous = _previous_outputs()
     entries = [
         {"notebook": notebook_name(nb), "status": "not run", "parameters": {}, "seconds": None, "outputs": []}
@@ -339,6 +356,13 @@ def _run(notebooks, parameters, quick, kernel, cell_timeout, socket_folder) -> i
         if moved:
             entry["moved_aside"] = moved
     _write_manifest(entries, quick)
+    return entries
+
+
+def _run(notebooks, parameters, quick, kernel, cell_timeout, socket_folder) -> int:
+    from tqdm.auto import tqdm
+
+    entries = _initial_entries(notebooks, quick)
     kernel_manager_class = _ipc_kernel_manager(socket_folder)
     progress = tqdm(notebooks, desc="notebooks", unit="nb", file=sys.stderr)
     for entry, notebook in zip(entries, progress, strict=True):
@@ -349,28 +373,7 @@ def _run(notebooks, parameters, quick, kernel, cell_timeout, socket_folder) -> i
         entry["parameters"] = params
         start_ns = time.time_ns()
         started = time.perf_counter()
-        status, error, exit_code = "ok", None, 0
-        try:
-            papermill.execute_notebook(
-                str(notebook), str(executed), parameters=params, kernel_name=kernel,
-                cwd=str(notebook.parent), progress_bar=False, log_output=False,
-                execution_timeout=cell_timeout, kernel_manager_class=kernel_manager_class,
-            )
-        except papermill.PapermillExecutionError as exc:
-            status, exit_code = "failed", _EXIT_FAILED
-            error = {"cell_index": exc.cell_index, "ename": exc.ename, "evalue": exc.evalue,
-                     **_failing_cell(executed)}
-        except CellTimeoutError as exc:
-            status, exit_code = "timeout", _EXIT_FAILED
-            error = {"ename": "CellTimeoutError", "evalue": f"a cell ran longer than {cell_timeout:g} s ({exc})",
-                     "timeout_s": cell_timeout, **_last_started_cell(executed)}
-        except BatchInterrupted as exc:
-            status, exit_code = "interrupted", 128 + exc.signum
-            error = {"ename": "BatchInterrupted", "evalue": f"stopped by {signal.Signals(exc.signum).name}",
-                     **_last_started_cell(executed)}
-        except Exception as exc:  # kernel died, missing kernel, unreadable notebook
-            status, exit_code = "failed", _EXIT_FAILED
-            error = {"ename": type(exc).__name__, "evalue": str(exc).strip(), **_last_started_cell(executed)}
+        status, error, exit_code = _execute(notebook, executed, params, kernel, cell_timeout, kernel_manager_class)
         entry.update(status=status, seconds=round(time.perf_counter() - started, 1),
                      outputs=_describe(_files_written_since(start_ns)))
         if error is not None:
@@ -378,13 +381,133 @@ def _run(notebooks, parameters, quick, kernel, cell_timeout, socket_folder) -> i
         _write_manifest(entries, quick)
         if status != "ok":
             progress.close()
-            cell = (f", cell {error['cell_index']} of the executed copy ({error.get('cell_first_line', '')!r})"
-                    if "cell_index" in error else "")
-            print(f"\n{status.upper()}: {entry['notebook']}{cell}: {error['ename']}: {error['evalue']}\n"
-                  f"Executed copy: {executed}\nManifest: {_manifest_path()}", file=sys.stderr)
+            _report_failure(entry, executed)
             return exit_code
     progress.close()
     return 0
+
+
+def _execute(notebook: Path, executed: Path, params: dict, kernel: str, cell_timeout: float,
+             kernel_manager_class) -> tuple[str, dict | None, int]:
+    """Run one notebook with papermill: ``(status, error, exit code)`` as the manifest records them."""
+    import papermill
+    from nbclient.exceptions import CellTimeoutError
+
+    try:
+        papermill.execute_notebook(
+            str(notebook), str(executed), parameters=params, kernel_name=kernel,
+            cwd=str(notebook.parent), progress_bar=False, log_output=False,
+            execution_timeout=cell_timeout, kernel_manager_class=kernel_manager_class,
+        )
+    except papermill.PapermillExecutionError as exc:
+        return "failed", {"cell_index": exc.cell_index, "ename": exc.ename, "evalue": exc.evalue,
+                          **_failing_cell(executed)}, _EXIT_FAILED
+    except CellTimeoutError as exc:
+        return "timeout", {"ename": "CellTimeoutError", "evalue": f"a cell ran longer than {cell_timeout:g} s ({exc})",
+                           "timeout_s": cell_timeout, **_last_started_cell(executed)}, _EXIT_FAILED
+    except BatchInterrupted as exc:
+        return "interrupted", {"ename": "BatchInterrupted", "evalue": f"stopped by {signal.Signals(exc.signum).name}",
+                               **_last_started_cell(executed)}, 128 + exc.signum
+    except Exception as exc:  # kernel died, missing kernel, unreadable notebook
+        return "failed", {"ename": type(exc).__name__, "evalue": str(exc).strip(),
+                          **_last_started_cell(executed)}, _EXIT_FAILED
+    return "ok", None, 0
+
+
+def _report_failure(entry: dict, executed: Path) -> None:
+    error = entry["error"]
+    cell = (f", cell {error['cell_index']} of the executed copy ({error.get('cell_first_line', '')!r})"
+            if "cell_index" in error else "")
+    print(f"\n{entry['status'].upper()}: {entry['notebook']}{cell}: {error['ename']}: {error['evalue']}\n"
+          f"Executed copy: {executed}\nManifest: {_manifest_path()}", file=sys.stderr)
+
+
+def _logged_files(log: Path) -> list[Path]:
+    """The files a notebook wrote, from its write log (:data:`wsnlib._files.WRITTEN_LOG_ENV`)."""
+    if not log.exists():
+        return []
+    folders = [folder.resolve() for folder in _output_folders()]
+    written = {Path(line) for line in log.read_text(encoding="utf-8").splitlines() if line}
+    return sorted(p for p in written if p.is_file() and any(p.is_relative_to(f) for f in folders))
+
+
+def _run_parallel(notebooks, parameters, quick, kernel, cell_timeout, socket_folder, jobs) -> int:
+    """:func:`_run` with up to ``jobs`` notebooks at a time (each in its own kernel).
+
+    Which files a notebook wrote comes from its write log (every wsnlib writer goes through
+    :func:`wsnlib._files.atomic_path`), not from times, since neighbours write meanwhile.  At
+    the first notebook that does not end ``ok`` no further notebook starts; those running
+    finish.  SIGINT/SIGTERM stops every running kernel and records them ``interrupted``.
+    """
+    import threading
+    from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
+
+    from tqdm.auto import tqdm
+
+    entries = _initial_entries(notebooks, quick)
+    stop, lock = threading.Event(), threading.Lock()
+    managers: list = []
+    running: set[int] = set()
+    progress = tqdm(total=len(notebooks), desc="notebooks", unit="nb", file=sys.stderr)
+
+    def one(index: int, notebook: Path) -> int:
+        if stop.is_set():
+            return 0
+        entry = entries[index]
+        executed = paths.executed_notebooks() / notebook_name(notebook)
+        executed.parent.mkdir(parents=True, exist_ok=True)
+        folder = socket_folder / f"nb{index}"
+        folder.mkdir()
+        log = folder / "written.txt"
+        manager_class = _ipc_kernel_manager(folder, {WRITTEN_LOG_ENV: str(log)}, managers)
+        params = {"quick": quick, **parameters}
+        with lock:
+            entry["parameters"] = params
+            running.add(index)
+        started = time.perf_counter()
+        status, error, exit_code = _execute(notebook, executed, params, kernel, cell_timeout, manager_class)
+        with lock:
+            running.discard(index)
+            if entry["status"] == "interrupted":  # the signal handler got here first
+                return entry.get("exit_code", 130)
+            entry.update(status=status, seconds=round(time.perf_counter() - started, 1),
+                         outputs=_describe(_logged_files(log)))
+            if error is not None:
+                entry["error"] = error
+                stop.set()
+                _report_failure(entry, executed)
+            _write_manifest(entries, quick)
+            progress.update(1)
+        return exit_code
+
+    pool = ThreadPoolExecutor(max_workers=jobs)
+    futures = [pool.submit(one, i, nb) for i, nb in enumerate(notebooks)]
+    try:
+        pending = set(futures)
+        while pending:
+            _, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
+    except BatchInterrupted as exc:
+        stop.set()
+        with lock:
+            for index in running:
+                entries[index].update(status="interrupted", exit_code=128 + exc.signum, error={
+                    "ename": "BatchInterrupted", "evalue": f"stopped by {signal.Signals(exc.signum).name}",
+                    **_last_started_cell(paths.executed_notebooks() / notebook_name(notebooks[index]))})
+                log = socket_folder / f"nb{index}" / "written.txt"
+                entries[index]["outputs"] = _describe(_logged_files(log))
+            _write_manifest(entries, quick)
+        for manager in list(managers):  # the running kernels end; their threads then return
+            with contextlib.suppress(Exception):
+                manager.provisioner.process.kill()
+        pool.shutdown(wait=True, cancel_futures=True)
+        progress.close()
+        for entry in entries:
+            entry.pop("exit_code", None)
+        _write_manifest(entries, quick)
+        return 128 + exc.signum
+    pool.shutdown(wait=True)
+    progress.close()
+    return max((f.result() for f in futures), default=0)
 
 
 def _describe(files: list[Path]) -> list[dict]:
@@ -402,9 +525,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--kernel", default=paths.KERNEL_NAME, help="Jupyter kernel name (default: %(default)s)")
     parser.add_argument("--cell-timeout", type=float, default=DEFAULT_CELL_TIMEOUT_S, metavar="SECONDS",
                         help="stop the batch when one cell runs longer than this (default: %(default)g s)")
+    parser.add_argument("--jobs", type=int, default=1, metavar="N",
+                        help="run up to N notebooks at a time, each in its own kernel (default: %(default)s)")
     args = parser.parse_args(argv)
     if args.only is not None and not args.only.strip():
         parser.error("--only needs a non-empty PATTERN (leave --only out to run every notebook)")
+    if args.jobs < 1:
+        parser.error(f"--jobs must be at least 1, got {args.jobs}")
     if not args.cell_timeout > 0 or args.cell_timeout == float("inf"):
         parser.error(f"--cell-timeout must be a positive number of seconds, got {args.cell_timeout!r}")
     notebooks = list_batch(args.only)
@@ -417,7 +544,8 @@ def main(argv: list[str] | None = None) -> int:
         check_parameters(notebooks, parameters)
     except ValueError as exc:
         parser.error(str(exc))
-    status = run(notebooks, parameters, quick=args.quick, kernel=args.kernel, cell_timeout=args.cell_timeout)
+    status = run(notebooks, parameters, quick=args.quick, kernel=args.kernel, cell_timeout=args.cell_timeout,
+                 jobs=args.jobs)
     if status == 0:
         print(f"Ran {len(notebooks)} notebook(s); manifest: {_manifest_path()}", file=sys.stderr)
     return status
