@@ -77,7 +77,7 @@ from wsnlib.datasets import (
     sidecar_path,
     write_table_with_sidecar,
 )
-from wsnlib.sim.body import TARGET_NAMES
+from wsnlib.testbed import TARGET_NAMES
 
 FORMAT_NAME = "wsnlib-samples"
 FORMAT_VERSION = 1

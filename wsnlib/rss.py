@@ -81,7 +81,7 @@ from wsnlib.datasets import (
     sidecar_path,
     write_table_with_sidecar,
 )
-from wsnlib.sim.body import ANCHOR_NAMES, TARGET_NAMES
+from wsnlib.testbed import ANCHOR_NAMES, TARGET_NAMES
 
 FORMAT_NAME = "wsnlib-rss"
 FORMAT_VERSION = 1
