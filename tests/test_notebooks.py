@@ -42,6 +42,15 @@ def test_notebook_has_a_parameters_cell_with_quick_and_seed(notebook):
     assert "seed" in names and isinstance(names["seed"], int)
 
 
+@pytest.mark.parametrize("notebook", EVERY_NOTEBOOK, ids=reproduce.notebook_name)
+def test_parameters_cell_lines_papermill_can_read(notebook):
+    """papermill reads a parameters cell line by line and warns on a line with two '=' (e.g. in a comment)."""
+    nb = nbformat.read(notebook, as_version=4)
+    cell = next(c for c in nb.cells if "parameters" in c.metadata.get("tags", []))
+    bad = [line for line in cell.source.splitlines() if line.count("=") > 1]
+    assert not bad, f"{notebook.name}: papermill cannot parse {bad}"
+
+
 def test_notebook_defines_no_functions():
     """Logic belongs in wsnlib: notebooks call it but define no functions or classes."""
     for notebook in NOTEBOOKS:
