@@ -43,3 +43,17 @@ def test_a_failed_run_or_a_missing_sentence_is_refused(notebooks, tmp_path):
     nbformat.write(nb, notebooks / "01_a.ipynb")
     with pytest.raises(ValueError, match="no run-time sentence"):
         run_times.update_run_times(_manifest(tmp_path / "f.json", 3), _manifest(tmp_path / "q.json", 1))
+
+
+def test_side_by_side_runs_are_named_in_the_sentence(notebooks, tmp_path):
+    def manifest(path, seconds, jobs):
+        path.write_text(json.dumps({"jobs": jobs, "notebooks": [
+            {"notebook": "01_a.ipynb", "seconds": seconds, "status": "ok"}]}))
+        return path
+
+    run_times.update_run_times(manifest(tmp_path / "f.json", 20, 2), manifest(tmp_path / "q.json", 5, 2),
+                               month="November 2026")
+    intro = nbformat.read(notebooks / "01_a.ipynb", as_version=4).cells[0].source
+    assert "`python -m wsnlib.reproduce --jobs 2`, on a shared 2-core\nmachine in November 2026): 20 s" in intro
+    with pytest.raises(ValueError, match="different --jobs"):
+        run_times.update_run_times(manifest(tmp_path / "f.json", 20, 2), manifest(tmp_path / "q.json", 5, 1))

@@ -237,8 +237,8 @@ def _manifest_path() -> Path:
     return paths.data_processed() / MANIFEST_NAME
 
 
-def _write_manifest(entries: list[dict], quick: bool) -> Path:
-    manifest = {"quick": quick, "kernel": paths.KERNEL_NAME, "notebooks": entries}
+def _write_manifest(entries: list[dict], quick: bool, jobs: int = 1) -> Path:
+    manifest = {"quick": quick, "jobs": jobs, "kernel": paths.KERNEL_NAME, "notebooks": entries}
     return atomic_write_text(_manifest_path(), json.dumps(manifest, indent=2, sort_keys=True) + "\n")
 
 
@@ -344,7 +344,7 @@ def run(notebooks: list[Path], parameters: dict, quick: bool, kernel: str = path
         shutil.rmtree(socket_folder, ignore_errors=True)
 
 
-def _initial_entries(notebooks: list[Path], quick: bool) -> list[dict]:
+def _initial_entries(notebooks: list[Path], quick: bool, jobs: int = 1) -> list[dict]:
     """Manifest entries, all "not run", after moving aside what the last run listed for them."""
     previous = _previous_outputs()
     entries = [
@@ -355,7 +355,7 @@ def _initial_entries(notebooks: list[Path], quick: bool) -> list[dict]:
         moved = _move_aside(previous.get(entry["notebook"], []))
         if moved:
             entry["moved_aside"] = moved
-    _write_manifest(entries, quick)
+    _write_manifest(entries, quick, jobs)
     return entries
 
 
@@ -444,7 +444,7 @@ def _run_parallel(notebooks, parameters, quick, kernel, cell_timeout, socket_fol
 
     from tqdm.auto import tqdm
 
-    entries = _initial_entries(notebooks, quick)
+    entries = _initial_entries(notebooks, quick, jobs)
     stop, lock = threading.Event(), threading.Lock()
     managers: list = []
     running: set[int] = set()
@@ -476,7 +476,7 @@ def _run_parallel(notebooks, parameters, quick, kernel, cell_timeout, socket_fol
                 entry["error"] = error
                 stop.set()
                 _report_failure(entry, executed)
-            _write_manifest(entries, quick)
+            _write_manifest(entries, quick, jobs)
             progress.update(1)
         return exit_code
 
@@ -495,7 +495,7 @@ def _run_parallel(notebooks, parameters, quick, kernel, cell_timeout, socket_fol
                     **_last_started_cell(paths.executed_notebooks() / notebook_name(notebooks[index]))})
                 log = socket_folder / f"nb{index}" / "written.txt"
                 entries[index]["outputs"] = _describe(_logged_files(log))
-            _write_manifest(entries, quick)
+            _write_manifest(entries, quick, jobs)
         for manager in list(managers):  # the running kernels end; their threads then return
             with contextlib.suppress(Exception):
                 manager.provisioner.process.kill()
@@ -503,7 +503,7 @@ def _run_parallel(notebooks, parameters, quick, kernel, cell_timeout, socket_fol
         progress.close()
         for entry in entries:
             entry.pop("exit_code", None)
-        _write_manifest(entries, quick)
+        _write_manifest(entries, quick, jobs)
         return 128 + exc.signum
     pool.shutdown(wait=True)
     progress.close()

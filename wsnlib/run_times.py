@@ -10,7 +10,9 @@ The numbers are not typed in: after a full and a quick batch (each writes ``mani
 
     python -m wsnlib.run_times FULL_MANIFEST QUICK_MANIFEST
 
-rewrites N and M of every notebook the two manifests list (rounded seconds), and the month.
+rewrites N and M of every notebook the two manifests list (rounded seconds), the month, and the
+command (with ``--jobs N`` when the batch ran notebooks side by side: their seconds then include
+sharing the two cores with a neighbour).
 """
 
 from __future__ import annotations
@@ -27,14 +29,18 @@ import nbformat
 from wsnlib import paths
 
 SENTENCE = re.compile(
-    r"\*\*Run time\*\* \(measured by the batch runner, `python -m wsnlib\.reproduce`, on a shared 2-core"
+    r"\*\*Run time\*\* \(measured by the batch runner, `python -m wsnlib\.reproduce(?: --jobs \d+)?`, on a shared 2-core"
     r"(?P<space1>\s+)machine in (?P<month>[A-Z][a-z]+ \d{4})\): (?P<full>\d+) s in full mode,(?P<space2>\s+)"
     r"(?P<quick>\d+) s in quick mode\."
 )
 
 
+def _read(manifest: Path) -> dict:
+    return json.loads(Path(manifest).read_text())
+
+
 def _seconds(manifest: Path) -> dict[str, float]:
-    entries = json.loads(Path(manifest).read_text())["notebooks"]
+    entries = _read(manifest)["notebooks"]
     bad = [e["notebook"] for e in entries if e.get("status") != "ok"]
     if bad:
         raise ValueError(f"{manifest}: not every notebook ran ok ({', '.join(bad)}); rerun the batch first")
@@ -48,6 +54,10 @@ def update_run_times(full_manifest, quick_manifest, month: str | None = None) ->
     run-time sentence in its first cell.
     """
     full, quick = _seconds(full_manifest), _seconds(quick_manifest)
+    jobs = {_read(m).get("jobs", 1) for m in (full_manifest, quick_manifest)}
+    if len(jobs) != 1:
+        raise ValueError(f"the two manifests were run with different --jobs ({sorted(jobs)}): times would not compare")
+    command = "python -m wsnlib.reproduce" + (f" --jobs {jobs.pop()}" if jobs != {1} else "")
     month = month or datetime.date.today().strftime("%B %Y")
     changed = []
     for name in sorted(set(full) & set(quick)):
@@ -57,7 +67,7 @@ def update_run_times(full_manifest, quick_manifest, month: str | None = None) ->
         match = SENTENCE.search(intro)
         if match is None:
             raise ValueError(f"{name}: no run-time sentence in its first cell (see wsnlib.run_times)")
-        sentence = (f"**Run time** (measured by the batch runner, `python -m wsnlib.reproduce`, on a shared 2-core"
+        sentence = (f"**Run time** (measured by the batch runner, `{command}`, on a shared 2-core"
                     f"{match['space1']}machine in {month}): {round(full[name])} s in full mode,{match['space2']}"
                     f"{round(quick[name])} s in quick mode.")
         updated = intro[: match.start()] + sentence + intro[match.end() :]
