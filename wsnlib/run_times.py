@@ -29,7 +29,8 @@ import nbformat
 from wsnlib import paths
 
 SENTENCE = re.compile(
-    r"\*\*Run time\*\* \(measured by the batch runner, `python -m wsnlib\.reproduce(?: --jobs \d+)?`, on a shared 2-core"
+    r"\*\*Run time\*\* \(measured by the batch runner, `python -m wsnlib\.reproduce(?: --jobs \d+)?`,"
+    r" on a shared 2-core"
     r"(?P<space1>\s+)machine in (?P<month>[A-Z][a-z]+ \d{4})\): (?P<full>\d+) s in full mode,(?P<space2>\s+)"
     r"(?P<quick>\d+) s in quick mode\."
 )
