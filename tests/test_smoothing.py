@@ -7,7 +7,7 @@ import numpy as np
 from wsnlib import frames
 from wsnlib import quaternion as Q
 from wsnlib.orientation.kalman import kalman_orientation
-from wsnlib.orientation.smoothing import smooth_orientation
+from wsnlib.orientation.smoothing import SMOOTHER_SETTINGS, smooth_orientation
 
 FS = 50.0
 
@@ -39,7 +39,7 @@ def test_smoother_equals_filter_at_the_end():
     received = np.ones(len(gyr), bool)
     received[100:130] = False
     received[300:320] = False
-    filt = kalman_orientation(gyr, acc, mag, fs=FS, received=received)
+    filt = kalman_orientation(gyr, acc, mag, fs=FS, received=received, settings=SMOOTHER_SETTINGS)
     smooth = smooth_orientation(gyr, acc, mag, fs=FS, received=received)
     np.testing.assert_allclose(Q.canonical(smooth[-1]), Q.canonical(filt[-1]), atol=1e-12)
     assert not np.allclose(smooth[:-50], filt[:-50])  # ... and differs where later samples help
@@ -49,7 +49,7 @@ def test_trailing_gap_is_the_filters_extrapolation():
     gyr, acc, mag, _ = _turning_recording(noise=0.02)
     received = np.ones(len(gyr), bool)
     received[-40:] = False
-    filt = kalman_orientation(gyr, acc, mag, fs=FS, received=received)
+    filt = kalman_orientation(gyr, acc, mag, fs=FS, received=received, settings=SMOOTHER_SETTINGS)
     smooth = smooth_orientation(gyr, acc, mag, fs=FS, received=received)
     np.testing.assert_allclose(Q.canonical(smooth[-41]), Q.canonical(filt[-41]), atol=1e-12)
     # nothing after the last received sample: the smoother extrapolates as the filter does

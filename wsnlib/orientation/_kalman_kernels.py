@@ -33,15 +33,20 @@ _ACC_NORM_GATE, _ACC_RATE_GATE, _MAG_NORM_GATE, _MAG_DIP_GATE, _MAG_REF_GAIN = r
 _MAG_NEW_TIME, _MAG_NEW_MIN_RATE, _MAG_MAX_REJECT, _MAG_REJECT_VAR_FACTOR = range(13, 17)
 _INIT_TILT_VAR, _INIT_HEADING_VAR, _INIT_BIAS_VAR, _BIAS_LIMIT = range(17, 21)
 _ACC_INNOVATION_GATE, _GAP_NOISE, _GAP_RELATIVE_NOISE = range(21, 24)
-_N_SETTINGS = 24
+_VEL_DECAY, _VEL_VAR, _ACC_SENSOR_VAR, _GAP_ACC_VAR, _MAG_DIP_TILT_SIGMAS = range(24, 29)
+_N_SETTINGS = 29
+#: Error-state size: [δθ (3), δb (3), δv (3)].
+NX = 9
 #: Positions of Δt and of the variances (which must be finite and > 0) in the settings vector.
 KALMAN_DT = _DT
-KALMAN_VARIANCES = (_GYRO_VAR, _BIAS_VAR, _ACC_VAR, _MAG_VAR, _GAP_VAR)
+KALMAN_VARIANCES = (_GYRO_VAR, _BIAS_VAR, _ACC_VAR, _MAG_VAR, _GAP_VAR, _VEL_VAR, _ACC_SENSOR_VAR, _GAP_ACC_VAR)
 
-# Gate state per stream: reference norm (0 = unset) and dip, candidate norm/dip/time, time
-# rejected, and the number of samples lost in a row.
+# Auxiliary state per stream: magnetometer gate (reference norm (0 = unset) and dip,
+# candidate norm/dip/time, time rejected), the number of samples lost in a row, the gap's
+# rate-error std, and the leaky velocity v̂ (earth frame, m/s).
 _REF_NORM, _REF_DIP, _CAND_NORM, _CAND_DIP, _CAND_T, _REJECT_T, _LOST_RUN, _GAP_SIGMA = range(8)
-_N_GATE = 8
+_VEL = 8  # v̂ at _VEL, _VEL + 1, _VEL + 2
+_N_GATE = 11
 
 
 def kalman_settings_vector(settings, dt: float) -> np.ndarray:
@@ -73,6 +78,11 @@ def kalman_settings_vector(settings, dt: float) -> np.ndarray:
     vector[_INIT_BIAS_VAR] = s.initial_bias_sigma**2
     vector[_BIAS_LIMIT] = s.bias_limit
     vector[_ACC_INNOVATION_GATE] = s.acc_innovation_gate
+    vector[_VEL_DECAY] = math.exp(-dt / s.velocity_tau_s)
+    vector[_VEL_VAR] = s.velocity_noise**2
+    vector[_ACC_SENSOR_VAR] = (s.acc_sensor_noise * dt) ** 2
+    vector[_GAP_ACC_VAR] = (s.gap_acc_noise * dt) ** 2
+    vector[_MAG_DIP_TILT_SIGMAS] = s.mag_dip_tilt_sigmas
     return vector
 
 
@@ -85,39 +95,40 @@ def kalman_settings_vector(settings, dt: float) -> np.ndarray:
 def kalman_scalar_update(P, dx, i, innovation, r, heading_only, K, row):
     """Scalar Kalman update with ``H = e_iᵀ``: ``S = P_ii + r``, ``K = P_·i/S``, Joseph form."""
     S = P[i, i] + r
-    for a in range(6):
+    for a in range(NX):
         K[a] = P[a, i] / S
         row[a] = P[i, a]
     if heading_only:  # the magnetometer must not tilt: zero the gain's tilt rows
         K[0] = 0.0
         K[1] = 0.0
-    for a in range(6):
+    for a in range(NX):
         dx[a] += K[a] * innovation
     # P ← P − K P_i· − P_·i Kᵀ + S K Kᵀ   ((I − K H) P (I − K H)ᵀ + r K Kᵀ, any K)
-    for a in range(6):
-        for b in range(6):
+    for a in range(NX):
+        for b in range(NX):
             P[a, b] += -K[a] * row[b] - row[a] * K[b] + S * K[a] * K[b]
 
 
 @njit(**COMPILE)
-def kalman_inject(q, bias, dx, bias_limit):
-    """``q ← Exp(δθ) ⊗ q``, ``b ← b + δb`` (clipped), ``δx ← 0``; returns the new ``q``."""
+def kalman_inject(q, bias, gate, dx, bias_limit):
+    """``q ← Exp(δθ) ⊗ q``, ``b ← b + δb`` (clipped), ``v̂ ← v̂ + δv``, ``δx ← 0``; returns ``q``."""
     q = quat_normalize(quat_multiply(quat_exp((dx[0], dx[1], dx[2])), q))
     for a in range(3):
         bias[a] = min(max(bias[a] + dx[3 + a], -bias_limit), bias_limit)
-    for a in range(6):
+        gate[_VEL + a] += dx[6 + a]
+    for a in range(NX):
         dx[a] = 0.0
     return q
 
 
 @njit(**COMPILE)
-def kalman_predict(q, bias, P, held_rate, gate, gyr, received, s, R, F, FP):
+def kalman_predict(q, bias, P, held_rate, gate, gyr, acc, received, s, R, F, FP):
     """Prediction of one sample (module docstring); returns ``q⁻``.
 
-    ``q`` 4-tuple; ``bias`` (3,) read; ``P`` (6, 6), ``held_rate`` (3,) (the bias-corrected
-    rate used, on return) and ``gate`` (_N_GATE,) updated in place; ``gyr`` (3,) read only if
-    ``received``.  On return ``R`` (3, 3) holds R(q⁻), which defines F; ``F``, ``FP`` (6, 6)
-    are scratch.
+    ``q`` 4-tuple; ``bias`` (3,) read; ``P`` (NX, NX), ``held_rate`` (3,) (the bias-corrected
+    rate used, on return) and ``gate`` (_N_GATE, with v̂) updated in place; ``gyr``, ``acc``
+    (3,) read only if ``received``.  On return ``R`` (3, 3) holds R(q⁻) and ``F`` (NX, NX) the
+    transition matrix of the sample; ``FP`` (NX, NX) is scratch.
     """
     dt = s[_DT]
     # --- Angular rate of the prediction: measured, or extrapolated over a gap -------------
@@ -135,34 +146,59 @@ def kalman_predict(q, bias, P, held_rate, gate, gyr, received, s, R, F, FP):
     q = quat_normalize(quat_multiply(q, quat_exp((omega[0] * dt, omega[1] * dt, omega[2] * dt))))
     rotation_matrix(q, R)
 
-    # --- Error propagation: P⁻ = F P Fᵀ + Q, F = [[I, −R Δt], [0, I]] ---------------------
-    for a in range(6):
-        for b in range(6):
+    # --- Leaky velocity: v̂ ← c v̂ + (R(q⁻) a − g e_z) Δt (received), v̂ ← c v̂ (lost) -------
+    decay = s[_VEL_DECAY]
+    a_e = (0.0, 0.0, 0.0)
+    if received:
+        a_e = quat_rotate(q, (acc[0], acc[1], acc[2]))
+        gate[_VEL] = decay * gate[_VEL] + a_e[0] * dt
+        gate[_VEL + 1] = decay * gate[_VEL + 1] + a_e[1] * dt
+        gate[_VEL + 2] = decay * gate[_VEL + 2] + (a_e[2] - s[_GRAVITY]) * dt
+    else:
+        for a in range(3):
+            gate[_VEL + a] *= decay
+
+    # --- Error propagation: P⁻ = F P Fᵀ + Q ----------------------------------------------
+    # F = [[I, −R Δt, 0], [0, I, 0], [−[a_E]× Δt, [a_E]× R Δt², c I]]  (a_E = 0 when lost)
+    for a in range(NX):
+        for b in range(NX):
             F[a, b] = 1.0 if a == b else 0.0
     for a in range(3):
         for b in range(3):
             F[a, 3 + b] = -R[a, b] * dt
-    for a in range(6):  # FP = F P
-        for b in range(6):
+        F[6 + a, 6 + a] = decay
+    # −[a_E]× Δt: rows of the cross-product matrix of a_E, negated
+    F[6, 1], F[6, 2] = a_e[2] * dt, -a_e[1] * dt
+    F[7, 0], F[7, 2] = -a_e[2] * dt, a_e[0] * dt
+    F[8, 0], F[8, 1] = a_e[1] * dt, -a_e[0] * dt
+    for a in range(3):  # [a_E]× R Δt² = (−[a_E]× Δt)(−R Δt)
+        for b in range(3):
+            F[6 + a, 3 + b] = F[6 + a, 0] * F[0, 3 + b] + F[6 + a, 1] * F[1, 3 + b] + F[6 + a, 2] * F[2, 3 + b]
+    for a in range(NX):  # FP = F P
+        for b in range(NX):
             acc_ab = 0.0
-            for c in range(6):
+            for c in range(NX):
                 acc_ab += F[a, c] * P[c, b]
             FP[a, b] = acc_ab
-    for a in range(6):  # P = (F P) Fᵀ
-        for b in range(6):
+    for a in range(NX):  # P = (F P) Fᵀ
+        for b in range(NX):
             acc_ab = 0.0
-            for c in range(6):
+            for c in range(NX):
                 acc_ab += FP[a, c] * F[b, c]
             P[a, b] = acc_ab
     # Q: gyro noise and bias random walk; over a gap, the extrapolated rate's error.
+    # Over a gap also the unknown linear acceleration: δv grows like (σ_gap,acc · kΔt)².
     extra = 0.0
+    extra_v = s[_ACC_SENSOR_VAR]
     if not received:
         if gate[_LOST_RUN] == 1.0:  # std of the extrapolated rate's error, fixed for the gap
             gate[_GAP_SIGMA] = s[_GAP_NOISE] + s[_GAP_RELATIVE_NOISE] * vec_norm(omega)
         extra = (gate[_GAP_SIGMA] * dt) ** 2 * (2.0 * gate[_LOST_RUN] - 1.0)
+        extra_v = s[_GAP_ACC_VAR] * (2.0 * gate[_LOST_RUN] - 1.0)
     for a in range(3):
         P[a, a] += s[_GYRO_VAR] + extra
         P[3 + a, 3 + a] += s[_BIAS_VAR]
+        P[6 + a, 6 + a] += extra_v
     return q
 
 
@@ -171,7 +207,7 @@ def kalman_correct(q, bias, P, gate, acc, mag, has_mag, omega, s, dx, K, row):
     """Measurement updates of one received sample; returns ``(q, acc_used, mag_used)``.
 
     ``q`` = q⁻ (4-tuple), ``omega`` the bias-corrected rate of the sample (3-tuple, for the
-    rate gates); ``bias``, ``P``, ``gate`` updated in place; ``dx``, ``K``, ``row`` (6,)
+    rate gates); ``bias``, ``P``, ``gate`` updated in place; ``dx``, ``K``, ``row`` (NX,)
     scratch.
     """
     # --- Accelerometer: tilt update -----------------------------------------------------
@@ -200,8 +236,17 @@ def kalman_correct(q, bias, P, gate, acc, mag, has_mag, omega, s, dx, K, row):
             r = scale * (tilt_var + r) - tilt_var
         kalman_scalar_update(P, dx, 0, phi_x - dx[0], r, False, K, row)
         kalman_scalar_update(P, dx, 1, phi_y - dx[1], r, False, K, row)
-        q = kalman_inject(q, bias, dx, s[_BIAS_LIMIT])
+        q = kalman_inject(q, bias, gate, dx, s[_BIAS_LIMIT])
         acc_used = True
+    # --- Leaky velocity: pseudo-measurement v = 0 (every received sample) ----------------
+    # Linear acceleration averages out (the position stays bounded), so the horizontal
+    # leaky velocity stays small, while a tilt error δθ makes it ramp by g δθ Δt per sample:
+    # VQF's low-pass of the earth-frame specific force (τ_acc), as a Kalman measurement.
+    r_v = s[_VEL_VAR]
+    kalman_scalar_update(P, dx, 6, -gate[_VEL] - dx[6], r_v, False, K, row)
+    kalman_scalar_update(P, dx, 7, -gate[_VEL + 1] - dx[7], r_v, False, K, row)
+    kalman_scalar_update(P, dx, 8, -gate[_VEL + 2] - dx[8], r_v, False, K, row)
+    q = kalman_inject(q, bias, gate, dx, s[_BIAS_LIMIT])
     return kalman_correct_mag(q, bias, P, gate, mag, has_mag, omega, s, dx, K, row, acc_used)
 
 
@@ -218,8 +263,12 @@ def kalman_correct_mag(q, bias, P, gate, mag, has_mag, omega, s, dx, K, row, acc
         if gate[_REF_NORM] == 0.0:  # first sample: it defines the reference
             gate[_REF_NORM], gate[_REF_DIP] = m_norm, dip
             gate[_CAND_NORM], gate[_CAND_DIP] = m_norm, dip
+        # The dip is seen through the estimated tilt: its tolerance widens by the tilt's std
+        # (× mag_dip_tilt_sigmas), so a tilt that is merely uncertain (after a gap, in fast
+        # motion) does not reject an undisturbed field.
+        dip_tolerance = s[_MAG_DIP_GATE] + s[_MAG_DIP_TILT_SIGMAS] * math.sqrt(max(P[0, 0], P[1, 1]))
         undisturbed = (abs(m_norm - gate[_REF_NORM]) < s[_MAG_NORM_GATE] * gate[_REF_NORM]
-                       and abs(dip - gate[_REF_DIP]) < s[_MAG_DIP_GATE])
+                       and abs(dip - gate[_REF_DIP]) < dip_tolerance)
         if undisturbed:
             gate[_REF_NORM] += s[_MAG_REF_GAIN] * (m_norm - gate[_REF_NORM])
             gate[_REF_DIP] += s[_MAG_REF_GAIN] * (dip - gate[_REF_DIP])
@@ -242,7 +291,10 @@ def kalman_correct_mag(q, bias, P, gate, mag, has_mag, omega, s, dx, K, row, acc
                 undisturbed = True
             else:
                 gate[_REJECT_T] += dt
-        r = s[_MAG_VAR]
+        # Heading seen through an uncertain tilt: a tilt error ε moves the measured heading by
+        # up to tan(dip)·ε, so that variance is added (the gain's tilt rows stay zero).
+        tan_dip = math.tan(min(abs(gate[_REF_DIP]), 1.5))
+        r = s[_MAG_VAR] + tan_dip * tan_dip * max(P[0, 0], P[1, 1])
         use = undisturbed
         if not undisturbed and gate[_REJECT_T] > s[_MAG_MAX_REJECT]:
             use = True
@@ -250,7 +302,7 @@ def kalman_correct_mag(q, bias, P, gate, mag, has_mag, omega, s, dx, K, row, acc
         if use and math.hypot(m_e[0], m_e[1]) > 0.0:
             psi = math.atan2(m_e[0], m_e[1])  # heading error δθ_z
             kalman_scalar_update(P, dx, 2, psi - dx[2], r, True, K, row)
-            q = kalman_inject(q, bias, dx, s[_BIAS_LIMIT])
+            q = kalman_inject(q, bias, gate, dx, s[_BIAS_LIMIT])
             mag_used = True
     return q, acc_used, mag_used
 
@@ -262,39 +314,42 @@ def kalman_correct_mag(q, bias, P, gate, mag, has_mag, omega, s, dx, K, row, acc
 
 @njit(**COMPILE)
 def kalman_initial_covariance(s, P):
-    """``P0 = diag(σ_tilt², σ_tilt², σ_heading², σ_b², σ_b², σ_b²)`` into ``P`` (6, 6)."""
-    for a in range(6):
-        for b in range(6):
+    """``P0 = diag(σ_tilt², σ_tilt², σ_heading², σ_b² I₃, σ_v² I₃)`` into ``P`` (NX, NX)."""
+    for a in range(NX):
+        for b in range(NX):
             P[a, b] = 0.0
     P[0, 0] = s[_INIT_TILT_VAR]
     P[1, 1] = s[_INIT_TILT_VAR]
     P[2, 2] = s[_INIT_HEADING_VAR]
     for a in range(3, 6):
         P[a, a] = s[_INIT_BIAS_VAR]
+        P[a + 3, a + 3] = s[_VEL_VAR]
 
 
 @njit(**COMPILE)
 def kalman_stream(gyr, acc, mag, has_mag, received, q_init, start, init_only, s,
-                  out_q, out_bias, out_P, keep_P, acc_used, mag_used, record, pred_q, pred_bias, pred_P, pred_R):
-    """The filter over one recording ``(T, 3)`` into ``out_q`` (T, 4), ``out_bias`` (T, 3).
+                  out_q, out_bias, out_vel, out_P, keep_P, acc_used, mag_used,
+                  record, pred_q, pred_bias, pred_vel, pred_P, pred_F):
+    """The filter over one recording ``(T, 3)`` into ``out_q`` (T, 4), ``out_bias``, ``out_vel`` (T, 3).
 
     ``start``: first sample the filter sees; ``init_only``: that sample only initialises
     (``q0=None``), else it is filtered from ``q_init`` like any other.  Samples before the
-    start output ``q_init``.  ``keep_P``: write ``P⁺`` into ``out_P`` (T, 6, 6).  ``record``:
-    also write the predictions ``q⁻``, ``b⁻``, ``P⁻`` and ``R(q⁻)`` of every sample (for the
-    RTS smoother).  ``acc_used``, ``mag_used`` (T,) say which measurements were taken.
+    start output ``q_init``.  ``keep_P``: write ``P⁺`` into ``out_P`` (T, NX, NX).  ``record``:
+    also write the predictions ``q⁻``, ``b⁻``, ``v̂⁻``, ``P⁻`` and the transition matrix ``F``
+    of every sample (for the RTS smoother).  ``acc_used``, ``mag_used`` (T,) say which
+    measurements were taken.
     """
     n_t = out_q.shape[0]
-    P = np.empty((6, 6))
+    P = np.empty((NX, NX))
     R = np.empty((3, 3))
-    F = np.empty((6, 6))
-    FP = np.empty((6, 6))
+    F = np.empty((NX, NX))
+    FP = np.empty((NX, NX))
     bias = np.zeros(3)
     held_rate = np.zeros(3)
     gate = np.zeros(_N_GATE)
-    dx = np.zeros(6)
-    K = np.zeros(6)
-    row = np.zeros(6)
+    dx = np.zeros(NX)
+    K = np.zeros(NX)
+    row = np.zeros(NX)
     kalman_initial_covariance(s, P)
     q = (q_init[0], q_init[1], q_init[2], q_init[3])
     first = start + 1 if init_only else start
@@ -303,6 +358,7 @@ def kalman_stream(gyr, acc, mag, has_mag, received, q_init, start, init_only, s,
             out_q[t, a] = q[a]
         for a in range(3):
             out_bias[t, a] = 0.0
+            out_vel[t, a] = 0.0
         if keep_P:
             out_P[t] = P
         acc_used[t] = False
@@ -310,27 +366,34 @@ def kalman_stream(gyr, acc, mag, has_mag, received, q_init, start, init_only, s,
         if record:
             for a in range(4):
                 pred_q[t, a] = q[a]
-            pred_bias[t] = bias
+            for a in range(3):
+                pred_bias[t, a] = 0.0
+                pred_vel[t, a] = 0.0
             pred_P[t] = P
-            rotation_matrix(q, pred_R[t])
+            for a in range(NX):
+                for b in range(NX):
+                    pred_F[t, a, b] = 1.0 if a == b else 0.0
     for t in range(first, n_t):
         ok = received[t]
-        q = kalman_predict(q, bias, P, held_rate, gate, gyr[t], ok, s, R, F, FP)
+        q = kalman_predict(q, bias, P, held_rate, gate, gyr[t], acc[t], ok, s, R, F, FP)
         if record:
             for a in range(4):
                 pred_q[t, a] = q[a]
-            pred_bias[t] = bias
+            for a in range(3):
+                pred_bias[t, a] = bias[a]
+                pred_vel[t, a] = gate[_VEL + a]
             pred_P[t] = P
-            pred_R[t] = R
+            pred_F[t] = F
         used_a, used_m = False, False
         if ok:
             omega = (held_rate[0], held_rate[1], held_rate[2])
             q, used_a, used_m = kalman_correct(q, bias, P, gate, acc[t], mag[t if has_mag else 0], has_mag, omega, s,
-                                         dx, K, row)
+                                               dx, K, row)
         for a in range(4):
             out_q[t, a] = q[a]
         for a in range(3):
             out_bias[t, a] = bias[a]
+            out_vel[t, a] = gate[_VEL + a]
         if keep_P:
             out_P[t] = P
         acc_used[t] = used_a
@@ -339,7 +402,7 @@ def kalman_stream(gyr, acc, mag, has_mag, received, q_init, start, init_only, s,
 
 @njit(parallel=True, **COMPILE)
 def run_kalman(gyr, acc, mag, has_mag, received, index, q_init, start, init_only, s,
-                  out_q, out_bias, out_P, keep_P, acc_used, mag_used):
+               out_q, out_bias, out_vel, out_P, keep_P, acc_used, mag_used):
     """:func:`kalman_stream` on every element ``n`` of a flattened batch, in parallel.
 
     ``index`` (N, 4): for element ``n`` the rows of ``gyr``, ``acc``, ``mag`` (each
@@ -349,10 +412,9 @@ def run_kalman(gyr, acc, mag, has_mag, received, index, q_init, start, init_only
     n_batch = out_q.shape[0]
     none4 = np.empty((1, 4))
     none3 = np.empty((1, 3))
-    none66 = np.empty((1, 6, 6))
-    none33 = np.empty((1, 3, 3))
+    none_p = np.empty((1, NX, NX))
     for n in prange(n_batch):
         p = n * p_stride  # row of out_P: n, or 0 when P is not kept
         kalman_stream(gyr[index[n, 0]], acc[index[n, 1]], mag[index[n, 2]], has_mag, received[index[n, 3]],
-                      q_init[n], start[n], init_only, s, out_q[n], out_bias[n], out_P[p], keep_P,
-                      acc_used[n], mag_used[n], False, none4, none3, none66, none33)
+                      q_init[n], start[n], init_only, s, out_q[n], out_bias[n], out_vel[n], out_P[p], keep_P,
+                      acc_used[n], mag_used[n], False, none4, none3, none3, none_p, none_p)

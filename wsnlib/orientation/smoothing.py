@@ -5,10 +5,11 @@ error-state filter forward, then a Rauch–Tung–Striebel pass backward (H. E. 
 C. T. Striebel, AIAA J. 3(8):1445–1450, 1965), in error-state form (Solà 2017, Sec. 7):
 
     C_k = P⁺_k F_{k+1}ᵀ (P⁻_{k+1})⁻¹,
-    δ_k = C_k [Log(q^s_{k+1} ⊗ q⁻*_{k+1}),  b^s_{k+1} − b⁻_{k+1}],
-    q^s_k = Exp(δθ_k) ⊗ q⁺_k,   b^s_k = b⁺_k + δb_k,
+    δ_k = C_k [Log(q^s_{k+1} ⊗ q⁻*_{k+1}),  b^s_{k+1} − b⁻_{k+1},  v^s_{k+1} − v⁻_{k+1}],
+    q^s_k = Exp(δθ_k) ⊗ q⁺_k,   b^s_k = b⁺_k + δb_k,   v^s_k = v⁺_k + δv_k,
 
-starting from ``q^s_{T−1} = q⁺_{T−1}`` (so at the last sample the smoother equals the filter).
+(``F_{k+1}`` the filter's 9-state transition matrix, with the leaky velocity), starting
+from ``q^s_{T−1} = q⁺_{T−1}`` (so at the last sample the smoother equals the filter).
 Then, across each gap with received samples ``s0`` before and ``s1`` after it, the estimate is
 replaced by a cubic Hermite curve on the rotation vector relative to ``q^s_{s0}``,
 
@@ -33,7 +34,7 @@ import numpy as np
 from numba import njit, prange
 
 from wsnlib.orientation import _batch as B
-from wsnlib.orientation._kalman_kernels import KALMAN_DT, kalman_stream
+from wsnlib.orientation._kalman_kernels import KALMAN_DT, NX, kalman_stream
 from wsnlib.orientation._kernels import (
     COMPILE,
     cross3,
@@ -43,7 +44,14 @@ from wsnlib.orientation._kernels import (
     quat_multiply,
     quat_normalize,
 )
-from wsnlib.orientation.kalman import check_finite_output, prepare_inputs, settings_vector
+from wsnlib.orientation.kalman import KalmanSettings, check_finite_output, prepare_inputs, settings_vector
+
+#: Defaults of :func:`smooth_orientation`: the filter's settings except those that
+#: leave-one-trial-out tuning of the smoother chose differently from the filter's (most often,
+#: 8 settings, 17 BROAD trials, GE 10 %; ``benchmarks/eval_loss_tolerance.py``): the rate is
+#: extrapolated constant over a gap (the Hermite curve replaces the output there anyway) and
+#: the magnetometer's norm gate is 5 % instead of 10 %.
+SMOOTHER_SETTINGS = KalmanSettings(gap_rate_decay_s=math.inf, mag_norm_gate=0.05)
 
 
 @njit(**COMPILE)
@@ -95,39 +103,34 @@ def _smooth_stream(gyr, acc, mag, has_mag, received, q_init, start, init_only, s
     n_t = out_q.shape[0]
     filt_q = np.empty((n_t, 4))
     filt_b = np.empty((n_t, 3))
-    filt_P = np.empty((n_t, 6, 6))
+    filt_v = np.empty((n_t, 3))
+    filt_P = np.empty((n_t, NX, NX))
     pred_q = np.empty((n_t, 4))
     pred_b = np.empty((n_t, 3))
-    pred_P = np.empty((n_t, 6, 6))
-    pred_R = np.empty((n_t, 3, 3))
+    pred_v = np.empty((n_t, 3))
+    pred_P = np.empty((n_t, NX, NX))
+    pred_F = np.empty((n_t, NX, NX))
     acc_used = np.empty(n_t, dtype=np.bool_)
     mag_used = np.empty(n_t, dtype=np.bool_)
-    kalman_stream(gyr, acc, mag, has_mag, received, q_init, start, init_only, s, filt_q, filt_b, filt_P, True,
-                  acc_used, mag_used, True, pred_q, pred_b, pred_P, pred_R)
+    kalman_stream(gyr, acc, mag, has_mag, received, q_init, start, init_only, s, filt_q, filt_b, filt_v, filt_P, True,
+                  acc_used, mag_used, True, pred_q, pred_b, pred_v, pred_P, pred_F)
     out_q[:] = filt_q
     if n_t == 0:
         return
     smooth_b = filt_b.copy()
-    dt = s[KALMAN_DT]
-    F = np.empty((6, 6))
+    smooth_v = filt_v.copy()
     first = start  # the first sample the filter's state exists at
+    delta = np.empty(NX)
     for k in range(n_t - 2, first - 1, -1):
-        # F_{k+1} = [[I, −R(q⁻_{k+1}) Δt], [0, I]]
-        for a in range(6):
-            for b in range(6):
-                F[a, b] = 1.0 if a == b else 0.0
-        for a in range(3):
-            for b in range(3):
-                F[a, 3 + b] = -pred_R[k + 1, a, b] * dt
-        # C_kᵀ = (P⁻_{k+1})⁻¹ F P⁺_k   (both covariances symmetric)
-        Ct = np.linalg.solve(pred_P[k + 1], F @ filt_P[k])
+        # C_kᵀ = (P⁻_{k+1})⁻¹ F_{k+1} P⁺_k   (both covariances symmetric)
+        Ct = np.linalg.solve(pred_P[k + 1], pred_F[k + 1] @ filt_P[k])
         q_next = (out_q[k + 1, 0], out_q[k + 1, 1], out_q[k + 1, 2], out_q[k + 1, 3])
         q_pred = (pred_q[k + 1, 0], pred_q[k + 1, 1], pred_q[k + 1, 2], pred_q[k + 1, 3])
         d_theta = quat_log(quat_multiply(q_next, quat_conjugate(q_pred)))
-        delta = np.empty(6)
         for a in range(3):
             delta[a] = d_theta[a]
             delta[3 + a] = smooth_b[k + 1, a] - pred_b[k + 1, a]
+            delta[6 + a] = smooth_v[k + 1, a] - pred_v[k + 1, a]
         correction = Ct.T @ delta
         q = quat_normalize(quat_multiply(quat_exp((correction[0], correction[1], correction[2])),
                                          (filt_q[k, 0], filt_q[k, 1], filt_q[k, 2], filt_q[k, 3])))
@@ -135,8 +138,10 @@ def _smooth_stream(gyr, acc, mag, has_mag, received, q_init, start, init_only, s
             out_q[k, a] = q[a]
         for a in range(3):
             smooth_b[k, a] = filt_b[k, a] + correction[3 + a]
+            smooth_v[k, a] = filt_v[k, a] + correction[6 + a]
     if not interpolate_gaps:
         return
+    dt = s[KALMAN_DT]
     last_received = -1
     for t in range(first, n_t):
         if not (received[t] or t == first):
@@ -170,8 +175,8 @@ def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, settings
     Parameters
     ----------
     gyr, acc, mag, fs, received, q0, settings
-        As in :func:`wsnlib.orientation.kalman.kalman_orientation` (same filter, same
-        defaults: ``settings=None`` gives the tuned :class:`~wsnlib.orientation.kalman.KalmanSettings`).
+        As in :func:`wsnlib.orientation.kalman.kalman_orientation` (same filter);
+        ``settings=None`` gives :data:`SMOOTHER_SETTINGS` (tuned for the smoother).
     interpolate_gaps : bool
         Replace the smoothed estimate across each gap by the cubic Hermite curve (default);
         ``False`` keeps the RTS estimate there (for comparison).
@@ -180,19 +185,19 @@ def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, settings
     -------
     numpy.ndarray, shape (..., T, 4)
         ENU unit quaternions (body → earth), ``...`` the broadcast leading dimensions.  At the
-        last sample equal to the filter's output.
+        last sample equal to the output of the filter with the same settings.
 
     Raises
     ------
     ValueError
         As :func:`~wsnlib.orientation.kalman.kalman_orientation`.
     """
-    s = settings_vector(settings, fs)
+    s = settings_vector(SMOOTHER_SETTINGS if settings is None else settings, fs)
     inputs = prepare_inputs(gyr, acc, mag, received, q0)
     if not isinstance(interpolate_gaps, bool):
         raise ValueError(f"interpolate_gaps must be True or False, got {interpolate_gaps!r}")
-    # Output, plus each thread's scratch: filtered and predicted q, b, P and R(q⁻) per sample.
-    B.check_memory(8 * inputs.n_t * (4 * inputs.index.shape[0] + 2 * 96),
+    # Output, plus each thread's scratch: filtered and predicted q, b, v, P and F per sample.
+    B.check_memory(8 * inputs.n_t * (4 * inputs.index.shape[0] + 2 * (20 + 3 * NX * NX)),
                    f"smooth_orientation's output for batch {inputs.batch}, T = {inputs.n_t}")
     out_q = np.empty((inputs.index.shape[0], inputs.n_t, 4))
     _smooth_batch(inputs.gyr, inputs.acc, inputs.mag, inputs.has_mag, inputs.received, inputs.index, inputs.q_init,
