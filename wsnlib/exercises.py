@@ -96,6 +96,33 @@ def _same_rotation(got: np.ndarray, expected: np.ndarray) -> np.ndarray:
     return got * sign
 
 
+@dataclass(frozen=True)
+class _Case:
+    """One random case: how the error message shows it, the library's answer, the student's arguments."""
+
+    inputs: str
+    expected: object
+    arguments: tuple
+
+
+def _run_cases(exercise: str, student_function, draw, *, n_cases: int, atol: float, hint: str,
+               rotation: bool = False) -> ExerciseReport:
+    """Call ``student_function(*case.arguments)`` on ``draw(0)`` … ``draw(n_cases - 1)`` and compare.
+
+    ``rotation``: the outputs are quaternions, compared after choosing the sign nearer the
+    library's (q and −q are the same rotation).
+    """
+    worst = 0.0
+    for index in range(n_cases):
+        case = draw(index)
+        expected = np.asarray(case.expected, dtype=float)
+        got = _as_output(student_function(*case.arguments), expected.shape, exercise, case.inputs)
+        if rotation:
+            got = _same_rotation(got, expected)
+        worst = max(worst, _compare(got, expected, atol, exercise, case.inputs, hint=hint))
+    return ExerciseReport(exercise, n_cases, worst)
+
+
 # ------------------------------------------------------------------------------------------
 # Paper 001: notebooks 01–05
 # ------------------------------------------------------------------------------------------
@@ -130,8 +157,8 @@ def check_madgwick_step(student_function, *, rng: np.random.Generator, n_cases: 
     from wsnlib.orientation import madgwick_step
 
     rng = _check_arguments(student_function, rng, n_cases, atol)
-    worst = 0.0
-    for case in range(n_cases):
+
+    def draw(case: int) -> _Case:
         q = _random_unit_quaternion(rng)
         gyr = rng.normal(scale=2.0, size=3)
         acc = rng.normal(scale=9.81, size=3)
@@ -140,12 +167,11 @@ def check_madgwick_step(student_function, *, rng: np.random.Generator, n_cases: 
         beta = 0.0 if case % 10 == 0 else float(rng.uniform(0.0, 0.5))
         expected = madgwick_step(q, gyr, acc, mag, dt, beta)
         inputs = f"q={q}, gyr={gyr}, acc={acc}, mag={mag}, dt={dt:.4f}, beta={beta:.4f}"
-        got = _as_output(student_function(q.copy(), gyr.copy(), acc.copy(), mag.copy(), dt, beta), (4,),
-                         "madgwick_step", inputs)
-        worst = max(worst, _compare(_same_rotation(got, expected), expected, atol, "madgwick_step", inputs,
-                                    hint="ENU in and out; Madgwick's report works in NWU (x north, y west); "
-                                         "with beta = 0 only the gyroscope term q + ½ q ⊗ [0, ω] Δt remains"))
-    return ExerciseReport("madgwick_step", n_cases, worst)
+        return _Case(inputs, expected, (q.copy(), gyr.copy(), acc.copy(), mag.copy(), dt, beta))
+
+    return _run_cases("madgwick_step", student_function, draw, n_cases=n_cases, atol=atol, rotation=True,
+                      hint="ENU in and out; Madgwick's report works in NWU (x north, y west); "
+                           "with beta = 0 only the gyroscope term q + ½ q ⊗ [0, ω] Δt remains")
 
 
 def check_slerp_weight(student_function, *, rng: np.random.Generator, n_cases: int = 500,
@@ -168,17 +194,17 @@ def check_slerp_weight(student_function, *, rng: np.random.Generator, n_cases: i
     from wsnlib.orientation import slerp_weight
 
     rng = _check_arguments(student_function, rng, n_cases, atol)
-    worst = 0.0
-    for case in range(n_cases):
+
+    def draw(case: int) -> _Case:
         lost_run = 0 if case == 0 else int(rng.integers(0, 200))
         rho = float(rng.uniform(0.05, 10.0))
         tau = float(rng.uniform(0.5, 24.0))
         expected = np.asarray(slerp_weight(lost_run, rho, tau), dtype=float)
         inputs = f"lost_run={lost_run}, rho={rho:.4f}, tau={tau:.4f}"
-        got = _as_output(student_function(lost_run, rho, tau), (), "slerp_weight", inputs)
-        worst = max(worst, _compare(got, expected, atol, "slerp_weight", inputs,
-                                    hint="μ = 1 with nothing lost, and μ = 1/2 at λ = ρτ"))
-    return ExerciseReport("slerp_weight", n_cases, worst)
+        return _Case(inputs, expected, (lost_run, rho, tau))
+
+    return _run_cases("slerp_weight", student_function, draw, n_cases=n_cases, atol=atol,
+                      hint="μ = 1 with nothing lost, and μ = 1/2 at λ = ρτ")
 
 
 def check_slerp(student_function, *, rng: np.random.Generator, n_cases: int = 500,
@@ -204,8 +230,8 @@ def check_slerp(student_function, *, rng: np.random.Generator, n_cases: int = 50
     from wsnlib.quaternion import slerp
 
     rng = _check_arguments(student_function, rng, n_cases, atol)
-    worst = 0.0
-    for case in range(n_cases):
+
+    def draw(case: int) -> _Case:
         q_a = _random_unit_quaternion(rng)
         q_b = _random_unit_quaternion(rng) * (-1.0 if case % 3 == 0 else 1.0)  # some on the far arc
         if case % 17 == 1:
@@ -213,11 +239,11 @@ def check_slerp(student_function, *, rng: np.random.Generator, n_cases: int = 50
         mu = float(rng.choice([0.0, 1.0])) if case % 11 == 2 else float(rng.uniform())
         expected = slerp(q_a, q_b, mu)
         inputs = f"q_a={q_a}, q_b={q_b}, mu={mu:.4f}"
-        got = _as_output(student_function(q_a.copy(), q_b.copy(), mu), (4,), "slerp", inputs)
-        worst = max(worst, _compare(_same_rotation(got, expected), expected, atol, "slerp", inputs,
-                                    hint="flip one quaternion when their dot product is negative (shorter arc), "
-                                         "and handle q_a = q_b without dividing by sin 0"))
-    return ExerciseReport("slerp", n_cases, worst)
+        return _Case(inputs, expected, (q_a.copy(), q_b.copy(), mu))
+
+    return _run_cases("slerp", student_function, draw, n_cases=n_cases, atol=atol, rotation=True,
+                      hint="flip one quaternion when their dot product is negative (shorter arc), "
+                      "and handle q_a = q_b without dividing by sin 0")
 
 
 def check_knee_point(student_function, *, rng: np.random.Generator, n_cases: int = 300,
@@ -245,7 +271,8 @@ def check_knee_point(student_function, *, rng: np.random.Generator, n_cases: int
     from wsnlib.tuning import knee_point
 
     rng = _check_arguments(student_function, rng, n_cases, atol)
-    for case in range(n_cases):
+
+    def draw(case: int) -> _Case:
         n_points = int(rng.integers(1, 40))
         if case % 4 == 0:  # a trade-off curve with noise, like the tuning grid
             a = np.sort(rng.uniform(0, 10, n_points))
@@ -254,12 +281,11 @@ def check_knee_point(student_function, *, rng: np.random.Generator, n_cases: int
             cost_a, cost_b = rng.uniform(0, 10, n_points), rng.uniform(0, 5, n_points)
         if case % 9 == 1:  # repeated values: ties on one cost
             cost_a = np.round(cost_a)
-        expected = knee_point(cost_a, cost_b)
         inputs = f"cost_a={np.array2string(cost_a, precision=3)}, cost_b={np.array2string(cost_b, precision=3)}"
-        got = _as_output(student_function(cost_a.copy(), cost_b.copy()), (), "knee_point", inputs)
-        _compare(got, np.asarray(expected, dtype=float), atol, "knee_point", inputs,
-                 hint="scale each cost to [0, 1] over the Pareto points only, and never pick a dominated point")
-    return ExerciseReport("knee_point", n_cases, 0.0)
+        return _Case(inputs, knee_point(cost_a, cost_b), (cost_a.copy(), cost_b.copy()))
+
+    return _run_cases("knee_point", student_function, draw, n_cases=n_cases, atol=atol,
+                      hint="scale each cost to [0, 1] over the Pareto points only, and never pick a dominated point")
 
 
 def _reference_gyro_interpolation(gyr: np.ndarray, received: np.ndarray) -> np.ndarray:
@@ -295,8 +321,8 @@ def check_gyro_interpolation(student_function, *, rng: np.random.Generator, n_ca
     from wsnlib import loss
 
     rng = _check_arguments(student_function, rng, n_cases, atol)
-    worst = 0.0
-    for case in range(n_cases):
+
+    def draw(case: int) -> _Case:
         n_samples = int(rng.integers(5, 120))
         packets = loss.gilbert_elliott(n_samples, loss_rate=float(rng.uniform(0.05, 0.5)),
                                        mean_burst=float(rng.uniform(1.0, 6.0)), rng=rng)
@@ -311,12 +337,11 @@ def check_gyro_interpolation(student_function, *, rng: np.random.Generator, n_ca
         gyr_seen = np.where(received[:, None], gyr, rng.normal(scale=100.0, size=(n_samples, 3)))
         expected = _reference_gyro_interpolation(gyr, received)
         inputs = f"received={received.astype(int)} (T={n_samples})"
-        got = _as_output(student_function(gyr_seen.copy(), received.copy()), (n_samples, 3),
-                         "gyro_interpolation", inputs)
-        worst = max(worst, _compare(got, expected, atol, "gyro_interpolation", inputs,
-                                    hint="never read gyr on a lost sample; the weight of the sample after the gap "
-                                         "is (t − t_before)/(t_after − t_before)"))
-    return ExerciseReport("gyro_interpolation", n_cases, worst)
+        return _Case(inputs, expected, (gyr_seen.copy(), received.copy()))
+
+    return _run_cases("gyro_interpolation", student_function, draw, n_cases=n_cases, atol=atol,
+                      hint="never read gyr on a lost sample; the weight of the sample after the gap "
+                           "is (t − t_before)/(t_after − t_before)")
 
 
 def check_triad(student_function, *, rng: np.random.Generator, n_cases: int = 300,
@@ -342,18 +367,18 @@ def check_triad(student_function, *, rng: np.random.Generator, n_cases: int = 30
     from wsnlib.orientation import triad
 
     rng = _check_arguments(student_function, rng, n_cases, atol)
-    worst = 0.0
-    for _ in range(n_cases):
+
+    def draw(case: int) -> _Case:
         acc = rng.normal(scale=9.81, size=3)
         mag = rng.normal(scale=45.0, size=3)
         expected = triad(acc, mag)
         inputs = f"acc={acc}, mag={mag}"
-        got = _as_output(student_function(acc.copy(), mag.copy()), (4,), "triad", inputs)
-        worst = max(worst, _compare(_same_rotation(got, expected), expected, atol, "triad", inputs,
-                                    hint="build the same orthonormal triad (a, a×m/|a×m|, a × that) in the body and "
-                                         "from the ENU references (up, and wsnlib.frames.magnetic_field_enu()), "
-                                         "then R = M_ref M_bodyᵀ"))
-    return ExerciseReport("triad", n_cases, worst)
+        return _Case(inputs, expected, (acc.copy(), mag.copy()))
+
+    return _run_cases("triad", student_function, draw, n_cases=n_cases, atol=atol, rotation=True,
+                      hint="build the same orthonormal triad (a, a×m/|a×m|, a × that) in the body and "
+                      "from the ENU references (up, and wsnlib.frames.magnetic_field_enu()), "
+                      "then R = M_ref M_bodyᵀ")
 
 
 # ------------------------------------------------------------------------------------------
@@ -391,8 +416,8 @@ def check_shepard_knn(student_function, *, rng: np.random.Generator, n_cases: in
     from wsnlib.fingerprint import KNNFingerprint
 
     rng = _check_arguments(student_function, rng, n_cases, atol)
-    worst = 0.0
-    for case in range(n_cases):
+
+    def draw(case: int) -> _Case:
         n_fingerprints = int(rng.integers(1, 12))
         n_anchors = int(rng.integers(1, 9))
         radio_map = rng.uniform(-95.0, -40.0, size=(n_fingerprints, n_anchors))
@@ -407,13 +432,12 @@ def check_shepard_knn(student_function, *, rng: np.random.Generator, n_cases: in
         expected = model.predict(rss[None, :])[0]
         inputs = (f"n_neighbors={n_neighbors}, power={power:.3f}, metric={metric!r}, "
                   f"radio_map={np.array2string(radio_map, precision=1)}, rss={np.array2string(rss, precision=1)}")
-        got = _as_output(student_function(radio_map.copy(), positions.copy(), rss.copy(), n_neighbors, power,
-                                          metric), (3,), "shepard_knn", inputs)
-        worst = max(worst, _compare(got, expected, atol, "shepard_knn", inputs,
-                                    hint="distances over all anchors (Euclidean: sqrt of the summed squares), keep "
-                                         "the k smallest, weights 1/(d**power + wsnlib.fingerprint.SHEPARD_EPS) "
-                                         "divided by their sum"))
-    return ExerciseReport("shepard_knn", n_cases, worst)
+        return _Case(inputs, expected, (radio_map.copy(), positions.copy(), rss.copy(), n_neighbors, power, metric))
+
+    return _run_cases("shepard_knn", student_function, draw, n_cases=n_cases, atol=atol,
+                      hint="distances over all anchors (Euclidean: sqrt of the summed squares), keep "
+                      "the k smallest, weights 1/(d**power + wsnlib.fingerprint.SHEPARD_EPS) "
+                      "divided by their sum")
 
 
 def check_gated_pitch(student_function, *, rng: np.random.Generator, n_cases: int = 200,
@@ -444,8 +468,8 @@ def check_gated_pitch(student_function, *, rng: np.random.Generator, n_cases: in
     from wsnlib.posture import pitch_from_acc
 
     rng = _check_arguments(student_function, rng, n_cases, atol)
-    worst = 0.0
-    for case in range(n_cases):
+
+    def draw(case: int) -> _Case:
         n_samples = int(rng.integers(1, 80))
         gravity = 9.80665 if case % 4 else float(rng.uniform(9.7, 9.9))
         xi = float(rng.choice([0.01, 0.1, 0.5, 2.0])) if case % 5 == 0 else float(rng.uniform(0.05, 1.5))
@@ -459,11 +483,11 @@ def check_gated_pitch(student_function, *, rng: np.random.Generator, n_cases: in
             acc[keep] = gravity * direction[keep]   # |a| = g up to rounding, well inside the gate
         expected = pitch_from_acc(acc, method="gating", xi=xi, gravity=gravity)
         inputs = f"xi={xi:.3f}, gravity={gravity:.5f}, acc={np.array2string(acc, precision=3)}"
-        got = _as_output(student_function(acc.copy(), xi, gravity), (n_samples,), "gated_pitch", inputs)
-        worst = max(worst, _compare(got, expected, atol, "gated_pitch", inputs,
-                                    hint="| |a| − g | <= xi keeps a sample (inclusive); rejected samples hold the last "
-                                         "kept pitch, and those before the first kept sample take its pitch"))
-    return ExerciseReport("gated_pitch", n_cases, worst)
+        return _Case(inputs, expected, (acc.copy(), xi, gravity))
+
+    return _run_cases("gated_pitch", student_function, draw, n_cases=n_cases, atol=atol,
+                      hint="| |a| − g | <= xi keeps a sample (inclusive); rejected samples hold the last "
+                      "kept pitch, and those before the first kept sample take its pitch")
 
 
 def check_mean_position_error(student_function, *, rng: np.random.Generator, n_cases: int = 300,
@@ -488,8 +512,8 @@ def check_mean_position_error(student_function, *, rng: np.random.Generator, n_c
     from wsnlib.metrics import position_error
 
     rng = _check_arguments(student_function, rng, n_cases, atol)
-    worst = 0.0
-    for case in range(n_cases):
+
+    def draw(case: int) -> _Case:
         n_samples = int(rng.integers(1, 60))
         true = rng.uniform(-0.6, 0.6, size=(n_samples, 3))
         estimated = true + rng.normal(scale=float(rng.uniform(0.0, 0.3)), size=(n_samples, 3))
@@ -497,11 +521,11 @@ def check_mean_position_error(student_function, *, rng: np.random.Generator, n_c
             estimated[: n_samples // 2] = true[: n_samples // 2]  # some exact estimates
         expected = np.asarray(position_error(estimated, true).mean())
         inputs = f"estimated={np.array2string(estimated, precision=3)}, true={np.array2string(true, precision=3)}"
-        got = _as_output(student_function(estimated.copy(), true.copy()), (), "mean_position_error", inputs)
-        worst = max(worst, _compare(got, expected, atol, "mean_position_error", inputs,
-                                    hint="the distance per sample is the norm over the 3 coordinates (axis=-1); "
-                                         "then average over the samples (not the RMS)"))
-    return ExerciseReport("mean_position_error", n_cases, worst)
+        return _Case(inputs, expected, (estimated.copy(), true.copy()))
+
+    return _run_cases("mean_position_error", student_function, draw, n_cases=n_cases, atol=atol,
+                      hint="the distance per sample is the norm over the 3 coordinates (axis=-1); "
+                      "then average over the samples (not the RMS)")
 
 
 def check_precision_at_accuracy(student_function, *, rng: np.random.Generator, n_cases: int = 300,
@@ -527,8 +551,8 @@ def check_precision_at_accuracy(student_function, *, rng: np.random.Generator, n
     from wsnlib.metrics import precision_at_accuracy
 
     rng = _check_arguments(student_function, rng, n_cases, atol)
-    worst = 0.0
-    for case in range(n_cases):
+
+    def draw(case: int) -> _Case:
         n_errors = int(rng.integers(1, 200))
         errors = rng.gamma(2.0, float(rng.uniform(1.0, 10.0)), size=n_errors)
         if case % 3 == 0:
@@ -538,8 +562,8 @@ def check_precision_at_accuracy(student_function, *, rng: np.random.Generator, n
             accuracy = float(rng.choice([0.0, errors.max() + 1.0]))
         expected = np.asarray(precision_at_accuracy(errors, accuracy), dtype=float)
         inputs = f"accuracy={accuracy:g}, errors={np.array2string(errors, precision=2, threshold=20)}"
-        got = _as_output(student_function(errors.copy(), accuracy), (), "precision_at_accuracy", inputs)
-        worst = max(worst, _compare(got, expected, atol, "precision_at_accuracy", inputs,
-                                    hint="count the errors lower than OR EQUAL TO the accuracy, and divide by all "
-                                         "the errors (a fraction, not a percentage)"))
-    return ExerciseReport("precision_at_accuracy", n_cases, worst)
+        return _Case(inputs, expected, (errors.copy(), accuracy))
+
+    return _run_cases("precision_at_accuracy", student_function, draw, n_cases=n_cases, atol=atol,
+                      hint="count the errors lower than OR EQUAL TO the accuracy, and divide by all "
+                      "the errors (a fraction, not a percentage)")
