@@ -1,6 +1,9 @@
 """The benchmark script runs (its numbers are reported, not asserted: timing is no test)."""
 
 import importlib.util
+from pathlib import Path
+
+import pytest
 
 from wsnlib import paths
 
@@ -28,3 +31,21 @@ def test_search_benchmark_runs_in_quick_mode():
     results = bench.run(quick=True, log=lambda *args: None)
     text = bench.report(results)
     assert "PASS" in text or "MISS" in text
+
+
+def test_loss_tolerance_evaluation_runs_in_quick_mode():
+    """Two BROAD trials, tiny grids: the script runs end to end and prints a verdict per target."""
+    import os
+    import subprocess
+    import sys
+
+    shared = paths.ROOT.parent / "shared" / "data" / "broad"
+    folder = os.environ.get("WSNLIB_BROAD_DIR") or (str(shared) if shared.is_dir() else "")
+    if not folder or len(list(Path(folder).glob("*.mat"))) < 2:
+        pytest.skip("needs two BROAD trials (set WSNLIB_BROAD_DIR; `make test` does on CI)")
+    result = subprocess.run([sys.executable, str(paths.ROOT / "benchmarks" / "eval_loss_tolerance.py"), "--quick"],
+                            env={**os.environ, "WSNLIB_BROAD_DIR": folder}, capture_output=True, text=True,
+                            timeout=600)
+    assert result.returncode == 0, result.stderr[-3000:]
+    verdicts = [line for line in result.stdout.splitlines() if "PASS" in line or "MISS" in line]
+    assert len(verdicts) == 3, result.stdout[-3000:]
