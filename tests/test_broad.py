@@ -16,6 +16,7 @@ import pytest
 
 from wsnlib import datasets, paths
 from wsnlib import quaternion as Q
+from wsnlib.io import broad as broad_io
 
 TRIAL = "02_undisturbed_slow_rotation_B"
 TRIAL_FILE = f"{TRIAL}.mat"
@@ -264,7 +265,8 @@ def test_hash_is_cached_per_path_size_and_mtime(tmp_path, monkeypatch):
     shutil.copyfile(SOURCE_DIR / "trials.json", path)
     calls = []
     real = datasets.sha256_of
-    monkeypatch.setattr(datasets, "sha256_of", lambda p: calls.append(p) or real(p))
+    # patched where the code lives (wsnlib.datasets only re-exports it)
+    monkeypatch.setattr(broad_io, "sha256_of", lambda p: calls.append(p) or real(p))
     datasets.broad_file("trials.json", tmp_path, download=False)
     datasets.broad_file("trials.json", tmp_path, download=False)
     assert len(calls) == 1

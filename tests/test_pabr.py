@@ -18,6 +18,7 @@ import pytest
 
 from wsnlib import datasets, pabr, paths
 from wsnlib.fingerprint import KNNFingerprint
+from wsnlib.io import pabr as pabr_io
 
 SOURCE_DIR = Path(os.environ.get(pabr.PABR_DIR_ENV_VAR) or paths.ROOT.parent / "shared" / "data" / "pabr")
 HAVE_SHARED = (SOURCE_DIR / "cnf" / "tetam.dev").is_file() and (SOURCE_DIR / "hst" / "set_1").is_dir()
@@ -441,7 +442,8 @@ def tiny_registry(tiny, monkeypatch):
         for f in tiny.rglob("*")
         if f.is_file() and f.name != "README.md"
     }
-    monkeypatch.setattr(pabr, "PABR_REGISTRY", registry)
+    # patched where the code lives (wsnlib.pabr only re-exports it)
+    monkeypatch.setattr(pabr_io, "PABR_REGISTRY", registry)
     return registry
 
 

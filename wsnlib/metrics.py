@@ -78,26 +78,6 @@ def orientation_error_deg(quat_est, quat_true) -> np.ndarray:
 BROAD_ERROR_KEYS = ("total", "heading", "inclination")
 
 
-def _as_quat_with_gaps(value, name: str) -> np.ndarray:
-    """Quaternions ``(..., 4)`` in which a row holding NaN marks a missing sample.
-
-    Such rows become entirely NaN; inf is rejected, and so is a zero quaternion.
-    """
-    try:
-        arr = np.array(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a numeric array, got {type(value).__name__}") from exc
-    if arr.ndim < 1 or arr.shape[-1] != 4:
-        raise ValueError(f"{name} must have shape (..., 4), got shape {arr.shape}")
-    if np.any(np.isinf(arr)):
-        raise ValueError(f"{name} contains inf")
-    gap = np.isnan(arr).any(axis=-1)
-    arr[gap] = np.nan
-    if np.any(np.linalg.norm(arr[~gap], axis=-1) == 0.0):
-        raise ValueError(f"{name} has a zero quaternion, which is not a rotation")
-    return arr
-
-
 def broad_errors_deg(quat_est, quat_ref) -> dict[str, np.ndarray]:
     """BROAD's total, heading and inclination errors (°) per sample, ``(..., T, 4) → (..., T)``.
 
@@ -133,7 +113,7 @@ def broad_errors_deg(quat_est, quat_ref) -> dict[str, np.ndarray]:
     """
     est = as_float_array(quat_est, "quat_est", last_dim=4)
     est = est / check_nonzero_norm(est, "quat_est", "a zero quaternion is not a rotation")[..., None]
-    ref = _as_quat_with_gaps(quat_ref, "quat_ref")
+    ref = quat_ops.as_quat_with_gaps(quat_ref, "quat_ref")
     ref = ref / np.linalg.norm(ref, axis=-1, keepdims=True)
     try:
         np.broadcast_shapes(est.shape, ref.shape)

@@ -227,3 +227,39 @@ def to_scipy(q) -> Rotation:
 def from_scipy(rotation: Rotation) -> np.ndarray:
     """Convert a :class:`~scipy.spatial.transform.Rotation` to ``[w, x, y, z]`` quaternions."""
     return rotation.as_quat()[..., [3, 0, 1, 2]]
+
+
+def as_quat_with_gaps(value, name: str) -> np.ndarray:
+    """Quaternions ``(..., 4)`` in which a row holding NaN marks a missing sample, as a float copy.
+
+    Parameters
+    ----------
+    value : array_like, shape (..., 4)
+        Quaternions ``[w, x, y, z]`` (not necessarily unit); a row with any NaN is a gap (e.g.
+        an optical reference whose markers were lost).
+    name : str
+        Argument name used in error messages.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 4)
+        A new float array; gap rows are entirely NaN, the others unchanged (not normalised).
+
+    Raises
+    ------
+    ValueError
+        Not numeric, last axis not 4, any inf, or a zero quaternion outside the gaps.
+    """
+    try:
+        arr = np.array(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a numeric array, got {type(value).__name__}") from exc
+    if arr.ndim < 1 or arr.shape[-1] != 4:
+        raise ValueError(f"{name} must have shape (..., 4), got shape {arr.shape}")
+    if np.any(np.isinf(arr)):
+        raise ValueError(f"{name} contains inf")
+    gap = np.isnan(arr).any(axis=-1)
+    arr[gap] = np.nan
+    if np.any(np.linalg.norm(arr[~gap], axis=-1) == 0.0):
+        raise ValueError(f"{name} has a zero quaternion, which is not a rotation")
+    return arr

@@ -57,7 +57,7 @@ import numpy as np
 from wsnlib import frames
 from wsnlib import quaternion as Q
 from wsnlib._validation import as_float_array, check_nonnegative, check_positive
-from wsnlib.datasets import Recording
+from wsnlib.io.recording import Recording
 from wsnlib.sim.arm import ArmGeometry, ArmTrajectory, ArmTruth, arm_kinematics
 
 #: 1 gauss = 100 µT.

@@ -1,0 +1,87 @@
+"""Verified downloads of dataset files, shared by the BROAD (:mod:`wsnlib.io.broad`) and PABR
+(:mod:`wsnlib.io.pabr`) loaders.
+
+A registry (shipped under ``wsnlib/registry/``) maps each file of a dataset to its expected
+content (:class:`RegistryEntry`); :func:`download_verified` fetches a file with pooch and keeps
+it only if it matches: its SHA-256, or where the registry has none its git blob id
+(:func:`git_blob_sha1_of`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+
+@dataclass(frozen=True)
+class RegistryEntry:
+    """Expected content of one file of a dataset registry.
+
+    Attributes
+    ----------
+    sha256 : str or None
+        Hex SHA-256 of the file; None where the registry does not know it.
+    git_blob_sha1 : str or None
+        Git's blob id of the file: hex SHA-1 of ``b"blob <size>\\0"`` followed by the content
+        (see :func:`git_blob_sha1_of`); used when ``sha256`` is None.
+    size_bytes : int or None
+        Size of the file (bytes), where the registry gives it (informative).
+    """
+
+    sha256: str | None
+    git_blob_sha1: str | None = None
+    size_bytes: int | None = None
+
+
+def git_blob_sha1_of(path: Path) -> str:
+    """Git's blob id of a file: hex SHA-1 of ``b"blob <size in bytes>\\0"`` followed by its bytes."""
+
+    path = Path(path)
+    digest = hashlib.sha1(f"blob {path.stat().st_size}\0".encode("ascii"))
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def download_verified(url: str, path: Path, expected: RegistryEntry, downloader, *, env_var: str) -> None:
+    """Download ``url`` to ``path`` with pooch, keeping it only if it matches ``expected``.
+
+    ``downloader`` is passed on to :func:`pooch.retrieve` (None: pooch's HTTP downloader);
+    ``env_var`` names the folder variable the error message suggests.
+
+    With a SHA-256, pooch checks it (writing to a temporary file in the same folder and moving
+    it into place only on a match).  With only a git blob id, the file is downloaded under a
+    temporary name, checked here, then renamed into place (``os.replace``) or deleted.
+    """
+    import pooch
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    partial = path.with_name(f".{path.name}.download")
+    try:
+        if expected.sha256 is not None:
+            pooch.retrieve(url, known_hash=f"sha256:{expected.sha256}", fname=path.name, path=path.parent,
+                           downloader=downloader, progressbar=False)
+        else:
+            partial.unlink(missing_ok=True)
+            pooch.retrieve(url, known_hash=None, fname=partial.name, path=path.parent,
+                           downloader=downloader, progressbar=False)
+            actual = git_blob_sha1_of(partial)
+            if actual != expected.git_blob_sha1:
+                raise ValueError(f"git blob id of the download is {actual}, expected {expected.git_blob_sha1}")
+            os.replace(partial, path)
+    except ValueError as exc:
+        wanted = f"SHA-256 {expected.sha256}" if expected.sha256 else f"git blob id {expected.git_blob_sha1}"
+        raise ValueError(
+            f"download of {path.name} from {url} failed the hash check (expected {wanted}); "
+            f"nothing was written to {path}. Details: {exc}"
+        ) from exc
+    except OSError as exc:
+        raise OSError(
+            f"could not download {url} to {path}: {exc}. Without network, copy the file there "
+            f"by hand or set ${env_var} to a folder holding it"
+        ) from exc
+    finally:
+        partial.unlink(missing_ok=True)

@@ -1,0 +1,715 @@
+"""Loader of the PABR dataset (or the project's subset of it): real BLE RSS fingerprints and
+tracks (a real-data check of :mod:`wsnlib.fingerprint`).
+
+Data credit
+-----------
+F. S. Daniş, A. T. Naskali, A. T. Cemgil, C. Ersoy, "An Indoor Localization Dataset and Data
+Collection Framework with High Precision Position Annotation", *Pervasive and Mobile
+Computing* 81, 2022 ("Position Annotated BLE RSSI Dataset for Indoor Localization",
+github.com/philotuxo/Position-Annotated-BLE-RSSI-Dataset).  Released under CC0 1.0; cite the
+article wherever results from it are shown.
+
+Folder and download
+-------------------
+First match wins: the ``data_dir`` argument; else the environment variable
+``WSNLIB_PABR_DIR``; else ``<ROOT>/data/raw/pabr/`` (ROOT is :data:`wsnlib.paths.ROOT`).
+It holds the dataset's own layout: ``cnf/tetam.dev``, ``hst/set_1/``, ``hst/set_2/``,
+``trk/*_all_sensors.mbd``.  What a loader needs and does not find there is downloaded with
+pooch from the dataset's repository pinned to commit :data:`PABR_COMMIT`
+(``https://raw.githubusercontent.com/philotuxo/Position-Annotated-BLE-RSSI-Dataset/<commit>/<path>``)
+into that folder, each file kept only if its SHA-256 matches :data:`PABR_REGISTRY` (shipped as
+``wsnlib/registry/pabr.tsv``; the whole dataset part the loaders read is about 266 MB in 1,523
+files): the device file (with ``LICENSE.md``) when ``cnf/tetam.dev`` is missing; every file of a
+fingerprint set when its folder holds no ``.mbd`` file; a track whose file is missing (all
+tracks when ``trk/`` holds none).  Files already there are read as they are, unverified: the
+project's shared copy is a documented subset (cut per point, see ``common_span_packets``), not
+the registry's full files.  ``download=False`` turns a missing file into ``FileNotFoundError``
+naming it and the variable; a failed download is an ``OSError``, a hash mismatch a
+``ValueError`` (leaving no file behind).  Tests inject a ``downloader`` (no network).
+
+What the loaders return
+-----------------------
+* :func:`load_pabr_receivers`: the 12 BLE receivers (our anchors) in the order of
+  ``tetam.dev`` — columns ``receiver`` (alias, e.g. ``"sensor10"``), ``mac``, ``x``, ``y``,
+  ``z`` (m); the beacon (our target) in ``attrs["beacon"]``.
+* :func:`load_pabr_fingerprints` (``"set_1"``: 81 reference points, 2019; ``"set_2"``: 45
+  other points, 2020): one row per received packet — ``point`` (int, points numbered in
+  order of (x, y, z)), ``x``, ``y``, ``z`` (m, parsed from the file names
+  ``<sensor>_<x>_<y>_<z>.mbd``), ``receiver`` (categorical, in receiver order),
+  ``timestamp`` (Unix s), ``rssi`` (dBm).  Every receiver of ``tetam.dev`` must have at least
+  one file in the set (else ``ValueError`` naming it: a silently missing receiver would turn
+  12 anchors into 11).
+* :func:`load_pabr_tracks`: one row per packet of the walked trajectories — ``track``
+  (categorical, the file name less ``_all_sensors.mbd``), ``timestamp``, ``receiver``,
+  ``rssi``, and ``x``, ``y``, ``z``: the AR ground-truth position (m) of the beacon when the
+  packet was received (the 3×3 orientation matrix of each line is not kept).  A receiver
+  heard in no track is reported by a ``UserWarning``.
+
+Parsing is strict: a line with the wrong number of fields, a field that is not a number, or a
+non-finite number (``nan``, ``inf``) raises ``ValueError`` naming the file and the line.
+Invalid readings — RSSI above 0 dBm or below −100 dBm (:data:`RSSI_MIN_DBM`) — are dropped.
+How many is in ``DataFrame.attrs`` (``n_packets_read``, ``n_dropped_invalid_rssi``) and
+logged at INFO level.  The dataset has no missing-value code: a receiver that did not hear
+a packet simply has no line.
+
+Online vectors: :func:`pabr_vectors`
+------------------------------------
+Packets arrive one receiver at a time, so a vector of 12 RSS values must be assembled.
+Within each point (fingerprints) or track, either
+
+* ``window_s=w``: consecutive time windows ``[t0 + j·w, t0 + (j+1)·w)``, ``t0`` the group's
+  first packet; or
+* ``window_packets=n``: per receiver, its packets in time order cut into blocks of ``n``
+  (block ``j`` = that receiver's packets ``j·n … j·n + n − 1``; the last incomplete block is
+  dropped), so each value averages exactly ``n`` packets.  Use this to study how the error
+  depends on the number of packets averaged; for a moving beacon prefer ``window_s``, since
+  the receivers' ``j``-th blocks need not cover the same moment; or
+* ``window="point"`` (fingerprints only): one vector per point, each receiver's mean over
+  all its packets there — the classic radio-map fingerprint.
+
+Vector ``j`` holds, per receiver, the mean RSS (dBm) of its packets in window/block ``j``,
+and ``NaN`` where that receiver had none: a missing reading, which :mod:`wsnlib.fingerprint`
+leaves out of training, so a training map is built without ``fill``.  Filling a training
+map with a "not heard" level biases it (a receiver that skipped a window is not a very weak
+one).  Online vectors must be complete: fill those with ``fill=`` (e.g. ``-100.0``, the
+estimators' default ``floor_rss``).  The position of a vector is exact where its group has
+one position (a fingerprint point: the position parsed from the file names, so every vector
+of a point has the same position and the estimators see one fingerprint per point); else
+(tracks) the mean ground-truth position of its packets.  Its time is the mean timestamp of
+its packets.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import json
+import logging
+import os
+import re
+import urllib.parse
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from wsnlib import paths
+from wsnlib.io.download import RegistryEntry, download_verified
+
+logger = logging.getLogger(__name__)
+
+#: Environment variable naming the folder that holds the PABR files.
+PABR_DIR_ENV_VAR = "WSNLIB_PABR_DIR"
+
+#: Commit of github.com/philotuxo/Position-Annotated-BLE-RSSI-Dataset the downloads are pinned to.
+PABR_COMMIT = "77474b69dc7d73fc5b07b74d7b4b65f3235a663e"
+
+#: Download address of a file of the dataset (``path`` relative to the repository root).
+PABR_URL = "https://raw.githubusercontent.com/philotuxo/Position-Annotated-BLE-RSSI-Dataset/{commit}/{path}"
+
+#: Valid RSSI readings lie in ``[RSSI_MIN_DBM, RSSI_MAX_DBM]``; the others are dropped.
+RSSI_MIN_DBM = -100.0
+RSSI_MAX_DBM = 0.0
+
+#: Packets per file at which the project's shared subset cuts each point (see
+#: ``common_span_packets`` of :func:`load_pabr_fingerprints`).
+SUBSET_SPAN_PACKETS = 600
+
+FINGERPRINT_SETS = ("set_1", "set_2")
+
+_FINGERPRINT_NAME = re.compile(
+    r"^(?P<sensor>[A-Za-z]+\d+)_(?P<x>-?\d+(?:\.\d*)?)_(?P<y>-?\d+(?:\.\d*)?)_(?P<z>-?\d+(?:\.\d*)?)\.mbd$"
+)
+_TRACK_SUFFIX = "_all_sensors.mbd"
+_HST_FIELDS = ["timestamp", "mac", "beacon", "rssi"]
+_TRK_FIELDS = ["timestamp", "mac", "beacon", "rssi", "x", "y", "z"] + [f"orientation_{i}" for i in range(9)]
+_TEXT_FIELDS = ("mac", "beacon")
+
+
+def _read_pabr_registry() -> dict:
+    from importlib import resources
+
+    text = resources.files("wsnlib").joinpath("registry", "pabr.tsv").read_text(encoding="utf-8")
+    rows = [line.split("\t") for line in text.splitlines() if line and not line.startswith("#")]
+    if rows[0] != ["file", "sha256", "bytes"]:
+        raise ValueError(f"wsnlib/registry/pabr.tsv: unexpected header {rows[0]}")
+    return {name: RegistryEntry(sha256=sha, size_bytes=int(size)) for name, sha, size in rows[1:]}
+
+
+#: Path (relative to the dataset's root) → expected content (:class:`wsnlib.io.download.RegistryEntry`:
+#: SHA-256 and size of the full file at :data:`PABR_COMMIT`) of every file the loaders read:
+#: ``LICENSE.md``, ``cnf/tetam.dev``, ``hst/set_1/*``, ``hst/set_2/*``, ``trk/*_all_sensors.mbd``.
+PABR_REGISTRY: dict = _read_pabr_registry()
+
+
+def pabr_dir(data_dir=None) -> Path:
+    """Folder of the PABR files: ``data_dir``, else ``$WSNLIB_PABR_DIR``, else ``<ROOT>/data/raw/pabr``."""
+    if data_dir is not None:
+        return Path(data_dir).expanduser().resolve()
+    override = os.environ.get(PABR_DIR_ENV_VAR)
+    if override:
+        return Path(override).expanduser().resolve()
+    return paths.ROOT / "data" / "raw" / "pabr"
+
+
+def _missing_message(path: Path, what: str) -> str:
+    return (
+        f"PABR {what} not found: {path} is missing (set the folder with the data_dir argument or the "
+        f"environment variable {PABR_DIR_ENV_VAR}; default <ROOT>/data/raw/pabr; or call with download=True)"
+    )
+
+
+def _require(path: Path, what: str, kind: str = "file") -> Path:
+    ok = path.is_dir() if kind == "folder" else path.is_file()
+    if not ok:
+        raise FileNotFoundError(_missing_message(path, what))
+    return path
+
+
+def pabr_file(relative_path: str, data_dir=None, *, download: bool = True, downloader=None) -> Path:
+    """Path of a PABR file, downloading it (verified) if it is missing.
+
+    Parameters
+    ----------
+    relative_path : str
+        A key of :data:`PABR_REGISTRY`, e.g. ``"cnf/tetam.dev"``.
+    data_dir : str or pathlib.Path, optional
+        Folder; default see :func:`pabr_dir`.
+    download : bool
+        If False, a missing file raises ``FileNotFoundError``.
+    downloader : callable, optional
+        Passed on to :func:`pooch.retrieve` (``downloader(url, output_file, pooch)``; default
+        pooch's HTTP downloader).
+
+    Returns
+    -------
+    pathlib.Path
+        The file.  A file already present is returned as it is (not hash-checked: the shared
+        subset's files are cut versions of the registry's); a downloaded one matched the
+        registry's SHA-256.
+
+    Raises
+    ------
+    ValueError
+        Unknown ``relative_path``, or a download whose SHA-256 does not match (nothing is kept).
+    FileNotFoundError
+        Missing file and ``download`` is False.
+    OSError
+        The download failed (no network, HTTP error).
+    """
+    if relative_path not in PABR_REGISTRY:
+        raise ValueError(f"unknown PABR file {relative_path!r} (not in wsnlib/registry/pabr.tsv)")
+    path = pabr_dir(data_dir) / relative_path
+    if not path.is_file():
+        if not download:
+            raise FileNotFoundError(_missing_message(path, f"file {relative_path}"))
+        url = PABR_URL.format(commit=PABR_COMMIT, path=urllib.parse.quote(relative_path))
+        logger.info("PABR: downloading %s to %s", url, path)
+        download_verified(url, path, PABR_REGISTRY[relative_path], downloader, env_var=PABR_DIR_ENV_VAR)
+    return path
+
+
+def _registry_files(prefix: str, suffix: str = "") -> list[str]:
+    return sorted(name for name in PABR_REGISTRY if name.startswith(prefix) and name.endswith(suffix))
+
+
+def _parse_dev_line(text: str, key: str, path: Path) -> dict:
+    for line in text.splitlines():
+        if line.startswith(f"{key}:"):
+            try:
+                return json.loads(line[len(key) + 1 :])
+            except json.JSONDecodeError as exc:
+                raise ValueError(f"{path}: cannot parse the '{key}:' line ({exc})") from exc
+    raise ValueError(f"{path}: no line starting with '{key}:'")
+
+
+def load_pabr_receivers(data_dir=None, *, download: bool = True, downloader=None) -> pd.DataFrame:
+    """The BLE receivers ("dongles", our anchors) of ``cnf/tetam.dev``.
+
+    Parameters
+    ----------
+    data_dir : path, optional
+        The PABR folder (default ``$WSNLIB_PABR_DIR``, else ``<ROOT>/data/raw/pabr``).
+    download, downloader
+        A missing ``cnf/tetam.dev`` is downloaded (with ``LICENSE.md``); see :func:`pabr_file`.
+
+    Returns
+    -------
+    DataFrame
+        One row per receiver, in file order: ``receiver`` (alias), ``mac``, ``x``, ``y``, ``z``
+        (m).  ``attrs["beacon"]`` is ``{"mac": ..., "alias": ...}`` of the (single) beacon.
+    """
+    root = pabr_dir(data_dir)
+    path = root / "cnf" / "tetam.dev"
+    if not path.is_file():
+        if not download:
+            _require(root, "folder", kind="folder")
+        path = pabr_file("cnf/tetam.dev", data_dir, download=download, downloader=downloader)
+        pabr_file("LICENSE.md", data_dir, download=download, downloader=downloader)
+    text = path.read_text()
+    dongles = _parse_dev_line(text, "Dongles", path)
+    beacons = _parse_dev_line(text, "Beacons", path)
+    rows = []
+    for mac, (position, _color, alias) in dongles.items():
+        if len(position) != 3:
+            raise ValueError(f"{path}: receiver {alias} ({mac}) has position {position}, expected x, y, z")
+        rows.append(
+            {"receiver": alias, "mac": mac, "x": float(position[0]), "y": float(position[1]), "z": float(position[2])}
+        )
+    table = pd.DataFrame(rows, columns=["receiver", "mac", "x", "y", "z"])
+    if table["receiver"].duplicated().any() or table["mac"].duplicated().any():
+        raise ValueError(f"{path}: duplicate receiver alias or MAC")
+    table.attrs["beacon"] = [{"mac": mac, "alias": props[2]} for mac, props in beacons.items()][0] if beacons else None
+    table.attrs["source"] = str(path)
+    return table
+
+
+def _file_bytes(path: Path) -> tuple[bytes, int]:
+    data = path.read_bytes()
+    if data and not data.endswith(b"\n"):
+        data += b"\n"
+    return data, sum(1 for line in data.splitlines() if line.strip())
+
+
+def _line_of_row(files: list[tuple[Path, bytes]], row: int) -> tuple[Path, int, bytes]:
+    """File, 1-based line number and text of the ``row``-th non-blank line of the concatenated files."""
+    for path, data in files:
+        for number, line in enumerate(data.splitlines(), start=1):
+            if line.strip():
+                if row == 0:
+                    return path, number, line
+                row -= 1
+    raise IndexError(row)
+
+
+def _read_mbd(files: list[tuple[Path, bytes]], names: list[str]) -> pd.DataFrame:
+    """Parse the comma-separated lines of ``files`` (path, bytes) into columns ``names``, strictly.
+
+    Every non-blank line must have ``len(names)`` fields; every field except ``mac`` and
+    ``beacon`` must be a finite number.  A violation raises ``ValueError`` naming the file and
+    the line.
+    """
+    data = b"".join(chunk for _, chunk in files)
+    n_rows = sum(1 for line in data.splitlines() if line.strip())
+    if n_rows == 0:
+        return pd.DataFrame({name: pd.Series(dtype=str if name in _TEXT_FIELDS else float) for name in names})
+    if data.count(b",") != (len(names) - 1) * n_rows:
+        for row in range(n_rows):
+            path, number, line = _line_of_row(files, row)
+            if line.count(b",") != len(names) - 1:
+                raise ValueError(
+                    f"{path}, line {number}: {line.count(b',') + 1} comma-separated fields, expected "
+                    f"{len(names)} ({', '.join(names[:4])}{', ...' if len(names) > 4 else ''}): {line[:80]!r}"
+                )
+    try:
+        # No NA parsing: a column with "nan", an empty or a non-numeric field stays text, found below.
+        text = pd.read_csv(io.BytesIO(data), header=None, names=names, dtype=dict.fromkeys(_TEXT_FIELDS, str),
+                           na_filter=False, index_col=False)
+    except pd.errors.ParserError as exc:  # not expected after the field count check
+        raise ValueError(f"{', '.join(str(p) for p, _ in files[:3])}: malformed lines ({exc})") from exc
+    if len(text) != n_rows:
+        raise ValueError(f"{files[0][0].parent}: read {len(text)} rows, expected {n_rows} (malformed lines)")
+    table = pd.DataFrame(index=text.index)
+    for name in names:
+        if name in _TEXT_FIELDS:
+            table[name] = text[name]
+            continue
+        column = text[name]
+        if pd.api.types.is_numeric_dtype(column):
+            values = column.to_numpy(dtype=float)
+        else:
+            values = pd.to_numeric(column.astype(str), errors="coerce").to_numpy(dtype=float)
+        bad = ~np.isfinite(values)
+        if np.any(bad):
+            row = int(np.argmax(bad))
+            path, number, _ = _line_of_row(files, row)
+            raw = str(text[name].iloc[row]).strip()
+            if raw.lower().lstrip("+-") in ("nan", "inf", "infinity"):
+                problem = f"{name} is {raw} (not a finite number; the dataset has no missing-value code)"
+            else:
+                problem = f"{name} is {raw!r}, not a number"
+            raise ValueError(f"{path}, line {number}: {problem}")
+        table[name] = values
+    return table
+
+
+def _drop_invalid(table: pd.DataFrame, what: str) -> pd.DataFrame:
+    valid = (table["rssi"] >= RSSI_MIN_DBM) & (table["rssi"] <= RSSI_MAX_DBM)
+    n_read, n_dropped = len(table), int((~valid).sum())
+    table = table.loc[valid].reset_index(drop=True)
+    table.attrs["n_packets_read"] = n_read
+    table.attrs["n_dropped_invalid_rssi"] = n_dropped
+    logger.info(
+        "PABR %s: dropped %d of %d packets with RSSI outside [%g, %g] dBm",
+        what,
+        n_dropped,
+        n_read,
+        RSSI_MIN_DBM,
+        RSSI_MAX_DBM,
+    )
+    return table
+
+
+def _cut_common_span(table: pd.DataFrame, n_packets: int) -> pd.DataFrame:
+    """Per point, keep the packets up to the instant one receiver received its ``n_packets``-th."""
+    rank = table.groupby(["point", "receiver"], observed=True).cumcount()
+    reached = table.loc[rank == n_packets - 1].groupby("point")["timestamp"].min()
+    cut = table["point"].map(reached)
+    keep = cut.isna() | (table["timestamp"] <= cut)
+    return table.loc[keep.to_numpy()].reset_index(drop=True)
+
+
+def load_pabr_fingerprints(
+    set_name: str = "set_1",
+    data_dir=None,
+    *,
+    common_span_packets: int | None = None,
+    download: bool = True,
+    downloader=None,
+) -> pd.DataFrame:
+    """Packets recorded at the stationary reference points of ``hst/<set_name>/``.
+
+    Parameters
+    ----------
+    set_name : {"set_1", "set_2"}
+    data_dir : path, optional
+        The PABR folder (default ``$WSNLIB_PABR_DIR``, else ``<ROOT>/data/raw/pabr``).
+    common_span_packets : int, optional
+        Cut every point to one common time span: keep, for every receiver, its packets up to
+        the instant at which the first receiver of that point received its
+        ``common_span_packets``-th packet (inclusive; counted in time order, before invalid
+        readings are dropped).  :data:`SUBSET_SPAN_PACKETS` (600) reproduces the project's
+        shared subset from the full files, and leaves that subset unchanged.  Default: no cut.
+    download, downloader
+        If the set's folder holds no ``.mbd`` file, every file of the set is downloaded
+        (verified); see :func:`pabr_file`.
+
+    Returns
+    -------
+    DataFrame
+        Columns ``point`` (int, numbered in order of (x, y, z)), ``x``, ``y``, ``z`` (m),
+        ``receiver`` (categorical, receiver order), ``timestamp`` (s), ``rssi`` (dBm); sorted
+        by point, receiver, timestamp.  ``attrs``: ``set_name``, ``n_points``,
+        ``n_packets_read`` (after the cut), ``n_dropped_invalid_rssi``, ``source``.
+
+    Raises
+    ------
+    ValueError
+        A malformed file name or line (naming the file and line), a packet of another
+        receiver than the file's, or a receiver of ``tetam.dev`` with no file in the set.
+    """
+    if set_name not in FINGERPRINT_SETS:
+        raise ValueError(f"set_name must be one of {FINGERPRINT_SETS}, got {set_name!r}")
+    if common_span_packets is not None and (
+        isinstance(common_span_packets, bool)
+        or not isinstance(common_span_packets, int | np.integer)
+        or common_span_packets < 1
+    ):
+        raise ValueError(f"common_span_packets must be a positive integer or None, got {common_span_packets!r}")
+    receivers = load_pabr_receivers(data_dir, download=download, downloader=downloader)
+    folder = pabr_dir(data_dir) / "hst" / set_name
+    files = sorted(folder.glob("*.mbd"))
+    if not files:
+        if not download:
+            _require(folder, f"fingerprint folder hst/{set_name}", kind="folder")
+            raise FileNotFoundError(
+                f"PABR fingerprint folder {folder} holds no .mbd files (set {PABR_DIR_ENV_VAR}, "
+                f"or call with download=True)"
+            )
+        for name in _registry_files(f"hst/{set_name}/", ".mbd"):
+            pabr_file(name, data_dir, download=True, downloader=downloader)
+        files = sorted(folder.glob("*.mbd"))
+    mac_of = dict(zip(receivers["receiver"], receivers["mac"], strict=True))
+    contents, meta = [], []
+    for path in files:
+        match = _FINGERPRINT_NAME.match(path.name)
+        if match is None:
+            raise ValueError(f"{path}: file name does not follow <sensor>_<x>_<y>_<z>.mbd")
+        sensor = match["sensor"]
+        if sensor not in mac_of:
+            raise ValueError(f"{path}: unknown receiver {sensor!r}; known: {list(mac_of)}")
+        data, n_lines = _file_bytes(path)
+        contents.append((path, data))
+        meta.append((sensor, float(match["x"]), float(match["y"]), float(match["z"]), n_lines))
+    without_file = [name for name in mac_of if name not in {m[0] for m in meta}]
+    if without_file:
+        raise ValueError(
+            f"{folder}: no file of receiver(s) {without_file} (expected <sensor>_<x>_<y>_<z>.mbd files for each of "
+            f"the {len(mac_of)} receivers of cnf/tetam.dev); is the folder complete?"
+        )
+    raw = _read_mbd(contents, _HST_FIELDS)
+    n_lines = np.array([m[4] for m in meta])
+    sensor = np.repeat([m[0] for m in meta], n_lines)
+    xyz = np.repeat(np.array([m[1:4] for m in meta]), n_lines, axis=0)
+    expected_mac = np.array([mac_of[s] for s in sensor], dtype=object)
+    mismatch = raw["mac"].to_numpy(dtype=object) != expected_mac
+    if np.any(mismatch):
+        row = int(np.argmax(mismatch))
+        path, number, _ = _line_of_row(contents, row)
+        raise ValueError(
+            f"{path}, line {number}: file of {sensor[row]} holds a packet of receiver MAC {raw['mac'][row]}"
+        )
+    points, point_of_file = np.unique(np.array([m[1:4] for m in meta]), axis=0, return_inverse=True)
+    table = pd.DataFrame(
+        {
+            "point": np.repeat(np.asarray(point_of_file).reshape(-1), n_lines),
+            "x": xyz[:, 0],
+            "y": xyz[:, 1],
+            "z": xyz[:, 2],
+            "receiver": pd.Categorical(sensor, categories=list(receivers["receiver"])),
+            "timestamp": raw["timestamp"].to_numpy(dtype=float),
+            "rssi": raw["rssi"].to_numpy(dtype=float),
+        }
+    )
+    table = table.sort_values(["point", "receiver", "timestamp"], kind="stable").reset_index(drop=True)
+    if common_span_packets is not None:
+        table = _cut_common_span(table, int(common_span_packets))
+    table = _drop_invalid(table, f"fingerprints {set_name}")
+    table.attrs.update({"set_name": set_name, "n_points": len(points), "source": str(folder)})
+    return table
+
+
+def pabr_track_names(data_dir=None, *, download: bool = True, downloader=None) -> list[str]:
+    """Names of the tracks (file names less ``_all_sensors.mbd``), sorted.
+
+    Those in ``trk/``; if it holds none, every track of the registry is downloaded first
+    (unless ``download=False``, which raises ``FileNotFoundError``).
+    """
+    folder = pabr_dir(data_dir) / "trk"
+    names = sorted(p.name[: -len(_TRACK_SUFFIX)] for p in folder.glob(f"*{_TRACK_SUFFIX}"))
+    if not names:
+        if not download:
+            _require(folder, "track folder trk", kind="folder")
+            raise FileNotFoundError(_missing_message(folder / f"*{_TRACK_SUFFIX}", "track files"))
+        for name in _registry_files("trk/", _TRACK_SUFFIX):
+            pabr_file(name, data_dir, download=True, downloader=downloader)
+        names = sorted(p.name[: -len(_TRACK_SUFFIX)] for p in folder.glob(f"*{_TRACK_SUFFIX}"))
+    return names
+
+
+def load_pabr_tracks(tracks=None, data_dir=None, *, download: bool = True, downloader=None) -> pd.DataFrame:
+    """Packets of the walked trajectories ``trk/<track>_all_sensors.mbd`` with ground truth.
+
+    Parameters
+    ----------
+    tracks : str or list of str, optional
+        Track names (see :func:`pabr_track_names`); default all in the folder.  A track of the
+        registry missing from the folder is downloaded (unless ``download=False``).
+    data_dir : path, optional
+        The PABR folder.
+    download, downloader
+        See :func:`pabr_file`.
+
+    Returns
+    -------
+    DataFrame
+        Columns ``track`` (categorical), ``timestamp`` (s), ``receiver`` (categorical),
+        ``rssi`` (dBm), ``x``, ``y``, ``z`` (m, ground truth); in file (time) order within each
+        track.  ``attrs``: ``n_packets_read``, ``n_dropped_invalid_rssi``, ``source``.
+    """
+    receivers = load_pabr_receivers(data_dir, download=download, downloader=downloader)
+    folder = pabr_dir(data_dir) / "trk"
+    if tracks is None:
+        names = pabr_track_names(data_dir, download=download, downloader=downloader)
+    else:
+        names = [tracks] if isinstance(tracks, str) else list(tracks)
+        present = {p.name[: -len(_TRACK_SUFFIX)] for p in folder.glob(f"*{_TRACK_SUFFIX}")}
+        in_registry = {Path(n).name[: -len(_TRACK_SUFFIX)] for n in _registry_files("trk/", _TRACK_SUFFIX)}
+        unknown = [n for n in names if n not in present and n not in in_registry]
+        if unknown:
+            raise ValueError(f"unknown PABR track(s) {unknown}; known tracks: {sorted(present | in_registry)}")
+    if not names:
+        raise ValueError("tracks must name at least one track")
+    alias_of = dict(zip(receivers["mac"], receivers["receiver"], strict=True))
+    contents, counts = [], []
+    for name in names:
+        path = folder / f"{name}{_TRACK_SUFFIX}"
+        if not path.is_file():
+            path = pabr_file(f"trk/{name}{_TRACK_SUFFIX}", data_dir, download=download, downloader=downloader)
+        data, n_lines = _file_bytes(path)
+        contents.append((path, data))
+        counts.append(n_lines)
+    raw = _read_mbd(contents, _TRK_FIELDS)
+    unknown_mac = ~raw["mac"].isin(list(alias_of)).to_numpy()
+    if np.any(unknown_mac):
+        path, number, _ = _line_of_row(contents, int(np.argmax(unknown_mac)))
+        raise ValueError(
+            f"{path}, line {number}: packet of unknown receiver MAC {raw['mac'][int(np.argmax(unknown_mac))]!r} "
+            f"(not in cnf/tetam.dev)"
+        )
+    table = pd.DataFrame(
+        {
+            "track": pd.Categorical(np.repeat(names, counts), categories=names),
+            "timestamp": raw["timestamp"].to_numpy(dtype=float),
+            "receiver": pd.Categorical(raw["mac"].map(alias_of), categories=list(receivers["receiver"])),
+            "rssi": raw["rssi"].to_numpy(dtype=float),
+            "x": raw["x"].to_numpy(dtype=float),
+            "y": raw["y"].to_numpy(dtype=float),
+            "z": raw["z"].to_numpy(dtype=float),
+        }
+    )
+    table = _drop_invalid(table, "tracks")
+    unheard = [name for name in receivers["receiver"] if name not in set(table["receiver"])]
+    if unheard:
+        warnings.warn(
+            f"PABR tracks {names}: receiver(s) {unheard} of cnf/tetam.dev heard no valid packet; their columns of "
+            f"pabr_vectors will be all NaN",
+            UserWarning,
+            stacklevel=2,
+        )
+    table.attrs["source"] = str(folder)
+    return table
+
+
+@dataclasses.dataclass(frozen=True)
+class PabrVectors:
+    """RSS vectors built by :func:`pabr_vectors` (``n`` vectors, ``R`` receivers).
+
+    Attributes
+    ----------
+    rss : ndarray (n, R)
+        Mean RSS (dBm) per receiver in the window; NaN where none was heard (unless filled).
+    positions : ndarray (n, 3)
+        Position (m): exact for a fingerprint point (the same for all its vectors), the mean
+        ground truth of the window's packets for a track.
+    groups : ndarray (n,)
+        The point id (fingerprints) or track name (tracks) of each vector.
+    windows : ndarray of int (n,)
+        Window / block index ``j`` within the group (0 for ``window="point"``).
+    times : ndarray (n,)
+        Mean timestamp (s) of the window's packets.
+    counts : ndarray of int (n, R)
+        Packets averaged per receiver (0 = not heard).
+    receivers : tuple of str
+        Column order of ``rss`` and ``counts``.
+    """
+
+    rss: np.ndarray
+    positions: np.ndarray
+    groups: np.ndarray
+    windows: np.ndarray
+    times: np.ndarray
+    counts: np.ndarray
+    receivers: tuple
+
+    def __len__(self) -> int:
+        return self.rss.shape[0]
+
+
+def pabr_vectors(
+    table: pd.DataFrame,
+    *,
+    window_s: float | None = None,
+    window_packets: int | None = None,
+    window: str | None = None,
+    fill: float | None = None,
+    min_receivers: int = 1,
+    group: str | None = None,
+) -> PabrVectors:
+    """RSS vectors (one value per receiver) from a long table of packets; see the module docstring.
+
+    Parameters
+    ----------
+    table : DataFrame
+        From :func:`load_pabr_fingerprints` or :func:`load_pabr_tracks` (columns ``timestamp``,
+        ``receiver``, ``rssi``, ``x``, ``y``, ``z`` and the group column).
+    window_s : float, optional
+        Length (s) of the time windows.
+    window_packets : int, optional
+        Packets per receiver averaged into each value (blocks of consecutive packets).
+    window : {"point"}, optional
+        ``"point"``: one vector per point (group ``"point"`` only), each receiver's mean over
+        all its packets there.  Exactly one of ``window_s``, ``window_packets`` and ``window``.
+    fill : float, optional
+        Value (dBm) replacing NaN (a receiver that heard nothing in the window); default keep
+        NaN.  For online vectors only: a training map keeps NaN, which the estimators of
+        :mod:`wsnlib.fingerprint` leave out of the cell's mean.
+    min_receivers : int
+        Drop vectors heard by fewer receivers than this (default 1: keep all).
+    group : str, optional
+        Column whose values are never mixed in a window; default ``"point"`` if present, else
+        ``"track"``.
+
+    Returns
+    -------
+    PabrVectors
+        Ordered by group, then window.  A group whose rows all have the same (x, y, z) (a
+        fingerprint point) gives its vectors exactly that position.
+    """
+    if sum(arg is not None for arg in (window_s, window_packets, window)) != 1:
+        raise ValueError(
+            "give exactly one of window_s (seconds), window_packets (packets per receiver) and window='point'"
+        )
+    if group is None:
+        group = "point" if "point" in table.columns else "track"
+    if window is not None and (window != "point" or group != "point"):
+        raise ValueError(f"window must be 'point' (one vector per fingerprint point, group 'point'), got {window!r}"
+                         f" with group {group!r}")
+    needed = [group, "timestamp", "receiver", "rssi", "x", "y", "z"]
+    missing = [c for c in needed if c not in table.columns]
+    if missing:
+        raise ValueError(f"table lacks the column(s) {missing} (expected a load_pabr_* table)")
+    if isinstance(min_receivers, bool) or not isinstance(min_receivers, int | np.integer) or min_receivers < 1:
+        raise ValueError(f"min_receivers must be a positive integer, got {min_receivers!r}")
+    if fill is not None and not np.isfinite(float(fill)):
+        raise ValueError(f"fill must be a finite number (dBm) or None, got {fill!r}")
+    receiver = table["receiver"]
+    names = (
+        list(receiver.cat.categories) if isinstance(receiver.dtype, pd.CategoricalDtype) else sorted(receiver.unique())
+    )
+    df = table[needed].copy()
+    df["receiver"] = pd.Categorical(df["receiver"], categories=names)
+    df = df.sort_values([group, "receiver", "timestamp"], kind="stable")
+    if window == "point":
+        df["window"] = 0
+    elif window_s is not None:
+        window_s = float(window_s)
+        if not np.isfinite(window_s) or window_s <= 0:
+            raise ValueError(f"window_s must be a positive number of seconds, got {window_s!r}")
+        t0 = df.groupby(group, observed=True)["timestamp"].transform("min")
+        df["window"] = np.floor((df["timestamp"] - t0) / window_s).astype(np.int64)
+    else:
+        if isinstance(window_packets, bool) or not isinstance(window_packets, int | np.integer) or window_packets < 1:
+            raise ValueError(f"window_packets must be a positive integer, got {window_packets!r}")
+        by_receiver = df.groupby([group, "receiver"], observed=True)
+        rank = by_receiver.cumcount().to_numpy()
+        size = by_receiver["timestamp"].transform("size").to_numpy()
+        keep = rank < (size // window_packets) * window_packets
+        df = df.loc[keep].copy()
+        df["window"] = rank[keep] // window_packets
+    n_receivers = len(names)
+    if df.empty:
+        empty2 = np.empty((0, n_receivers))
+        return PabrVectors(
+            empty2, np.empty((0, 3)), np.empty(0), np.empty(0, int), np.empty(0), empty2.astype(int), tuple(names)
+        )
+    cells = df.groupby([group, "window", "receiver"], observed=True)["rssi"].agg(["mean", "size"])
+    mean = cells["mean"].unstack("receiver").reindex(columns=names)
+    count = cells["size"].unstack("receiver").reindex(columns=names).fillna(0)
+    where = df.groupby([group, "window"], observed=True)[["x", "y", "z", "timestamp"]].mean().loc[mean.index]
+    positions = np.array(where[["x", "y", "z"]], dtype=float)
+    # A group with one position (a fingerprint point) keeps it exactly: the float mean of equal
+    # values need not equal them (0.19 vs 0.18999999999999997), and the estimators group
+    # fingerprints by exact equality of positions.
+    span = df.groupby(group, observed=True)[["x", "y", "z"]].agg(["min", "max"])
+    lowest = span.xs("min", axis=1, level=1)[["x", "y", "z"]]
+    single = (lowest == span.xs("max", axis=1, level=1)[["x", "y", "z"]]).all(axis=1)
+    group_of_vector = mean.index.get_level_values(0)
+    exact = single.reindex(group_of_vector).to_numpy(dtype=bool)
+    positions[exact] = lowest.reindex(group_of_vector).to_numpy(dtype=float)[exact]
+    rss = mean.to_numpy(dtype=float)
+    counts = count.to_numpy(dtype=np.int64)
+    keep = (counts > 0).sum(axis=1) >= min_receivers
+    if fill is not None:
+        rss = np.where(np.isnan(rss), float(fill), rss)
+    index = mean.index[keep]
+    return PabrVectors(
+        rss=rss[keep],
+        positions=positions[keep],
+        groups=index.get_level_values(0).to_numpy(),
+        windows=index.get_level_values(1).to_numpy(dtype=np.int64),
+        times=where["timestamp"].to_numpy(dtype=float)[keep],
+        counts=counts[keep],
+        receivers=tuple(names),
+    )

@@ -1,0 +1,553 @@
+"""Raw IMU recordings: the in-memory :class:`Recording` and its CSV + JSON file format, and the
+sidecar writer/reader shared by every CSV + JSON format of :mod:`wsnlib.io`.
+
+The CSV + JSON format is what the notebooks read, and the one a user converts real
+recordings into.
+
+File format (format version 1)
+------------------------------
+A recording is two files side by side: ``<name>.csv`` (the samples) and ``<name>.json`` (the
+sidecar).  :func:`write_recording` writes both; :func:`read_recording` reads them back.
+
+**CSV** — comma separated, UTF-8, ``\\n`` line ends, one header line, then one row per
+(sample, node), rows ordered by sample and, within a sample, by node in the sidecar's
+``nodes`` order.  Columns, exactly these names in this order:
+
+============  ======  ===============================================================
+column        unit    meaning
+============  ======  ===============================================================
+time_s        s       sample time; identical for every node of a sample
+node          —       node name (text, no commas or quotes), one of the sidecar's nodes
+gyr_x_rad_s   rad/s   angular rate, body (sensor) frame, x / y / z
+gyr_y_rad_s
+gyr_z_rad_s
+acc_x_m_s2    m/s²    specific force, body frame (reads +g upward at rest), x / y / z
+acc_y_m_s2
+acc_z_m_s2
+mag_x_uT      µT      magnetic field, body frame, x / y / z
+mag_y_uT
+mag_z_uT
+quat_w        —       optional ground truth: unit quaternion [w, x, y, z] rotating body
+quat_x                vectors into the earth frame ENU (x east, y north, z up).  Either
+quat_y                all four columns or none (a real recording without ground truth
+quat_z                leaves them out).
+============  ======  ===============================================================
+
+Numbers are written with ``%.9g`` (9 significant digits), so writing the same recording
+twice gives byte-identical files; reading back agrees within that precision (relative
+≈ 5e-10).  Every value must be finite; the time stamps must be strictly increasing and the
+same for every node; missing samples are not allowed (packet loss is applied later, as a
+mask, never by deleting rows).
+
+**JSON sidecar** — an object with the keys
+
+* ``format``: ``"wsnlib-recording"``; ``format_version``: ``1``;
+* ``fs_hz``: nominal sampling rate (Hz);
+* ``nodes``: list of node names, in row order;
+* ``units``: ``{"time": "s", "gyr": "rad/s", "acc": "m/s^2", "mag": "uT"}``;
+* ``frame_convention``: text describing the body and earth frames (informative);
+* ``has_quaternions``: whether the CSV has the ``quat_*`` columns;
+* ``metadata``: free JSON object (generator, parameters, seed, subject, …);
+* ``csv_rows``, ``csv_sha256``: the CSV's number of data rows and the SHA-256 of its bytes
+  (written by every writer; a reader refuses a CSV that disagrees with them — a truncated or
+  edited copy — and skips the check when a hand-made sidecar leaves both out).
+
+Written with sorted keys and two-space indent; both files are written atomically (temporary
+file, then rename).  If the sidecar is missing,
+:func:`read_recording` infers ``fs`` from the median time step and the node order from the
+first sample, and uses empty metadata.
+
+The signal conventions are those of :mod:`wsnlib` (see ``wsnlib/__init__.py``).
+
+The BROAD loader that used to share this module is :mod:`wsnlib.io.broad`.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from wsnlib._files import atomic_write_bytes, atomic_write_text
+from wsnlib._validation import as_float_array, check_positive
+
+FORMAT_NAME = "wsnlib-recording"
+FORMAT_VERSION = 1
+
+#: Column names of the CSV, in order; the last four are optional.
+SIGNAL_COLUMNS: dict[str, tuple[str, str, str]] = {
+    "gyr": ("gyr_x_rad_s", "gyr_y_rad_s", "gyr_z_rad_s"),
+    "acc": ("acc_x_m_s2", "acc_y_m_s2", "acc_z_m_s2"),
+    "mag": ("mag_x_uT", "mag_y_uT", "mag_z_uT"),
+}
+QUAT_COLUMNS: tuple[str, str, str, str] = ("quat_w", "quat_x", "quat_y", "quat_z")
+BASE_COLUMNS: tuple[str, ...] = (
+    "time_s",
+    "node",
+    *SIGNAL_COLUMNS["gyr"],
+    *SIGNAL_COLUMNS["acc"],
+    *SIGNAL_COLUMNS["mag"],
+)
+ALL_COLUMNS: tuple[str, ...] = BASE_COLUMNS + QUAT_COLUMNS
+
+#: Units written to (and required in) the sidecar.
+UNITS = {"time": "s", "gyr": "rad/s", "acc": "m/s^2", "mag": "uT"}
+
+FRAME_CONVENTION = (
+    "Signals in the sensor body frame. quat_[wxyz] is a unit quaternion [w, x, y, z] rotating "
+    "body-frame vectors into the earth frame ENU (x east, y north, z up): v_E = q v_B q*. "
+    "acc is specific force (+g along earth z at rest)."
+)
+
+FLOAT_FORMAT = "%.9g"
+
+#: Sidecar keys written by every recording format (:func:`write_table_with_sidecar`): the
+#: number of data rows of the CSV and the SHA-256 of its bytes, checked by the readers.
+CSV_ROWS_KEY = "csv_rows"
+CSV_SHA256_KEY = "csv_sha256"
+
+#: Largest tolerated deviation of a ground-truth quaternion's norm from 1 when reading.
+_QUAT_NORM_TOL = 1e-6
+
+
+@dataclass
+class Recording:
+    """One recording of several IMU nodes sampled together.
+
+    Attributes
+    ----------
+    fs : float
+        Nominal sampling rate (Hz).
+    time_s : numpy.ndarray, shape (T,)
+        Sample times (s), strictly increasing.
+    nodes : tuple of str
+        Node names, in the order of the node axis.
+    gyr : numpy.ndarray, shape (N_nodes, T, 3)
+        Angular rate, body frame (rad/s).
+    acc : numpy.ndarray, shape (N_nodes, T, 3)
+        Specific force, body frame (m/s²).
+    mag : numpy.ndarray, shape (N_nodes, T, 3)
+        Magnetic field, body frame (µT).
+    quat_true : numpy.ndarray, shape (N_nodes, T, 4), or None
+        Ground-truth orientation (body → ENU), unit norm; None when unknown.
+    metadata : dict
+        Free, JSON-serialisable provenance (generator, parameters, seed, …).
+    """
+
+    fs: float
+    time_s: np.ndarray
+    nodes: tuple[str, ...]
+    gyr: np.ndarray
+    acc: np.ndarray
+    mag: np.ndarray
+    quat_true: np.ndarray | None = None
+    metadata: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        self.fs = check_positive(self.fs, "fs")
+        self.time_s = as_float_array(self.time_s, "time_s")
+        if self.time_s.ndim != 1:
+            raise ValueError(f"time_s must be 1-D, got shape {self.time_s.shape}")
+        if self.time_s.size > 1 and np.any(np.diff(self.time_s) <= 0.0):
+            raise ValueError("time_s must be strictly increasing")
+        if isinstance(self.nodes, str):
+            raise ValueError("nodes must be a sequence of node names, not a single string")
+        self.nodes = tuple(self.nodes)
+        if not self.nodes:
+            raise ValueError("nodes must name at least one node")
+        for name in self.nodes:
+            _check_node_name(name)
+        if len(set(self.nodes)) != len(self.nodes):
+            raise ValueError(f"nodes must be unique, got {self.nodes}")
+        shape = (len(self.nodes), self.time_s.size)
+        for name in ("gyr", "acc", "mag"):
+            arr = as_float_array(getattr(self, name), name, last_dim=3)
+            if arr.shape != shape + (3,):
+                raise ValueError(f"{name} must have shape {shape + (3,)}, got {arr.shape}")
+            setattr(self, name, arr)
+        if self.quat_true is not None:
+            quat = as_float_array(self.quat_true, "quat_true", last_dim=4)
+            if quat.shape != shape + (4,):
+                raise ValueError(f"quat_true must have shape {shape + (4,)}, got {quat.shape}")
+            self.quat_true = quat
+        if not isinstance(self.metadata, dict):
+            raise ValueError(f"metadata must be a dict, got {type(self.metadata).__name__}")
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples T."""
+        return self.time_s.size
+
+    def node_index(self, node: str) -> int:
+        """Position of ``node`` on the node axis; ``ValueError`` if absent."""
+        try:
+            return self.nodes.index(node)
+        except ValueError:
+            raise ValueError(f"node {node!r} is not in this recording {self.nodes}") from None
+
+
+def _check_node_name(name) -> None:
+    if not isinstance(name, str) or not name.strip():
+        raise ValueError(f"node names must be non-empty strings, got {name!r}")
+    if name != name.strip() or any(c in name for c in ',"\n\r'):
+        raise ValueError(
+            f"node name {name!r} must not contain commas, quotes, line breaks or surrounding spaces"
+        )
+
+
+def sidecar_path(path) -> Path:
+    """The JSON sidecar that belongs to CSV ``path``: same name, suffix ``.json``."""
+    return Path(path).with_suffix(".json")
+
+
+def _json_default(value):
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, np.floating):
+        return float(value)
+    if isinstance(value, np.bool_):
+        return bool(value)
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (tuple, set, frozenset)):
+        return list(value)
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(f"{type(value).__name__} is not JSON serialisable")
+
+
+def write_table_with_sidecar(frame, path: Path, sidecar: dict, float_format: str, what: str = "metadata") -> Path:
+    """Write ``frame`` as CSV and ``sidecar`` as ``<name>.json`` (sorted keys), byte-reproducibly.
+
+    Shared by the recording formats of :mod:`wsnlib.io.recording`, :mod:`wsnlib.io.rss` and
+    :mod:`wsnlib.io.accel`.  ``what`` names the user-supplied part in the error raised
+    when the sidecar is not JSON-serialisable.  The sidecar gains :data:`CSV_ROWS_KEY` (the
+    number of data rows) and :data:`CSV_SHA256_KEY` (the SHA-256 of the CSV's bytes), which
+    :func:`load_sidecar` checks, so a truncated or altered copy is refused.  Both files are
+    written atomically (temporary file + rename), the CSV first.
+    """
+    csv_bytes = frame.to_csv(None, index=False, float_format=float_format, lineterminator="\n").encode("utf-8")
+    sidecar = {**sidecar, CSV_ROWS_KEY: len(frame), CSV_SHA256_KEY: hashlib.sha256(csv_bytes).hexdigest()}
+    try:
+        text = json.dumps(sidecar, indent=2, sort_keys=True, default=_json_default, allow_nan=False)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{what} cannot be written as JSON: {exc}") from exc
+    atomic_write_bytes(path, csv_bytes)
+    atomic_write_text(sidecar_path(path), text + "\n")
+    return path
+
+
+def _check_csv_integrity(path: Path, meta: dict, side: Path) -> None:
+    """Compare the CSV with the row count and SHA-256 its sidecar recorded (when it has them)."""
+    if CSV_ROWS_KEY not in meta and CSV_SHA256_KEY not in meta:
+        return  # a hand-converted file: nothing to check against
+    rows, digest = meta.get(CSV_ROWS_KEY), meta.get(CSV_SHA256_KEY)
+    if isinstance(rows, bool) or not isinstance(rows, int) or rows < 0:
+        raise ValueError(f"{side}: {CSV_ROWS_KEY!r} must be a non-negative integer, got {rows!r}")
+    if not isinstance(digest, str) or len(digest) != 64 or any(c not in "0123456789abcdef" for c in digest):
+        raise ValueError(f"{side}: {CSV_SHA256_KEY!r} must be 64 lower-case hex digits, got {digest!r}")
+    data = path.read_bytes()
+    lines = data.count(b"\n") + (1 if data and not data.endswith(b"\n") else 0)
+    found = max(lines - 1, 0)  # minus the header line
+    if found != rows:
+        raise ValueError(
+            f"{path}: has {found} data rows but its sidecar {side.name} says {rows}: the file is "
+            f"truncated or was changed after it was written (write it again with the writer)"
+        )
+    actual = hashlib.sha256(data).hexdigest()
+    if actual != digest:
+        raise ValueError(
+            f"{path}: SHA-256 {actual[:12]}… differs from {CSV_SHA256_KEY!r} {digest[:12]}… in its sidecar "
+            f"{side.name}: the file was damaged or changed after it was written (write it again with the writer)"
+        )
+
+
+def finite_column(frame, column: str, where) -> np.ndarray:
+    """Column ``column`` of a read CSV table as finite floats, or ``ValueError`` naming file, column and row."""
+    values = pd.to_numeric(frame[column], errors="coerce").to_numpy(dtype=float)
+    bad = ~np.isfinite(values)
+    if np.any(bad):
+        row = int(np.argmax(bad))
+        raise ValueError(
+            f"{where}: column {column!r} has a non-numeric or non-finite value "
+            f"{frame[column].iloc[row]!r} at data row {row + 1}"
+        )
+    return values
+
+
+def load_sidecar(path: Path, format_name: str, format_version: int, *, required: bool, what: str) -> dict | None:
+    """Read and check the ``<name>.json`` sidecar of a recording file (format name and version).
+
+    Returns None when it is missing and not ``required``; raises ``ValueError`` naming the
+    sidecar otherwise (``what`` says which kind of file needs it).  When the sidecar records
+    :data:`CSV_ROWS_KEY` and :data:`CSV_SHA256_KEY` (every file the writers produce), the CSV
+    ``path`` must have that many data rows and that SHA-256, else ``ValueError`` naming the
+    file (truncated or changed after writing).  A hand-made sidecar may leave both out.
+    """
+    side = sidecar_path(path)
+    if not side.exists():
+        if required:
+            raise ValueError(f"{side}: missing sidecar ({what} needs its .json file)")
+        return None
+    try:
+        meta = json.loads(side.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{side}: not valid JSON ({exc})") from exc
+    if not isinstance(meta, dict):
+        raise ValueError(f"{side}: must hold a JSON object")
+    if meta.get("format") != format_name:
+        raise ValueError(f"{side}: 'format' must be {format_name!r}, got {meta.get('format')!r}")
+    if meta.get("format_version") != format_version:
+        raise ValueError(
+            f"{side}: unsupported 'format_version' {meta.get('format_version')!r} (this reader knows {format_version})"
+        )
+    _check_csv_integrity(Path(path), meta, side)
+    return meta
+
+
+def check_sidecar_units(meta: dict, units: dict, side: Path) -> None:
+    """``ValueError`` naming the sidecar unless ``meta["units"]`` gives every unit of ``units`` as documented."""
+    found = meta.get("units")
+    if not isinstance(found, dict):
+        raise ValueError(f"{side}: 'units' must be an object {units}, got {found!r}")
+    for key, unit in units.items():
+        if found.get(key) != unit:
+            raise ValueError(
+                f"{side}: units[{key!r}] must be {unit!r} (convert the data first), got {found.get(key)!r}"
+            )
+
+
+def write_recording(recording: Recording, path) -> Path:
+    """Write ``recording`` as ``path`` (CSV) plus the sidecar ``path.with_suffix('.json')``.
+
+    Parameters
+    ----------
+    recording : Recording
+    path : str or pathlib.Path
+        CSV file to write (parent folders are created); conventionally ends in ``.csv``.
+
+    Returns
+    -------
+    pathlib.Path
+        The CSV path.  Writing the same recording again gives byte-identical files.
+
+    Raises
+    ------
+    ValueError
+        If ``path`` ends in ``.json`` or the metadata is not JSON serialisable.
+    """
+    if not isinstance(recording, Recording):
+        raise ValueError(f"recording must be a Recording, got {type(recording).__name__}")
+    path = Path(path)
+    if path.suffix.lower() == ".json":
+        raise ValueError(f"path must name the CSV file, not the sidecar: {path}")
+    n_nodes, n_samples = len(recording.nodes), recording.n_samples
+    data: dict[str, object] = {
+        "time_s": np.repeat(recording.time_s, n_nodes),
+        "node": np.tile(np.array(recording.nodes, dtype=object), n_samples),
+    }
+    for key, columns in SIGNAL_COLUMNS.items():
+        values = np.swapaxes(getattr(recording, key), 0, 1).reshape(-1, 3)
+        for i, column in enumerate(columns):
+            data[column] = values[:, i]
+    if recording.quat_true is not None:
+        values = np.swapaxes(recording.quat_true, 0, 1).reshape(-1, 4)
+        for i, column in enumerate(QUAT_COLUMNS):
+            data[column] = values[:, i]
+    frame = pd.DataFrame(data)
+    # Adding 0.0 turns -0.0 into 0.0, so that equal values always print the same way.
+    numeric = [c for c in frame.columns if c != "node"]
+    frame[numeric] = frame[numeric] + 0.0
+    sidecar = {
+        "format": FORMAT_NAME,
+        "format_version": FORMAT_VERSION,
+        "fs_hz": recording.fs,
+        "nodes": list(recording.nodes),
+        "units": UNITS,
+        "frame_convention": FRAME_CONVENTION,
+        "has_quaternions": recording.quat_true is not None,
+        "metadata": recording.metadata,
+    }
+    return write_table_with_sidecar(frame, path, sidecar, FLOAT_FORMAT, what="recording.metadata")
+
+
+def _read_sidecar(path: Path) -> dict | None:
+    side = sidecar_path(path)
+    meta = load_sidecar(path, FORMAT_NAME, FORMAT_VERSION, required=False, what="a recording")
+    if meta is None:
+        return None
+    for key in ("fs_hz", "nodes", "units"):
+        if key not in meta:
+            raise ValueError(f"{side}: missing key {key!r}")
+    try:
+        check_positive(meta["fs_hz"], "fs_hz")
+    except ValueError as exc:
+        raise ValueError(f"{side}: {exc}") from exc
+    if not isinstance(meta["nodes"], list) or not meta["nodes"]:
+        raise ValueError(f"{side}: 'nodes' must be a non-empty list of node names")
+    units = meta["units"]
+    if not isinstance(units, dict):
+        raise ValueError(f"{side}: 'units' must be an object")
+    for key, unit in UNITS.items():
+        if units.get(key) != unit:
+            raise ValueError(
+                f"{side}: units[{key!r}] must be {unit!r} (convert the data first), "
+                f"got {units.get(key)!r}"
+            )
+    if not isinstance(meta.get("metadata", {}), dict):
+        raise ValueError(f"{side}: 'metadata' must be an object")
+    return meta
+
+
+def read_recording(path) -> Recording:
+    """Read a recording written by :func:`write_recording` (or converted into its format).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The CSV file; its sidecar ``path.with_suffix('.json')`` is read when present.
+
+    Returns
+    -------
+    Recording
+        ``quat_true`` is None when the CSV has no ``quat_*`` columns.  Quaternion norms must
+        be within 1e-6 of 1; they are returned as read (not renormalised), so that reading
+        and writing a file again reproduces it byte for byte.
+
+    Raises
+    ------
+    ValueError
+        Naming the file and the column: missing, unknown or misordered columns, only some
+        ``quat_*`` columns, non-numeric or non-finite values, unknown nodes, nodes with
+        different time stamps or sample counts, time not strictly increasing, a time step
+        that disagrees with the sidecar's ``fs_hz`` by more than 1 %, or a bad sidecar.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise ValueError(f"{path}: no such file")
+    meta = _read_sidecar(path)
+    try:
+        frame = pd.read_csv(path, dtype={"node": str}, keep_default_na=False, na_values=[])
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{path}: cannot be parsed as CSV ({exc})") from exc
+
+    columns = list(frame.columns)
+    missing = [c for c in BASE_COLUMNS if c not in columns]
+    if missing:
+        raise ValueError(f"{path}: missing column(s) {missing}")
+    unknown = [c for c in columns if c not in ALL_COLUMNS]
+    if unknown:
+        raise ValueError(f"{path}: unknown column(s) {unknown}; expected {list(ALL_COLUMNS)}")
+    quat_present = [c for c in QUAT_COLUMNS if c in columns]
+    if quat_present and len(quat_present) != 4:
+        absent = [c for c in QUAT_COLUMNS if c not in columns]
+        raise ValueError(f"{path}: quaternion columns must come all four or none; missing {absent}")
+    expected = list(BASE_COLUMNS) + (list(QUAT_COLUMNS) if quat_present else [])
+    if columns != expected:
+        raise ValueError(f"{path}: columns must be in the order {expected}, got {columns}")
+    if len(frame) == 0:
+        raise ValueError(f"{path}: has no data rows")
+    if meta is not None and bool(meta.get("has_quaternions", bool(quat_present))) != bool(
+        quat_present
+    ):
+        raise ValueError(
+            f"{sidecar_path(path)}: 'has_quaternions' is {meta.get('has_quaternions')!r} "
+            f"but {path} {'has' if quat_present else 'lacks'} the quat_* columns"
+        )
+
+    numeric = {}
+    for column in expected:
+        if column == "node":
+            continue
+        numeric[column] = finite_column(frame, column, path)
+    node_col = frame["node"].to_numpy(dtype=object)
+    for row, name in enumerate(node_col):
+        if not isinstance(name, str) or not name.strip():
+            raise ValueError(f"{path}: column 'node' is empty at data row {row + 1}")
+
+    if meta is not None:
+        nodes = tuple(meta["nodes"])
+        for name in nodes:
+            try:
+                _check_node_name(name)
+            except ValueError as exc:
+                raise ValueError(f"{sidecar_path(path)}: {exc}") from exc
+        stray = sorted(set(node_col) - set(nodes))
+        if stray:
+            raise ValueError(f"{path}: column 'node' has node(s) {stray} not listed in the sidecar")
+    else:
+        nodes = tuple(dict.fromkeys(node_col))
+
+    n_nodes = len(nodes)
+    counts = {name: int(np.sum(node_col == name)) for name in nodes}
+    if len(set(counts.values())) != 1:
+        raise ValueError(f"{path}: column 'node': nodes have different sample counts {counts}")
+    n_samples = counts[nodes[0]]
+    if n_samples == 0:
+        raise ValueError(f"{path}: column 'node': node {nodes[0]!r} has no rows")
+    expected_nodes = np.tile(np.array(nodes, dtype=object), n_samples)
+    if not np.array_equal(node_col, expected_nodes):
+        row = int(np.argmax(node_col != expected_nodes))
+        raise ValueError(
+            f"{path}: column 'node': rows must cycle through {list(nodes)} for every sample; "
+            f"data row {row + 1} has {node_col[row]!r}, expected {expected_nodes[row]!r}"
+        )
+
+    time = numeric["time_s"].reshape(n_samples, n_nodes)
+    if not np.all(time == time[:, :1]):
+        row = int(np.argmax(np.any(time != time[:, :1], axis=1)))
+        raise ValueError(
+            f"{path}: column 'time_s': nodes have different time stamps at sample {row} "
+            f"({time[row].tolist()})"
+        )
+    time_s = time[:, 0]
+    if n_samples > 1 and np.any(np.diff(time_s) <= 0.0):
+        row = int(np.argmax(np.diff(time_s) <= 0.0))
+        raise ValueError(f"{path}: column 'time_s' is not strictly increasing at sample {row + 1}")
+
+    if meta is not None:
+        fs = float(meta["fs_hz"])
+        if n_samples > 1:
+            median_step = float(np.median(np.diff(time_s)))
+            if not math.isclose(median_step, 1.0 / fs, rel_tol=0.01):
+                raise ValueError(
+                    f"{path}: column 'time_s' has median step {median_step:.6g} s, which "
+                    f"disagrees with fs_hz = {fs:g} in {sidecar_path(path)}"
+                )
+        metadata = dict(meta.get("metadata", {}))
+    else:
+        if n_samples < 2:
+            raise ValueError(f"{path}: without a sidecar, fs needs at least two samples")
+        fs = 1.0 / float(np.median(np.diff(time_s)))
+        metadata = {}
+
+    def block(cols):
+        stacked = np.stack([numeric[c] for c in cols], axis=-1)
+        return np.swapaxes(stacked.reshape(n_samples, n_nodes, len(cols)), 0, 1).copy()
+
+    quat = None
+    if quat_present:
+        quat = block(QUAT_COLUMNS)
+        norm = np.linalg.norm(quat, axis=-1)
+        if np.any(np.abs(norm - 1.0) > _QUAT_NORM_TOL):
+            node, sample = np.argwhere(np.abs(norm - 1.0) > _QUAT_NORM_TOL)[0]
+            raise ValueError(
+                f"{path}: columns quat_*: not a unit quaternion (norm {norm[node, sample]:.9g}) "
+                f"for node {nodes[node]!r} at sample {sample}"
+            )
+
+    return Recording(
+        fs=fs,
+        time_s=time_s.copy(),
+        nodes=nodes,
+        gyr=block(SIGNAL_COLUMNS["gyr"]),
+        acc=block(SIGNAL_COLUMNS["acc"]),
+        mag=block(SIGNAL_COLUMNS["mag"]),
+        quat_true=quat,
+        metadata=metadata,
+    )
