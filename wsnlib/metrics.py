@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from wsnlib import quaternion as quat_ops
-from wsnlib._validation import as_float_array, check_nonnegative, check_nonzero_norm, check_positive
+from wsnlib._validation import as_bool_mask, as_float_array, check_nonnegative, check_nonzero_norm, check_positive
 
 #: Body-frame axis along the segment (pointing distally), shared with :mod:`wsnlib.sim.arm`.
 SEGMENT_AXIS = np.array([1.0, 0.0, 0.0])
@@ -297,16 +297,6 @@ def angle_jerk_rms_deg(angle_deg, fs) -> np.ndarray:
 # from the jitter of the rest of the record.
 
 
-def _received_mask(received, shape: tuple[int, ...]) -> np.ndarray:
-    received = np.asarray(received)
-    if received.dtype != np.bool_:
-        raise ValueError(f"received must be a boolean mask, got dtype {received.dtype}")
-    try:
-        return np.broadcast_to(received, shape)
-    except ValueError as exc:
-        raise ValueError(f"received has shape {received.shape}, which does not fit {shape}") from exc
-
-
 def gap_end_mask(received) -> np.ndarray:
     """True at the first received sample after each run of lost samples, ``(..., T)``.
 
@@ -347,7 +337,7 @@ def gap_end_steps_deg(angle_deg, received) -> dict[str, np.ndarray]:
     angle = as_float_array(angle_deg, "angle_deg")
     if angle.shape[-1] < 2:
         raise ValueError(f"angle_deg needs at least 2 samples, got {angle.shape[-1]}")
-    ends = gap_end_mask(_received_mask(received, angle.shape))
+    ends = gap_end_mask(as_bool_mask(received, "received", angle.shape))
     step = np.zeros(angle.shape)
     step[..., 1:] = np.abs(np.diff(angle, axis=-1))
     step = np.where(ends, step, 0.0)
@@ -364,7 +354,7 @@ def quat_gap_end_steps_deg(quat, received) -> dict[str, np.ndarray]:
     quat = as_float_array(quat, "quat", last_dim=4, min_ndim=2)
     if quat.shape[-2] < 2:
         raise ValueError(f"quat needs at least 2 samples along time, got {quat.shape[-2]}")
-    ends = gap_end_mask(_received_mask(received, quat.shape[:-1]))
+    ends = gap_end_mask(as_bool_mask(received, "received", quat.shape[:-1]))
     step = np.zeros(quat.shape[:-1])
     step[..., 1:] = np.degrees(quat_ops.angle_between(quat[..., 1:, :], quat[..., :-1, :]))
     step = np.where(ends, step, 0.0)
@@ -415,7 +405,7 @@ def angle_jitter_rms_deg(angle_deg, fs, received) -> np.ndarray:
     fs = check_positive(fs, "fs")
     if angle.shape[-1] < 4:
         raise ValueError(f"angle_deg needs at least 4 samples, got {angle.shape[-1]}")
-    ends = gap_end_mask(_received_mask(received, angle.shape))
+    ends = gap_end_mask(as_bool_mask(received, "received", angle.shape))
     jerk = np.diff(angle, n=3, axis=-1) * fs**3
     keep = _windows_without_gap_ends(ends, jerk.shape[-1], 3)
     return _masked_rms(jerk**2, keep)
@@ -432,7 +422,7 @@ def angular_jitter_rms_deg(quat, fs, received) -> np.ndarray:
     fs = check_positive(fs, "fs")
     if quat.shape[-2] < 4:
         raise ValueError(f"quat needs at least 4 samples along time, got {quat.shape[-2]}")
-    ends = gap_end_mask(_received_mask(received, quat.shape[:-1]))
+    ends = gap_end_mask(as_bool_mask(received, "received", quat.shape[:-1]))
     jerk = _angular_jerk(quat, fs)
     keep = _windows_without_gap_ends(ends, jerk.shape[-2], 3)
     return np.degrees(_masked_rms(np.sum(jerk**2, axis=-1), keep))
@@ -478,10 +468,7 @@ def quantile_error(error, q: float = 0.95, where=None) -> np.ndarray:
         raise ValueError(f"q must be a number in [0, 1], got {q!r}")
     magnitude = np.abs(error)
     if where is not None:
-        where = np.asarray(where)
-        if where.dtype != np.bool_:
-            raise ValueError(f"where must be a boolean mask, got dtype {where.dtype}")
-        where = _received_mask(where, error.shape)
+        where = as_bool_mask(where, "where", error.shape)
         count = np.count_nonzero(where, axis=-1)
         if np.any(count == 0):
             bad = tuple(int(i) for i in np.argwhere(count == 0)[0])
@@ -537,7 +524,7 @@ def error_by_phase(error_deg, received, fs, *, after_s: float = 2.0, statistic: 
         raise ValueError(f"statistic must be 'rms' or 'mean', got {statistic!r}")
     fs = check_positive(fs, "fs")
     window = int(round(check_nonnegative(after_s, "after_s") * fs))
-    received = _received_mask(received, error.shape)
+    received = as_bool_mask(received, "received", error.shape)
     ends = gap_end_mask(received)
     # Samples since the latest gap end (large before the first one).
     n = error.shape[-1]
