@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from _recordings import error_deg, turning_recording
 from scipy.spatial.transform import Rotation
 
 from wsnlib import frames
@@ -16,25 +17,6 @@ from wsnlib.sim.arm import arm_kinematics, movement_set
 from wsnlib.sim.imu import ideal_imu
 
 FS = 50.0
-
-
-def _turning_recording(n=600, fs=FS, seed=0):
-    """Exact signals of a smoothly turning sensor (rates ≤ ~1.5 rad/s), truth included."""
-    rng = np.random.default_rng(seed)
-    t = np.arange(n) / fs
-    freqs, phases, amps = rng.uniform(0.1, 0.5, 3), rng.uniform(0, 2 * np.pi, 3), rng.uniform(0.5, 1.2, 3)
-    gyr = amps * np.sin(2 * np.pi * freqs * t[:, None] + phases)
-    quat = np.empty((n, 4))
-    quat[0] = Q.from_axis_angle([1.0, 0.0, 0.0], 0.3)
-    for k in range(1, n):  # q_k = q_{k-1} ⊗ Exp(ω_k Δt), as the filter integrates
-        quat[k] = Q.normalize(Q.multiply(quat[k - 1], Q.from_rotation_vector(gyr[k] / fs)))
-    acc = Q.rotate_inverse(quat, frames.gravity_specific_force_enu())
-    mag = Q.rotate_inverse(quat, np.broadcast_to(frames.magnetic_field_enu(), (n, 3)))
-    return gyr, acc, mag, quat
-
-
-def _error_deg(q_est, q_true):
-    return np.degrees(Q.angle_between(q_est, q_true))
 
 
 # ------------------------------------------------------------------------------------------
@@ -154,7 +136,7 @@ def _reference_filter(gyr, acc, mag, received, fs, st: KalmanSettings):
 
 
 def test_kernel_matches_numpy_reference_to_1e12():
-    gyr, acc, mag, _ = _turning_recording(n=40)
+    gyr, acc, mag, _ = turning_recording(n=40)
     rng = np.random.default_rng(3)
     acc = acc + rng.normal(0, 0.3, acc.shape)  # innovations large enough to trigger the robust gate
     gyr = gyr + 0.01
@@ -177,14 +159,14 @@ def test_no_loss_close_to_lossless_madgwick_on_simulated_arm():
     imu = ideal_imu(truth)
     q_k = kalman_orientation(imu.gyr, imu.acc, imu.mag, fs=FS)
     q_m = madgwick(imu.gyr, imu.acc, imu.mag, fs=FS, beta=0.041)
-    err_k = _error_deg(q_k, truth.quat)
-    err_m = _error_deg(q_m, truth.quat)
+    err_k = error_deg(q_k, truth.quat)
+    err_m = error_deg(q_m, truth.quat)
     assert np.sqrt(np.mean(err_k**2)) < np.sqrt(np.mean(err_m**2)) + 2.0
     assert err_k.max() < 5.0
 
 
 def test_prediction_continues_through_a_gap_instead_of_freezing():
-    gyr, acc, mag, truth = _turning_recording()
+    gyr, acc, mag, truth = turning_recording()
     received = np.ones(len(gyr), bool)
     received[200:218] = False  # 3 packets of 6 samples, 0.36 s
     constant = kalman_orientation(gyr, acc, mag, fs=FS, received=received,
@@ -193,14 +175,14 @@ def test_prediction_continues_through_a_gap_instead_of_freezing():
     held = madgwick(gyr, acc, mag, fs=FS, beta=0.041, received=received)
     # exact gyroscope: constant-rate extrapolation is far better than holding, the decaying
     # rate (the default, better on BROAD's fast motion) in between
-    err_held = _error_deg(held, truth)[200:218].mean()
-    assert _error_deg(constant, truth)[200:218].mean() < 0.5 * err_held
-    assert _error_deg(constant, truth)[200:218].mean() < _error_deg(decaying, truth)[200:218].mean() < err_held
+    err_held = error_deg(held, truth)[200:218].mean()
+    assert error_deg(constant, truth)[200:218].mean() < 0.5 * err_held
+    assert error_deg(constant, truth)[200:218].mean() < error_deg(decaying, truth)[200:218].mean() < err_held
     assert not np.allclose(decaying[201], decaying[200])  # the estimate moves on lost samples
 
 
 def test_covariance_grows_over_a_gap_and_shrinks_after():
-    gyr, acc, mag, _ = _turning_recording()
+    gyr, acc, mag, _ = turning_recording()
     received = np.ones(len(gyr), bool)
     received[300:330] = False
     out = kalman_orientation(gyr, acc, mag, fs=FS, received=received, full_output=True)
@@ -214,7 +196,7 @@ def test_covariance_grows_over_a_gap_and_shrinks_after():
 
 
 def test_accelerometer_gated_under_large_acceleration():
-    gyr, acc, mag, truth = _turning_recording()
+    gyr, acc, mag, truth = turning_recording()
     bad = acc.copy()
     # 2 g of linear acceleration sideways for 1 s: the direction is off by ~60°
     # (an impossible push for a body that stays put: here the gate alone is tested, with the
@@ -224,7 +206,7 @@ def test_accelerometer_gated_under_large_acceleration():
     gate_only = KalmanSettings(velocity_noise=1e6)
     out = kalman_orientation(gyr, bad, mag, fs=FS, full_output=True, settings=gate_only)
     assert not out.acc_used[300:350].any()
-    assert _error_deg(out.quat, truth)[300:360].max() < 1.0
+    assert error_deg(out.quat, truth)[300:360].max() < 1.0
     # the norm gate is what excluded them: without it they are used (with inflated noise)
     ungated = kalman_orientation(gyr, bad, mag, fs=FS, full_output=True, settings=KalmanSettings(
         acc_norm_gate=math.inf, velocity_noise=1e6))
@@ -235,24 +217,24 @@ def test_accelerometer_gated_under_large_acceleration():
 def test_push_and_return_barely_moves_the_leaky_velocity_tilt():
     # ±2 g for 0.1 s each (a jerk of the wrist that ends at rest): the gate rejects every
     # sample, and the leaky velocity (peak 1 m/s, back to 0) tilts the estimate by < 1°.
-    gyr, acc, mag, truth = _turning_recording()
+    gyr, acc, mag, truth = turning_recording()
     push = np.zeros((10, 3))
     push[:5, 0], push[5:, 0] = 2 * frames.STANDARD_GRAVITY, -2 * frames.STANDARD_GRAVITY
     bad = acc.copy()
     bad[300:310] = Q.rotate_inverse(truth[300:310], frames.gravity_specific_force_enu() + push)
     out = kalman_orientation(gyr, bad, mag, fs=FS, full_output=True)
     assert not out.acc_used[300:310].any()
-    error = _error_deg(out.quat, truth)
+    error = error_deg(out.quat, truth)
     assert 0.05 < error[300:400].max() < 1.0  # the push is seen (not ignored), and small
 
 
 def test_magnetic_disturbance_rejected_and_never_tilts():
-    gyr, acc, mag, truth = _turning_recording()
+    gyr, acc, mag, truth = turning_recording()
     disturbed = mag.copy()
     disturbed[300:400] += Q.rotate_inverse(truth[300:400], [40.0, 0.0, 0.0])  # a magnet: norm and dip change
     out = kalman_orientation(gyr, acc, disturbed, fs=FS, full_output=True)
     assert not out.mag_used[300:400].all()
-    assert _error_deg(out.quat, truth)[300:400].max() < 2.0
+    assert error_deg(out.quat, truth)[300:400].max() < 2.0
     # heading-only: without its gate the magnet turns the heading but does not tilt
     ungated = kalman_orientation(gyr, acc, disturbed, fs=FS, settings=KalmanSettings(mag_norm_gate=math.inf,
                                                                                       mag_dip_gate=math.inf))
@@ -265,7 +247,7 @@ def test_magnetic_disturbance_rejected_and_never_tilts():
 
 
 def test_batch_equals_loop_and_broadcasts():
-    gyr, acc, mag, _ = _turning_recording(n=200)
+    gyr, acc, mag, _ = turning_recording(n=200)
     rng = np.random.default_rng(5)
     masks = rng.random((3, 200)) > 0.2
     masks[:, 0] = True
@@ -277,7 +259,7 @@ def test_batch_equals_loop_and_broadcasts():
 
 
 def test_lost_samples_may_hold_nan_and_imu_form_runs():
-    gyr, acc, mag, _ = _turning_recording(n=100)
+    gyr, acc, mag, _ = turning_recording(n=100)
     received = np.ones(100, bool)
     received[40:50] = False
     gyr, acc, mag = gyr.copy(), acc.copy(), mag.copy()
@@ -297,14 +279,14 @@ def test_lost_samples_may_hold_nan_and_imu_form_runs():
     ],
 )
 def test_rejects_bad_arguments(kwargs, match):
-    gyr, acc, mag, _ = _turning_recording(n=50)
+    gyr, acc, mag, _ = turning_recording(n=50)
     args = {"fs": FS} | kwargs
     with pytest.raises(ValueError, match=match):
         kalman_orientation(gyr, acc, mag, **args)
 
 
 def test_rejects_nan_in_received_sample_and_bad_settings():
-    gyr, acc, mag, _ = _turning_recording(n=50)
+    gyr, acc, mag, _ = turning_recording(n=50)
     acc = acc.copy()
     acc[10] = np.nan
     with pytest.raises(ValueError, match="acc"):
@@ -321,7 +303,7 @@ def test_rejects_nan_in_received_sample_and_bad_settings():
 
 
 def test_estimate_orientation_kalman_is_kalman_orientation():
-    gyr, acc, mag, _ = _turning_recording(n=200)
+    gyr, acc, mag, _ = turning_recording(n=200)
     rng = np.random.default_rng(6)
     masks = rng.random((2, 200)) > 0.2
     got = estimate_orientation(gyr, acc, mag, fs=FS, received=masks, method="kalman")
@@ -337,7 +319,7 @@ def test_estimate_orientation_kalman_is_kalman_orientation():
 
 
 def test_gap_hold_holds_the_output_and_changes_nothing_else():
-    gyr, acc, mag, _ = _turning_recording(n=200)
+    gyr, acc, mag, _ = turning_recording(n=200)
     received = np.ones(200, bool)
     received[[0, 1]] = False  # leading gap (q0 None: the output there is the initial estimate)
     received[50:70] = False
@@ -363,6 +345,6 @@ def test_gap_hold_holds_the_output_and_changes_nothing_else():
     ],
 )
 def test_estimate_orientation_rejects_parameters_of_the_other_family(kwargs, match):
-    gyr, acc, mag, _ = _turning_recording(n=50)
+    gyr, acc, mag, _ = turning_recording(n=50)
     with pytest.raises(ValueError, match=match):
         estimate_orientation(gyr, acc, mag, fs=FS, **kwargs)

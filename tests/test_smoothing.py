@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from _recordings import error_deg, turning_recording
 
 from wsnlib import frames
 from wsnlib import quaternion as Q
@@ -12,30 +13,8 @@ from wsnlib.orientation.smoothing import SMOOTHER_SETTINGS, smooth_orientation
 FS = 50.0
 
 
-def _turning_recording(n=600, seed=0, noise=0.0):
-    rng = np.random.default_rng(seed)
-    t = np.arange(n) / FS
-    freqs, phases, amps = rng.uniform(0.1, 0.5, 3), rng.uniform(0, 2 * np.pi, 3), rng.uniform(0.5, 1.2, 3)
-    gyr = amps * np.sin(2 * np.pi * freqs * t[:, None] + phases)
-    quat = np.empty((n, 4))
-    quat[0] = Q.from_axis_angle([1.0, 0.0, 0.0], 0.3)
-    for k in range(1, n):
-        quat[k] = Q.normalize(Q.multiply(quat[k - 1], Q.from_rotation_vector(gyr[k] / FS)))
-    acc = Q.rotate_inverse(quat, frames.gravity_specific_force_enu())
-    mag = Q.rotate_inverse(quat, np.broadcast_to(frames.magnetic_field_enu(), (n, 3)))
-    if noise:
-        gyr = gyr + rng.normal(0, noise, gyr.shape) + 0.02
-        acc = acc + rng.normal(0, 10 * noise, acc.shape)
-        mag = mag + rng.normal(0, 30 * noise, mag.shape)
-    return gyr, acc, mag, quat
-
-
-def _error_deg(q_est, q_true):
-    return np.degrees(Q.angle_between(q_est, q_true))
-
-
 def test_smoother_equals_filter_at_the_end():
-    gyr, acc, mag, _ = _turning_recording(noise=0.02)
+    gyr, acc, mag, _ = turning_recording(noise=0.02)
     received = np.ones(len(gyr), bool)
     received[100:130] = False
     received[300:320] = False
@@ -46,7 +25,7 @@ def test_smoother_equals_filter_at_the_end():
 
 
 def test_trailing_gap_is_the_filters_extrapolation():
-    gyr, acc, mag, _ = _turning_recording(noise=0.02)
+    gyr, acc, mag, _ = turning_recording(noise=0.02)
     received = np.ones(len(gyr), bool)
     received[-40:] = False
     filt = kalman_orientation(gyr, acc, mag, fs=FS, received=received, settings=SMOOTHER_SETTINGS)
@@ -59,7 +38,7 @@ def test_trailing_gap_is_the_filters_extrapolation():
 
 
 def test_smoother_reduces_error_across_gaps():
-    gyr, acc, mag, truth = _turning_recording(noise=0.02)
+    gyr, acc, mag, truth = turning_recording(noise=0.02)
     rng = np.random.default_rng(1)
     received = np.ones(len(gyr), bool)
     for start in rng.choice(np.arange(50, 550, 60), size=6, replace=False):
@@ -68,7 +47,7 @@ def test_smoother_reduces_error_across_gaps():
     smooth = smooth_orientation(gyr, acc, mag, fs=FS, received=received)
     rts_only = smooth_orientation(gyr, acc, mag, fs=FS, received=received, interpolate_gaps=False)
     lost = ~received
-    rms = {name: np.sqrt(np.mean(_error_deg(q, truth)[lost] ** 2)) for name, q in
+    rms = {name: np.sqrt(np.mean(error_deg(q, truth)[lost] ** 2)) for name, q in
            (("filter", filt), ("smoother", smooth), ("rts", rts_only))}
     assert rms["smoother"] < 0.5 * rms["filter"]
     assert rms["smoother"] <= rms["rts"]
@@ -86,11 +65,11 @@ def test_hermite_gap_matches_both_ends_and_is_exact_for_constant_rate():
     received = np.ones(n, bool)
     received[80:120] = False
     smooth = smooth_orientation(gyr, acc, mag, fs=FS, received=received)
-    assert _error_deg(smooth, quat)[80:120].max() < 0.5
+    assert error_deg(smooth, quat)[80:120].max() < 0.5
 
 
 def test_batch_shape_and_unit_norm():
-    gyr, acc, mag, _ = _turning_recording(n=150, noise=0.02)
+    gyr, acc, mag, _ = turning_recording(n=150, noise=0.02)
     masks = np.random.default_rng(0).random((2, 150)) > 0.3
     masks[:, 0] = True
     out = smooth_orientation(gyr, acc, mag, fs=FS, received=masks)

@@ -1,0 +1,32 @@
+"""Exact signals of a smoothly turning sensor, shared by the Kalman filter and smoother tests."""
+
+import numpy as np
+
+from wsnlib import frames
+from wsnlib import quaternion as Q
+
+FS = 50.0
+
+
+def turning_recording(n=600, seed=0, noise=0.0):
+    """``gyr, acc, mag, quat`` (rates ≤ ~1.5 rad/s), truth integrated as the filter does;
+    ``noise`` > 0 adds white noise (and a 0.02 rad/s gyro bias)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / FS
+    freqs, phases, amps = rng.uniform(0.1, 0.5, 3), rng.uniform(0, 2 * np.pi, 3), rng.uniform(0.5, 1.2, 3)
+    gyr = amps * np.sin(2 * np.pi * freqs * t[:, None] + phases)
+    quat = np.empty((n, 4))
+    quat[0] = Q.from_axis_angle([1.0, 0.0, 0.0], 0.3)
+    for k in range(1, n):  # q_k = q_{k-1} ⊗ Exp(ω_k Δt), as the filter integrates
+        quat[k] = Q.normalize(Q.multiply(quat[k - 1], Q.from_rotation_vector(gyr[k] / FS)))
+    acc = Q.rotate_inverse(quat, frames.gravity_specific_force_enu())
+    mag = Q.rotate_inverse(quat, np.broadcast_to(frames.magnetic_field_enu(), (n, 3)))
+    if noise:
+        gyr = gyr + rng.normal(0, noise, gyr.shape) + 0.02
+        acc = acc + rng.normal(0, 10 * noise, acc.shape)
+        mag = mag + rng.normal(0, 30 * noise, mag.shape)
+    return gyr, acc, mag, quat
+
+
+def error_deg(q_est, q_true):
+    return np.degrees(Q.angle_between(q_est, q_true))
