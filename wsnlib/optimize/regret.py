@@ -19,7 +19,7 @@ import dataclasses
 import numpy as np
 import pandas as pd
 
-from wsnlib.optimize.data import APPROACHES, SearchGrid, _as_users, _check_approaches, format_subset
+from wsnlib.optimize.data import APPROACHES, SearchGrid, _check_approaches, _paired_users, format_subset
 from wsnlib.optimize.engine import DEFAULT_CHUNK_ELEMENTS, _search
 from wsnlib.optimize.selection import _argbest, _Cube, _cubes, _setting_record, proximal_from_selection
 
@@ -378,13 +378,7 @@ def coupled_selection_regret(target1, target2, *, approaches=APPROACHES, grid: S
         raise ValueError(f"grid must be a SearchGrid, got {type(grid).__name__}")
     first, second = _check_halves(first, second)
     splits = _check_splits(splits)
-    labels1, users1 = _as_users(target1)
-    labels2, users2 = _as_users(target2)
-    if labels1 != labels2:
-        raise ValueError(f"target1 and target2 must hold the same users, got {labels1} and {labels2}")
-    for u1, u2 in zip(users1, users2, strict=True):
-        if u1.online_rss.shape[0] != u2.online_rss.shape[0] or not np.array_equal(u1.movement, u2.movement):
-            raise ValueError("target1 and target2 must have the same online rows (movement) per user")
+    labels1, users1, users2 = _paired_users(target1, target2)
     users1 = [u.fitted(approaches) for u in users1]
     users2 = [u.fitted(approaches) for u in users2]
     if results1 is None:
@@ -414,7 +408,7 @@ def coupled_selection_regret(target1, target2, *, approaches=APPROACHES, grid: S
             mov = _selection_frame(cube1, per_movement)
             for k, u1 in enumerate(users1):
                 prox2[k][approach] = np.stack([proximal_from_selection(u1, glob), proximal_from_selection(u1, mov)])
-        res_glob, res_mov = _search(labels2, users2, approaches, "hybrid", grid, prox2, progress, chunk_elements)
+        res_glob, res_mov = _search(labels1, users2, approaches, "hybrid", grid, prox2, progress, chunk_elements)
         for selection, res in (("global", res_glob), ("per_movement", res_mov)):
             for approach, cube2 in _cubes(res).items():
                 fold2 = _folds(cube2, first, second, splits)[index]

@@ -36,10 +36,10 @@ import pandas as pd
 from wsnlib.optimize.data import (
     APPROACHES,
     SearchGrid,
-    _as_users,
     _check_approach,
     _check_approaches,
     _check_estimate,
+    _paired_users,
     format_subset,
     parse_subset,
 )
@@ -216,14 +216,7 @@ def paper_tables(target1, target2, *, approaches=APPROACHES, estimate: str = "hy
     approaches = _check_approaches(approaches)
     estimate = _check_estimate(estimate)
     grid = SearchGrid() if grid is None else grid
-    labels1, users1 = _as_users(target1)
-    labels2, users2 = _as_users(target2)
-    if labels1 != labels2:
-        raise ValueError(f"target1 and target2 must hold the same users, got {labels1} and {labels2}")
-    for u1, u2 in zip(users1, users2, strict=True):
-        if u1.online_rss.shape[0] != u2.online_rss.shape[0] or not np.array_equal(u1.movement, u2.movement):
-            raise ValueError("target1 and target2 must have the same online rows (movement) per user, "
-                             "since target 2's elbow comes from target 1's row")
+    labels1, users1, users2 = _paired_users(target1, target2)
     users1 = [u.fitted(approaches) for u in users1]
     users2 = [u.fitted(approaches) for u in users2]
 
@@ -234,13 +227,13 @@ def paper_tables(target1, target2, *, approaches=APPROACHES, estimate: str = "hy
 
     if estimate == "radio":
         prox2 = [{a: u.proximal[None] for a in approaches} for u in users2]
-        res2 = _search(labels2, users2, approaches, estimate, grid, prox2, progress, chunk_elements)[0]
+        res2 = _search(labels1, users2, approaches, estimate, grid, prox2, progress, chunk_elements)[0]
         res2_mov = res2_glob = res2
     else:
         prox2 = [{a: np.stack([proximal_from_selection(u1, sel1_mov, approach=a),
                                proximal_from_selection(u1, sel1_glob, approach=a)]) for a in approaches}
                  for u1 in users1]  # fmt: skip
-        res2_mov, res2_glob = _search(labels2, users2, approaches, estimate, grid, prox2, progress, chunk_elements)
+        res2_mov, res2_glob = _search(labels1, users2, approaches, estimate, grid, prox2, progress, chunk_elements)
     sel2_mov = select_settings(res2_mov, per_movement=True)
     sel2_glob = select_settings(res2_glob, per_movement=False)
 
