@@ -149,7 +149,7 @@ def naive_knn(data, setting, radio_map, positions):
 
 def naive_pknn(data, setting):
     """One ``ProbabilisticKNN(anchors=…)`` fit + predict, then eqs. (8)–(11)."""
-    from wsnlib.fingerprint import ProbabilisticKNN
+    from wsnlib.radio import ProbabilisticKNN
 
     est = ProbabilisticKNN(n_neighbors=setting.k, anchors=setting.mask(data.n_anchors))
     radio = est.fit(data.training_rss, data.training_positions).predict(data.online_rss)
@@ -161,8 +161,8 @@ def time_naive(target1, results, n_knn: int, n_pknn: int, rng, repeats: int = 3)
     target 1, and the largest PE difference (cm) from the search."""
     from threadpoolctl import threadpool_limits  # installed with scikit-learn
 
-    from wsnlib.fingerprint import KNNFingerprint
     from wsnlib.optimize import Setting
+    from wsnlib.radio import KNNFingerprint
 
     fitted = [u.fitted() for u in target1]
     maps = [KNNFingerprint().fit(u.training_rss, u.training_positions) for u in target1]
@@ -206,7 +206,7 @@ def time_naive(target1, results, n_knn: int, n_pknn: int, rng, repeats: int = 3)
 
 def _boundary_tie(data, setting) -> bool:
     """Whether some online vector has equal k-th and (k+1)-th neighbour distances under ``setting``."""
-    from wsnlib.fingerprint import KNNFingerprint
+    from wsnlib.radio import KNNFingerprint
 
     n_fp = data.knn.positions_.shape[0]
     if setting.k >= n_fp:

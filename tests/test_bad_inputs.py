@@ -15,11 +15,12 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 import pytest  # noqa: E402
 
-from wsnlib import _files, accel_format, fingerprint, plotting  # noqa: E402
+from wsnlib import _files, accel_format, plotting  # noqa: E402
 from wsnlib import quaternion as Q  # noqa: E402
 from wsnlib import rss as RSS  # noqa: E402
 from wsnlib.datasets import Recording, read_recording, sidecar_path, write_recording  # noqa: E402
 from wsnlib.fingerprint import KNNFingerprint, ProbabilisticKNN  # noqa: E402
+from wsnlib.radio import _checks as radio_checks  # noqa: E402
 
 # --------------------------------------------------------------------------------------------
 # Quaternion helpers: wrong shapes, zero quaternions and NaN name the argument
@@ -127,7 +128,7 @@ def test_predict_in_chunks_equals_predict_at_once(rng, monkeypatch, make):
 
     # Ask for chunks of at most 7 vectors and record the vectors each chunk holds.
     n_fp, n_anchors = est.radio_map_.shape
-    monkeypatch.setattr(fingerprint, "_CHUNK_ELEMENTS", 7 * n_fp * n_anchors)
+    monkeypatch.setattr(radio_checks, "_CHUNK_ELEMENTS", 7 * n_fp * n_anchors)
     sizes = []
     inner = type(est)._neighbors_chunk
 
@@ -153,7 +154,7 @@ def test_the_chunk_bound_keeps_a_100k_query_small():
     est.radio_map_ = np.zeros((81, 12))
     chunks = est._query_chunks(100_000)
     largest = max(c.stop - c.start for c in chunks)
-    assert largest * 81 * 12 <= fingerprint._CHUNK_ELEMENTS
+    assert largest * 81 * 12 <= radio_checks._CHUNK_ELEMENTS
     assert largest * 81 * 12 * 8 <= 40e6  # bytes per (n, L, A) float array
     assert chunks[0].start == 0 and chunks[-1].stop == 100_000
     assert all(a.stop == b.start for a, b in zip(chunks, chunks[1:], strict=False))

@@ -18,7 +18,7 @@ import pytest
 
 from wsnlib import datasets, pabr, paths
 from wsnlib.fingerprint import KNNFingerprint
-from wsnlib.io import pabr as pabr_io
+from wsnlib.io import pabr_download
 
 SOURCE_DIR = Path(os.environ.get(pabr.PABR_DIR_ENV_VAR) or paths.ROOT.parent / "shared" / "data" / "pabr")
 HAVE_SHARED = (SOURCE_DIR / "cnf" / "tetam.dev").is_file() and (SOURCE_DIR / "hst" / "set_1").is_dir()
@@ -191,7 +191,7 @@ def test_vectors_by_time_windows_on_a_track(tiny):
     # packets at 10.0 (s10), 10.4 (s11) | 11.2 (s10) | 12.1 (s12); the invalid one at 11.5 is gone
     np.testing.assert_allclose(vec.rss, [[-70.0, -80.0, np.nan], [-72.0, np.nan, np.nan], [np.nan, np.nan, -90.0]])
     np.testing.assert_allclose(vec.positions[:, 0], [1.1, 1.4, 1.8])
-    np.testing.assert_allclose(vec.times, [10.2, 11.2, 12.1])
+    np.testing.assert_allclose(vec.times, [10.4, 11.2, 12.1])  # the window's last packet: when it is available
     np.testing.assert_array_equal(vec.windows, [0, 1, 2])
     assert list(vec.groups) == ["walk"] * 3
     wide = pabr.pabr_vectors(tr, window_s=5.0, fill=-100.0)
@@ -442,8 +442,8 @@ def tiny_registry(tiny, monkeypatch):
         for f in tiny.rglob("*")
         if f.is_file() and f.name != "README.md"
     }
-    # patched where the code lives (wsnlib.pabr only re-exports it)
-    monkeypatch.setattr(pabr_io, "PABR_REGISTRY", registry)
+    # patched where the code reads it (wsnlib.io.pabr and wsnlib.pabr only re-export it)
+    monkeypatch.setattr(pabr_download, "PABR_REGISTRY", registry)
     return registry
 
 

@@ -1,7 +1,8 @@
 """Old home of the PABR dataset loader; the code now lives in :mod:`wsnlib.io.pabr`.
 
 Every name is re-exported here (the same objects), so ``wsnlib.pabr.*`` keeps working. New code
-imports from :mod:`wsnlib.io.pabr`.
+imports from :mod:`wsnlib.io.pabr`; ``PabrVectors`` is the one RSS vector type,
+:class:`wsnlib.io.vectors.RssVectors`.
 """
 
 from wsnlib.io.pabr import (
@@ -9,7 +10,9 @@ from wsnlib.io.pabr import (
     PABR_COMMIT,
     PABR_DIR_ENV_VAR,
     PABR_REGISTRY,
+    PABR_TARGET,
     PABR_URL,
+    PABR_USER,
     RSSI_MAX_DBM,
     RSSI_MIN_DBM,
     SUBSET_SPAN_PACKETS,
@@ -33,8 +36,10 @@ __all__ = [
     "PABR_DIR_ENV_VAR",
     "pabr_file",
     "PABR_REGISTRY",
+    "PABR_TARGET",
     "pabr_track_names",
     "PABR_URL",
+    "PABR_USER",
     "pabr_vectors",
     "PabrVectors",
     "RSSI_MAX_DBM",

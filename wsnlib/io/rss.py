@@ -52,51 +52,59 @@ Packets received by no anchor leave no row (a lost reading is an absent row, not
   (a truncated or edited CSV is refused; a hand-made sidecar may leave both out).
 
 Written with sorted keys and two-space indent; both files are written atomically.  The
-sidecar is required.
+sidecar is required.  The table's columns and the checks the writer and reader apply live in
+:mod:`wsnlib.io.rss_table`; the sidecar machinery in :mod:`wsnlib.io.sidecar`.
 
 Fingerprint vectors
 -------------------
 :func:`rss_vectors` turns the long table into one vector of the anchors' RSS per packet of a
-target (or per window of ``window_packets`` consecutive packets), with NaN where an anchor
-reported nothing, and the vector's label and true position.  The fingerprint estimators take
-NaN in training vectors as a missing reading but refuse it online; ``fill="last"`` carries
-each anchor's previous reading forward within the session (a causal hold, as an online
-system would), and a constant floor fills what was never received.
+target (or per window of ``window_packets`` consecutive packets, of ``window_s`` seconds, or
+per posture hold), with NaN where an anchor reported nothing, and the vector's label and true
+position.  It is a thin wrapper: the vector type (:class:`~wsnlib.io.vectors.RssVectors`,
+re-exported here) and the windowing (:func:`~wsnlib.io.vectors.window_readings`) are those of
+:mod:`wsnlib.io.vectors`, shared with the PABR loader.  The fingerprint estimators take NaN
+in training vectors as a missing reading but refuse it online; ``fill="last"`` carries each
+anchor's previous reading forward within the session (a causal hold, as an online system
+would), and a constant floor fills what was never received.
 """
+
 
 from __future__ import annotations
 
-import re
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from wsnlib._validation import check_positive
-from wsnlib.io.recording import (
+
+# The table's columns and checks live in wsnlib.io.rss_table; the column constants are
+# re-exported here (part of the format).
+from wsnlib.io.rss_table import (  # noqa: F401
+    COLUMNS,
+    FLOAT_COLUMNS,
+    RSS_RANGE_DBM,
+    TEXT_COLUMNS,
+    block_order,
+    check_names,
+    check_rows,
+    sort_rows,
+    validate_table,
+)
+from wsnlib.io.sidecar import (
     check_sidecar_units,
-    finite_column,
     load_sidecar,
     sidecar_path,
     write_table_with_sidecar,
 )
+from wsnlib.io.vectors import RssVectors, window_readings
 from wsnlib.testbed import ANCHOR_NAMES, TARGET_NAMES
 
 FORMAT_NAME = "wsnlib-rss"
 FORMAT_VERSION = 1
 
-#: CSV columns, in order.
-COLUMNS: tuple[str, ...] = ("time_s", "user", "session", "target", "anchor", "rss_dbm", "label", "x_m", "y_m", "z_m")
-TEXT_COLUMNS: tuple[str, ...] = ("user", "session", "target", "anchor", "label")
-FLOAT_COLUMNS: tuple[str, ...] = ("time_s", "x_m", "y_m", "z_m")
-
 #: Printf format of the float columns.
 FLOAT_FORMAT = "%.6f"
-
-#: Plausible range of an IEEE 802.15.4 RSS report (dBm): the CC2420's RSSI register is an
-#: 8-bit signed value with an offset of about −45 dB, so readings lie far inside it.
-RSS_RANGE_DBM: tuple[int, int] = (-128, 20)
 
 #: Default floor (dBm) for anchors that never reported: the CC2420's sensitivity (−95 dBm,
 #: see :mod:`wsnlib.sim.radio`).
@@ -109,159 +117,6 @@ FRAME = (
     "y forward, z up (right-handed; ENU for a user facing north). Paper 002 (Giuberti et al.), "
     "Table 1 and footnote 4."
 )
-
-_INT_RE = re.compile(r"^-?\d+$")
-
-
-def _check_name(value, what: str) -> str:
-    if not isinstance(value, str) or not value or value != value.strip() or any(c in value for c in ',"\n\r'):
-        raise ValueError(
-            f"{what} must be a non-empty string without commas, quotes or surrounding spaces, got {value!r}"
-        )
-    return value
-
-
-def _check_names(values, what: str) -> tuple[str, ...]:
-    if isinstance(values, str):
-        raise ValueError(f"{what} must be a list of names, not a single string")
-    values = tuple(values)
-    if not values:
-        raise ValueError(f"{what} must name at least one entry")
-    for v in values:
-        _check_name(v, f"entries of {what}")
-    if len(set(values)) != len(values):
-        raise ValueError(f"{what} must be unique, got {list(values)}")
-    return values
-
-
-# --------------------------------------------------------------------------------------------
-# Validation of a table (shared by writer and reader)
-# --------------------------------------------------------------------------------------------
-
-
-def _validate(df: pd.DataFrame, anchors, targets, where: str) -> pd.DataFrame:
-    """Check and normalise a long RSS table; errors name ``where`` and the column."""
-    if not isinstance(df, pd.DataFrame):
-        raise ValueError(f"{where}: expected a pandas DataFrame, got {type(df).__name__}")
-    columns = list(df.columns)
-    missing = [c for c in COLUMNS if c not in columns]
-    if missing:
-        raise ValueError(f"{where}: missing column(s) {missing}; expected {list(COLUMNS)}")
-    unknown = [c for c in columns if c not in COLUMNS]
-    if unknown:
-        raise ValueError(f"{where}: unknown column(s) {unknown}; expected {list(COLUMNS)}")
-    if columns != list(COLUMNS):
-        raise ValueError(f"{where}: columns must be in the order {list(COLUMNS)}, got {columns}")
-    if len(df) == 0:
-        raise ValueError(f"{where}: has no data rows")
-    out = {}
-    for column in FLOAT_COLUMNS:
-        out[column] = finite_column(df, column, where)
-    rss = df["rss_dbm"]
-    if rss.dtype == object:
-        text = rss.astype(str)
-        bad = ~text.str.match(_INT_RE)
-        if bad.any():
-            row = int(np.argmax(bad.to_numpy()))
-            raise ValueError(
-                f"{where}: column 'rss_dbm' must hold integers, got {rss.iloc[row]!r} at data row {row + 1}"
-            )
-        rss_values = text.astype(np.int64).to_numpy()
-    elif pd.api.types.is_integer_dtype(rss.dtype):
-        rss_values = rss.to_numpy(dtype=np.int64)
-    else:
-        values = pd.to_numeric(rss, errors="coerce").to_numpy(dtype=float)
-        bad = ~np.isfinite(values) | (values != np.round(values))
-        if np.any(bad):
-            row = int(np.argmax(bad))
-            raise ValueError(
-                f"{where}: column 'rss_dbm' must hold integers, got {rss.iloc[row]!r} at data row {row + 1}"
-            )
-        rss_values = values.astype(np.int64)
-    lo, hi = RSS_RANGE_DBM
-    bad = (rss_values < lo) | (rss_values > hi)
-    if np.any(bad):
-        row = int(np.argmax(bad))
-        raise ValueError(
-            f"{where}: column 'rss_dbm' value {rss_values[row]} at data row {row + 1} is outside [{lo}, {hi}] dBm"
-        )
-    out["rss_dbm"] = rss_values
-    for column in TEXT_COLUMNS:
-        values = df[column].to_numpy(dtype=object)
-        codes, uniques = pd.factorize(values, use_na_sentinel=False)
-        for code, value in enumerate(uniques):  # check each distinct name once
-            if not isinstance(value, str) or not value or any(c in value for c in ',"\n\r') or value != value.strip():
-                row = int(np.argmax(codes == code))
-                raise ValueError(
-                    f"{where}: column {column!r} has an empty or invalid name {value!r} at data row {row + 1}"
-                )
-        out[column] = values
-    for column, allowed, what in (("anchor", anchors, "anchors"), ("target", targets, "targets")):
-        stray = sorted(set(out[column]) - set(allowed))
-        if stray:
-            raise ValueError(
-                f"{where}: column {column!r} has {what[:-1]}(s) {stray} not in the sidecar's {what} {list(allowed)}"
-            )
-    frame = pd.DataFrame({c: out[c] for c in COLUMNS})
-    return frame
-
-
-def _block_order(frame: pd.DataFrame) -> np.ndarray:
-    """Block index per row: (user, session) pairs numbered in order of first appearance."""
-    keys = frame["user"].astype(str) + "\x1f" + frame["session"].astype(str)
-    codes, _ = pd.factorize(keys, sort=False)
-    return codes
-
-
-def _sort_rows(frame: pd.DataFrame, anchors, targets) -> pd.DataFrame:
-    block = _block_order(frame)
-    t_rank = frame["target"].map({t: i for i, t in enumerate(targets)}).to_numpy()
-    a_rank = frame["anchor"].map({a: i for i, a in enumerate(anchors)}).to_numpy()
-    order = np.lexsort((a_rank, t_rank, frame["time_s"].to_numpy(), block))
-    return frame.iloc[order].reset_index(drop=True)
-
-
-def _check_rows(frame: pd.DataFrame, anchors, targets, where: str) -> None:
-    """Order, uniqueness and per-packet consistency of an already sorted-or-not table."""
-    block = _block_order(frame)
-    if np.any(np.diff(block) < 0):
-        row = int(np.argmax(np.diff(block) < 0)) + 1
-        raise ValueError(
-            f"{where}: column 'session': rows of each (user, session) must be contiguous; data row {row + 1} "
-            f"returns to an earlier block"
-        )
-    t_rank = frame["target"].map({t: i for i, t in enumerate(targets)}).to_numpy()
-    a_rank = frame["anchor"].map({a: i for i, a in enumerate(anchors)}).to_numpy()
-    time = frame["time_s"].to_numpy()
-    key = np.stack([block, time, t_rank, a_rank], axis=1)
-    same_block = block[1:] == block[:-1]
-    step = key[1:] - key[:-1]
-    # Lexicographic comparison of consecutive rows within a block.
-    first_nonzero = np.argmax(step[:, 1:] != 0, axis=1)
-    sign = np.sign(step[np.arange(len(step)), 1 + first_nonzero])
-    all_zero = ~np.any(step[:, 1:] != 0, axis=1)
-    bad_order = same_block & ~all_zero & (sign < 0)
-    if np.any(bad_order):
-        row = int(np.argmax(bad_order)) + 1
-        raise ValueError(
-            f"{where}: column 'time_s': rows must be ordered by time, target, anchor within each (user, session); "
-            f"data row {row + 1} is out of order"
-        )
-    dup = same_block & all_zero
-    if np.any(dup):
-        row = int(np.argmax(dup)) + 1
-        raise ValueError(
-            f"{where}: column 'anchor': duplicate report of one packet by one anchor at data row {row + 1}"
-        )
-    packet = same_block & (step[:, 1] == 0) & (step[:, 2] == 0)
-    for column in ("label", "x_m", "y_m", "z_m"):
-        values = frame[column].to_numpy()
-        differs = packet & (values[1:] != values[:-1])
-        if np.any(differs):
-            row = int(np.argmax(differs)) + 1
-            raise ValueError(
-                f"{where}: column {column!r} differs between rows of the same packet at data row {row + 1}"
-            )
 
 
 # --------------------------------------------------------------------------------------------
@@ -310,8 +165,8 @@ def write_rss(
     path = Path(path)
     if path.suffix.lower() == ".json":
         raise ValueError(f"path must name the CSV file, not the sidecar: {path}")
-    anchors = _check_names(anchors, "anchors")
-    targets = _check_names(targets, "targets")
+    anchors = check_names(anchors, "anchors")
+    targets = check_names(targets, "targets")
     where = f"table for {path}"
     attrs = getattr(df, "attrs", {}) or {}
     rate = packet_rate_hz if packet_rate_hz is not None else attrs.get("packet_rate_hz")
@@ -324,8 +179,8 @@ def write_rss(
     if not isinstance(metadata, dict):
         raise ValueError(f"metadata must be a dict, got {type(metadata).__name__}")
 
-    frame = _sort_rows(_validate(df, anchors, targets, where), anchors, targets)
-    _check_rows(frame, anchors, targets, where)
+    frame = sort_rows(validate_table(df, anchors, targets, where), anchors, targets)
+    check_rows(frame, anchors, targets, where)
     # Round first and add 0.0 so that -0.0 and tiny negatives print as 0.000000.
     text = frame.copy()
     for c in FLOAT_COLUMNS:
@@ -380,8 +235,8 @@ def _read_sidecar(path: Path) -> dict:
     check_sidecar_units(meta, UNITS, side)
     try:
         meta["packet_rate_hz"] = check_positive(meta["packet_rate_hz"], "packet_rate_hz")
-        meta["anchors"] = list(_check_names(meta["anchors"], "anchors"))
-        meta["targets"] = list(_check_names(meta["targets"], "targets"))
+        meta["anchors"] = list(check_names(meta["anchors"], "anchors"))
+        meta["targets"] = list(check_names(meta["targets"], "targets"))
         meta["anchor_positions_m"] = _check_positions(meta.get("anchor_positions_m", {}), meta["anchors"], str(side))
     except ValueError as exc:
         raise ValueError(f"{side}: {exc}") from exc
@@ -426,8 +281,8 @@ def read_rss(path) -> tuple[pd.DataFrame, dict]:
         raw = pd.read_csv(path, dtype=str, keep_default_na=False, na_filter=False)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         raise ValueError(f"{path}: cannot be parsed as CSV ({exc})") from exc
-    frame = _validate(raw, meta["anchors"], meta["targets"], str(path))
-    _check_rows(frame, meta["anchors"], meta["targets"], str(path))
+    frame = validate_table(raw, meta["anchors"], meta["targets"], str(path))
+    check_rows(frame, meta["anchors"], meta["targets"], str(path))
     frame.attrs = {"packet_rate_hz": meta["packet_rate_hz"], "anchor_positions_m": meta["anchor_positions_m"]}
     return frame, meta
 
@@ -437,99 +292,48 @@ def read_rss(path) -> tuple[pd.DataFrame, dict]:
 # --------------------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True, eq=False)
-class RssVectors:
-    """Fingerprint vectors: one row per packet (or window of packets) of one target.
-
-    Attributes (``n`` vectors)
-    --------------------------
-    rss : numpy.ndarray (n, N_anchors)
-        RSS (dBm) per anchor in :attr:`anchors` order; the mean over the window's readings
-        (in dBm, as paper 002 averages fingerprints); NaN where the anchor reported nothing
-        (unless filled).
-    n_readings : numpy.ndarray (n, N_anchors) int
-        Readings that went into each entry (0 where NaN or filled).
-    time_s : (n,)
-        Time stamp of the window's last packet (when the vector becomes available).
-    position : (n, 3)
-        Mean true target position over the window (m, shoulder frame).
-    label, target, session, user : (n,) object
-        Of the window (windows never span a change of label).
-    n_packets : (n,) int
-        Packets in the window.
-    anchors : tuple of str
-    """
-
-    rss: np.ndarray
-    n_readings: np.ndarray
-    time_s: np.ndarray
-    position: np.ndarray
-    label: np.ndarray
-    target: np.ndarray
-    session: np.ndarray
-    user: np.ndarray
-    n_packets: np.ndarray
-    anchors: tuple[str, ...]
-
-    def __len__(self) -> int:
-        return self.time_s.size
-
-    def select(self, *, target=None, session=None, user=None, label=None) -> RssVectors:
-        """The vectors matching every given value (a name or a collection of names)."""
-        keep = np.ones(len(self), dtype=bool)
-        for field_name, wanted in (("target", target), ("session", session), ("user", user), ("label", label)):
-            if wanted is None:
-                continue
-            wanted = {wanted} if isinstance(wanted, str) else set(wanted)
-            keep &= np.isin(getattr(self, field_name), list(wanted))
-        return RssVectors(
-            rss=self.rss[keep],
-            n_readings=self.n_readings[keep],
-            time_s=self.time_s[keep],
-            position=self.position[keep],
-            label=self.label[keep],
-            target=self.target[keep],
-            session=self.session[keep],
-            user=self.user[keep],
-            n_packets=self.n_packets[keep],
-            anchors=self.anchors,
-        )
-
-
 def rss_vectors(
     df: pd.DataFrame,
-    window_packets: int = 1,
+    window_packets: int | None = None,
     *,
+    window_s: float | None = None,
+    window: str | None = None,
     anchors=None,
     target: str | None = None,
-    fill: str | None = None,
+    fill: str | float | None = None,
     floor_dbm: float = DEFAULT_FLOOR_DBM,
 ) -> RssVectors:
-    """Fingerprint vectors from a long RSS table.
+    """Fingerprint vectors (:class:`~wsnlib.io.vectors.RssVectors`) from a long RSS table.
 
     Packets are identified by (user, session, target, time_s).  Within each (user, session,
-    target), consecutive packets with the same label form runs; each run is cut into
-    windows of ``window_packets`` packets (the last window of a run may be shorter).  A
-    window's vector holds, per anchor, the mean of the readings received in it.
+    target), consecutive packets with the same label form a point (a posture held, a
+    movement); each point is cut into windows by :func:`wsnlib.io.vectors.window_readings`
+    (the windowing the PABR path shares): by default one vector per packet.  A window's
+    vector holds, per anchor, the mean of the readings received in it, NaN where none.
 
     Parameters
     ----------
     df : pandas.DataFrame
         Long table (:data:`COLUMNS`), e.g. from :func:`read_rss` or the simulator.
-    window_packets : int
-        Packets per vector (1 = one vector per packet).
+    window_packets : int, optional
+        Packets per vector (default 1 = one vector per packet, unless ``window_s`` or
+        ``window`` is given); the last window of a point may be shorter.
+    window_s : float, optional
+        Time windows of this length (s) from each point's first packet instead.
+    window : {"point"}, optional
+        One vector per point (each anchor's mean over the whole posture hold) instead.
     anchors : sequence of str, optional
-        Vector columns; default :data:`wsnlib.sim.body.ANCHOR_NAMES` (the table's anchors
+        Vector columns; default :data:`wsnlib.testbed.ANCHOR_NAMES` (the table's anchors
         must be among them).
     target : str, optional
         Keep only this target.
-    fill : None, "last" or "floor"
-        What to put where an anchor has no reading: None keeps NaN (training vectors);
-        ``"last"`` carries the anchor's last value forward within the (user, session,
-        target), and uses ``floor_dbm`` before its first reading; ``"floor"`` puts
-        ``floor_dbm`` everywhere.
+    fill : None, "last", "floor" or float
+        What replaces a missing reading (:mod:`wsnlib.io.vectors`): None keeps NaN
+        (training vectors); ``"last"`` carries the anchor's last value forward within the
+        (user, session, target), ``floor_dbm`` before its first reading; ``"floor"`` puts
+        ``floor_dbm`` everywhere; a number puts that value (dBm).
     floor_dbm : float
-        Constant for never-received readings (default −95 dBm, the receiver sensitivity).
+        The "not heard" level (default −95 dBm, the receiver sensitivity).
 
     Returns
     -------
@@ -537,97 +341,23 @@ def rss_vectors(
         Ordered by (user, session) in order of appearance, target, time.  Packets that no
         anchor received have no rows and so no vector.
     """
-    if isinstance(window_packets, bool) or not isinstance(window_packets, (int, np.integer)) or window_packets < 1:
+    if window_packets is None and window_s is None and window is None:
+        window_packets = 1
+    if window_packets is not None and (isinstance(window_packets, bool)
+                                       or not isinstance(window_packets, int | np.integer) or window_packets < 1):
         raise ValueError(f"window_packets must be a positive integer, got {window_packets!r}")
-    if fill not in (None, "last", "floor"):
-        raise ValueError(f"fill must be None, 'last' or 'floor', got {fill!r}")
-    floor = float(floor_dbm)
-    if not np.isfinite(floor):
-        raise ValueError(f"floor_dbm must be finite, got {floor_dbm!r}")
-    anchors = ANCHOR_NAMES if anchors is None else _check_names(anchors, "anchors")
+    anchors = ANCHOR_NAMES if anchors is None else check_names(anchors, "anchors")
     if isinstance(df, pd.DataFrame) and "target" in df.columns and len(df):
         targets = tuple(dict.fromkeys([*TARGET_NAMES, *df["target"].astype(str)]))
     else:
         targets = TARGET_NAMES
-    frame = _validate(df, anchors, targets, "rss_vectors table")
+    frame = validate_table(df, anchors, targets, "rss_vectors table")
     if target is not None:
         frame = frame[frame["target"] == target].reset_index(drop=True)
-    n_anchors = len(anchors)
-    if len(frame) == 0:
-        empty = np.empty((0,), dtype=object)
-        return RssVectors(
-            np.empty((0, n_anchors)),
-            np.zeros((0, n_anchors), dtype=int),
-            np.empty(0),
-            np.empty((0, 3)),
-            empty,
-            empty,
-            empty,
-            empty,
-            np.zeros(0, dtype=int),
-            tuple(anchors),
-        )
-
-    block = _block_order(frame)
-    t_rank = frame["target"].map({t: i for i, t in enumerate(targets)}).to_numpy()
-    order = np.lexsort((frame["time_s"].to_numpy(), t_rank, block))
-    frame = frame.iloc[order].reset_index(drop=True)
-    block, t_rank = block[order], t_rank[order]
-
-    # One entry per packet.
-    time = frame["time_s"].to_numpy()
-    new_packet = np.ones(len(frame), dtype=bool)
-    new_packet[1:] = (block[1:] != block[:-1]) | (t_rank[1:] != t_rank[:-1]) | (time[1:] != time[:-1])
-    packet_id = np.cumsum(new_packet) - 1
-    first = np.flatnonzero(new_packet)
-    n_pk = first.size
-    a_idx = frame["anchor"].map({a: i for i, a in enumerate(anchors)}).to_numpy()
-
-    # Windows: runs of equal label within a stream (block, target), cut every window_packets.
-    stream = block[first] * (len(targets) + 1) + t_rank[first]
-    labels = frame["label"].to_numpy()[first]
-    new_run = np.ones(n_pk, dtype=bool)
-    new_run[1:] = (stream[1:] != stream[:-1]) | (labels[1:] != labels[:-1])
-    run_id = np.cumsum(new_run) - 1
-    run_start = np.flatnonzero(new_run)
-    pos_in_run = np.arange(n_pk) - run_start[run_id]
-    new_window = new_run | (pos_in_run % window_packets == 0)
-    window_of_packet = np.cumsum(new_window) - 1
-    n_win = int(window_of_packet[-1]) + 1
-    window = window_of_packet[packet_id]
-
-    sums = np.zeros((n_win, n_anchors))
-    counts = np.zeros((n_win, n_anchors), dtype=int)
-    np.add.at(sums, (window, a_idx), frame["rss_dbm"].to_numpy(dtype=float))
-    np.add.at(counts, (window, a_idx), 1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rss = np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
-
-    packets_per_window = np.bincount(window_of_packet, minlength=n_win)
-    xyz = frame[["x_m", "y_m", "z_m"]].to_numpy()[first]
-    position = np.zeros((n_win, 3))
-    np.add.at(position, window_of_packet, xyz)
-    position /= packets_per_window[:, None]
-    last_packet = np.zeros(n_win, dtype=int)
-    last_packet[window_of_packet] = np.arange(n_pk)  # later packets overwrite: the window's last
-    win_first_row = first[last_packet]
-    win_stream = stream[last_packet]
-
-    if fill == "floor":
-        rss = np.where(np.isnan(rss), floor, rss)
-    elif fill == "last":
-        filled = pd.DataFrame(rss).groupby(win_stream).ffill().to_numpy()
-        rss = np.where(np.isnan(filled), floor, filled)
-
-    return RssVectors(
-        rss=rss,
-        n_readings=counts,
-        time_s=time[win_first_row],
-        position=position,
-        label=frame["label"].to_numpy()[win_first_row],
-        target=frame["target"].to_numpy()[win_first_row],
-        session=frame["session"].to_numpy()[win_first_row],
-        user=frame["user"].to_numpy()[win_first_row],
-        n_packets=packets_per_window,
-        anchors=tuple(anchors),
-    )
+    if len(frame):  # streams (user, session) in order of appearance, then target, then time
+        block = block_order(frame)
+        t_rank = frame["target"].map({t: i for i, t in enumerate(targets)}).to_numpy()
+        frame = frame.iloc[np.lexsort((frame["time_s"].to_numpy(), t_rank, block))]
+    readings = frame.assign(packet=frame["time_s"].to_numpy())
+    return window_readings(readings, anchors, window_packets=window_packets, window_s=window_s, window=window,
+                           fill=fill, floor_dbm=floor_dbm)

@@ -1,0 +1,147 @@
+"""The CSV + JSON sidecar machinery every recording format of :mod:`wsnlib.io` shares.
+
+A recording file is ``<name>.csv`` plus ``<name>.json`` (the sidecar).  The formats
+(:mod:`wsnlib.io.recording` for IMU recordings, :mod:`wsnlib.io.rss`, :mod:`wsnlib.io.accel`)
+define their columns and sidecar keys; this module writes both files byte-reproducibly and
+atomically (:func:`write_table_with_sidecar`), and reads and checks a sidecar
+(:func:`load_sidecar`: format name and version, and the CSV's row count and SHA-256 —
+:data:`CSV_ROWS_KEY`, :data:`CSV_SHA256_KEY` — so a truncated or edited CSV is refused).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from wsnlib._files import atomic_write_bytes, atomic_write_text
+
+#: Sidecar keys written by every recording format (:func:`write_table_with_sidecar`): the
+#: number of data rows of the CSV and the SHA-256 of its bytes, checked by the readers.
+CSV_ROWS_KEY = "csv_rows"
+CSV_SHA256_KEY = "csv_sha256"
+
+
+def sidecar_path(path) -> Path:
+    """The JSON sidecar that belongs to CSV ``path``: same name, suffix ``.json``."""
+    return Path(path).with_suffix(".json")
+
+
+def _json_default(value):
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, np.floating):
+        return float(value)
+    if isinstance(value, np.bool_):
+        return bool(value)
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (tuple, set, frozenset)):
+        return list(value)
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(f"{type(value).__name__} is not JSON serialisable")
+
+
+def write_table_with_sidecar(frame, path: Path, sidecar: dict, float_format: str, what: str = "metadata") -> Path:
+    """Write ``frame`` as CSV and ``sidecar`` as ``<name>.json`` (sorted keys), byte-reproducibly.
+
+    Shared by the recording formats of :mod:`wsnlib.io.recording`, :mod:`wsnlib.io.rss` and
+    :mod:`wsnlib.io.accel`.  ``what`` names the user-supplied part in the error raised
+    when the sidecar is not JSON-serialisable.  The sidecar gains :data:`CSV_ROWS_KEY` (the
+    number of data rows) and :data:`CSV_SHA256_KEY` (the SHA-256 of the CSV's bytes), which
+    :func:`load_sidecar` checks, so a truncated or altered copy is refused.  Both files are
+    written atomically (temporary file + rename), the CSV first.
+    """
+    csv_bytes = frame.to_csv(None, index=False, float_format=float_format, lineterminator="\n").encode("utf-8")
+    sidecar = {**sidecar, CSV_ROWS_KEY: len(frame), CSV_SHA256_KEY: hashlib.sha256(csv_bytes).hexdigest()}
+    try:
+        text = json.dumps(sidecar, indent=2, sort_keys=True, default=_json_default, allow_nan=False)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{what} cannot be written as JSON: {exc}") from exc
+    atomic_write_bytes(path, csv_bytes)
+    atomic_write_text(sidecar_path(path), text + "\n")
+    return path
+
+
+def _check_csv_integrity(path: Path, meta: dict, side: Path) -> None:
+    """Compare the CSV with the row count and SHA-256 its sidecar recorded (when it has them)."""
+    if CSV_ROWS_KEY not in meta and CSV_SHA256_KEY not in meta:
+        return  # a hand-converted file: nothing to check against
+    rows, digest = meta.get(CSV_ROWS_KEY), meta.get(CSV_SHA256_KEY)
+    if isinstance(rows, bool) or not isinstance(rows, int) or rows < 0:
+        raise ValueError(f"{side}: {CSV_ROWS_KEY!r} must be a non-negative integer, got {rows!r}")
+    if not isinstance(digest, str) or len(digest) != 64 or any(c not in "0123456789abcdef" for c in digest):
+        raise ValueError(f"{side}: {CSV_SHA256_KEY!r} must be 64 lower-case hex digits, got {digest!r}")
+    data = path.read_bytes()
+    lines = data.count(b"\n") + (1 if data and not data.endswith(b"\n") else 0)
+    found = max(lines - 1, 0)  # minus the header line
+    if found != rows:
+        raise ValueError(
+            f"{path}: has {found} data rows but its sidecar {side.name} says {rows}: the file is "
+            f"truncated or was changed after it was written (write it again with the writer)"
+        )
+    actual = hashlib.sha256(data).hexdigest()
+    if actual != digest:
+        raise ValueError(
+            f"{path}: SHA-256 {actual[:12]}… differs from {CSV_SHA256_KEY!r} {digest[:12]}… in its sidecar "
+            f"{side.name}: the file was damaged or changed after it was written (write it again with the writer)"
+        )
+
+
+def finite_column(frame, column: str, where) -> np.ndarray:
+    """Column ``column`` of a read CSV table as finite floats, or ``ValueError`` naming file, column and row."""
+    values = pd.to_numeric(frame[column], errors="coerce").to_numpy(dtype=float)
+    bad = ~np.isfinite(values)
+    if np.any(bad):
+        row = int(np.argmax(bad))
+        raise ValueError(
+            f"{where}: column {column!r} has a non-numeric or non-finite value "
+            f"{frame[column].iloc[row]!r} at data row {row + 1}"
+        )
+    return values
+
+
+def load_sidecar(path: Path, format_name: str, format_version: int, *, required: bool, what: str) -> dict | None:
+    """Read and check the ``<name>.json`` sidecar of a recording file (format name and version).
+
+    Returns None when it is missing and not ``required``; raises ``ValueError`` naming the
+    sidecar otherwise (``what`` says which kind of file needs it).  When the sidecar records
+    :data:`CSV_ROWS_KEY` and :data:`CSV_SHA256_KEY` (every file the writers produce), the CSV
+    ``path`` must have that many data rows and that SHA-256, else ``ValueError`` naming the
+    file (truncated or changed after writing).  A hand-made sidecar may leave both out.
+    """
+    side = sidecar_path(path)
+    if not side.exists():
+        if required:
+            raise ValueError(f"{side}: missing sidecar ({what} needs its .json file)")
+        return None
+    try:
+        meta = json.loads(side.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{side}: not valid JSON ({exc})") from exc
+    if not isinstance(meta, dict):
+        raise ValueError(f"{side}: must hold a JSON object")
+    if meta.get("format") != format_name:
+        raise ValueError(f"{side}: 'format' must be {format_name!r}, got {meta.get('format')!r}")
+    if meta.get("format_version") != format_version:
+        raise ValueError(
+            f"{side}: unsupported 'format_version' {meta.get('format_version')!r} (this reader knows {format_version})"
+        )
+    _check_csv_integrity(Path(path), meta, side)
+    return meta
+
+
+def check_sidecar_units(meta: dict, units: dict, side: Path) -> None:
+    """``ValueError`` naming the sidecar unless ``meta["units"]`` gives every unit of ``units`` as documented."""
+    found = meta.get("units")
+    if not isinstance(found, dict):
+        raise ValueError(f"{side}: 'units' must be an object {units}, got {found!r}")
+    for key, unit in units.items():
+        if found.get(key) != unit:
+            raise ValueError(
+                f"{side}: units[{key!r}] must be {unit!r} (convert the data first), got {found.get(key)!r}"
+            )
