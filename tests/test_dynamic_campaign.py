@@ -47,8 +47,8 @@ def _window_truth(motion, acc, user, target):
     window = np.floor(np.round(acc.raw_time_s * 100.0) * 30.0 / 100.0 + 1e-9).astype(int) + 1
     n = acc.time_s.size
     peak = np.zeros(n)
-    np.maximum.at(peak, window, np.linalg.norm(kin.acceleration[:, target], axis=1))
-    pitch = np.arcsin(np.clip(kin.directions[:, target, 2], -1.0, 1.0))
+    np.maximum.at(peak, window, np.linalg.norm(kin.acc_lin[target], axis=1))
+    pitch = np.arcsin(np.clip(kin.directions[target, :, 2], -1.0, 1.0))
     mean_pitch = np.bincount(window, pitch, minlength=n) / np.bincount(window, minlength=n)
     return peak, mean_pitch
 
@@ -61,7 +61,7 @@ def test_noise_free_reading_at_rest_is_gravity_in_the_body_frame(posture):
     user = paper_user()
     acc = simulate_sunspot_acc(hold(posture, 1.0), user, rng=np.random.default_rng(0), spec=SunspotAccSpec.noise_free())
     kin = hold(posture, 1.0).kinematics(acc.raw_time_s, user)
-    expected = Q.rotate_inverse(kin.quat, np.array([0.0, 0.0, G]))
+    expected = Q.rotate_inverse(np.moveaxis(kin.quat, 0, 1), np.array([0.0, 0.0, G]))  # (T, 2, 3)
     np.testing.assert_allclose(acc.raw_acc, expected, atol=1e-12)
     np.testing.assert_allclose(acc.acc, np.broadcast_to(expected[0], acc.acc.shape), atol=1e-12)
     # The segment axis (body x) reads g·sin(pitch): +g arm up, −g arm down, 0 horizontal.
@@ -76,7 +76,7 @@ def test_specific_force_includes_the_centripetal_acceleration():
     force = ideal_specific_force(kin)
     # Constant-speed rotation: ω² d towards the shoulder, i.e. along −x of the segment.
     omega = (np.pi / 2) / 2.0
-    radial = force[0, :, 0] - G * kin.directions[0, 0, 2]
+    radial = force[0, :, 0] - G * kin.directions[0, 0, 2]  # force (T, 2, 3), directions (2, T, 3)
     np.testing.assert_allclose(radial, -(omega**2) * np.array(user.target_distances_m), atol=1e-12)
 
 
@@ -240,7 +240,7 @@ def test_shapes_and_geometry(noisy):
         noisy.online_users, noisy.motions, noisy.acc_streams, noisy.kinect_streams, strict=True
     ):
         chain = data.arm_chain(user.name)
-        assert chain == arm_chain(user)
+        assert chain == user.geometry == arm_chain(user)
         assert chain.segment_lengths_m == (user.upper_arm_m, user.forearm_m)
         k = int(np.floor(motion.total_duration_s * 30 + 1e-9)) + 1
         assert acc.acc.shape == (k, 2, 3) and kinect.targets.shape == (k, 2, 3)

@@ -43,13 +43,13 @@ Conventions
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
 
 from wsnlib import frames
 from wsnlib._validation import as_float_array, check_nonnegative, check_nonzero_norm, check_positive
+from wsnlib.arm_model import ArmGeometry
 from wsnlib.metrics import SEGMENT_AXIS
 
 #: Default gate half-width ξ (m/s²) of :func:`pitch_from_acc`.  The paper gives no value
@@ -233,46 +233,11 @@ def _hold_index(valid: np.ndarray, backfill: bool) -> np.ndarray:
 # --- eqs. (8)–(10): the recursive chain --------------------------------------------------------
 
 
-@dataclasses.dataclass(frozen=True)
-class ArmChain:
-    """Per-user geometry of a chain of segments from the fixed origin outwards.
-
-    Parameters
-    ----------
-    segment_lengths_m : sequence of float, length S
-        Length of each segment, proximal → distal joint (the paper's d), metres, ``> 0``.
-        For the arm: upper arm (shoulder → elbow), forearm (elbow → wrist), …
-    device_offsets_m : sequence of float, length S
-        Distance of each segment's device from the segment's proximal joint, along the
-        segment (the paper's d′), metres, in ``[0, segment length]``.
-    """
-
-    segment_lengths_m: tuple[float, ...]
-    device_offsets_m: tuple[float, ...]
-
-    def __post_init__(self):
-        lengths = tuple(check_positive(v, "segment_lengths_m") for v in np.atleast_1d(self.segment_lengths_m))
-        offsets = tuple(check_nonnegative(v, "device_offsets_m") for v in np.atleast_1d(self.device_offsets_m))
-        if not lengths:
-            raise ValueError("segment_lengths_m must hold at least one segment")
-        if len(offsets) != len(lengths):
-            raise ValueError(
-                f"device_offsets_m has {len(offsets)} entries but segment_lengths_m has {len(lengths)}"
-            )
-        for i, (offset, length) in enumerate(zip(offsets, lengths, strict=True)):
-            if offset > length:
-                raise ValueError(
-                    f"device_offsets_m[{i}] = {offset!r} exceeds segment_lengths_m[{i}] = {length!r}: "
-                    f"the device must sit on its segment"
-                )
-        object.__setattr__(self, "segment_lengths_m", lengths)
-        object.__setattr__(self, "device_offsets_m", offsets)
-
-    @property
-    def n_segments(self) -> int:
-        """Number of segments S."""
-        return len(self.segment_lengths_m)
-
+#: Per-user geometry of a chain of segments from the fixed origin outwards: segment lengths
+#: (the paper's d) and device offsets from each segment's proximal joint (d′), metres.  The
+#: package's one arm geometry, :class:`wsnlib.arm_model.ArmGeometry` (its new home), under
+#: the name this module has always used; ``ArmChain(segment_lengths_m, device_offsets_m)``.
+ArmChain = ArmGeometry
 
 #: The paper's arm, as implied by Table 1 (not stated in the text): target 1 "in the middle of
 #: the upper arm" at 15 cm from the shoulder → upper arm 0.30 m; target 2 "in the middle of the

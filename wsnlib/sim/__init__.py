@@ -4,19 +4,27 @@ Typical use::
 
     rng = np.random.default_rng(seed)
     trajectory = arm_extension(fs=50.0)
-    truth = arm_kinematics(trajectory)                  # quat (2, T, 4), gyr, pos, acc_lin …
+    truth = arm_kinematics(trajectory)                  # ArmKinematics: quat (2, T, 4), gyr, pos, acc_lin …
     gyr, acc, mag = simulate_imu(truth, rng=rng, n_runs=100)   # each (100, 2, T, 3)
     recording = simulate_recording(trajectory, rng=rng)        # wsnlib.datasets.Recording
 
 See the module docstrings for the body-frame convention and the datasheet sources.
 
-Paper 002's radio testbed (:mod:`.body` geometry and motions, :mod:`.radio` RSS)::
+Both papers share one arm model, :mod:`wsnlib.arm_model` (:class:`ArmGeometry`,
+:class:`ArmKinematics` in the layout ``(node, T, C)``): paper 001's joint-angle trajectories
+(:mod:`.arm`) and paper 002's straight-arm motions (:mod:`.arm_motion`) both produce it.
+
+Paper 002's radio testbed (:mod:`.users`, :mod:`.arm_motion`, :mod:`.body_solids` — overview in
+:mod:`.body` — and the radio in :mod:`.radio_channel`, :mod:`.radio_links`, :mod:`.radio_rss`,
+:mod:`.radio_sessions`, re-exported by :mod:`.radio`)::
 
     users = make_users(5, rng=rng)
     train = training_session(users[0], rng=rng)                     # long RSS table
     online = online_dynamic_session(users[0].moved(rng), rng=rng)   # another day
+    kin = movement("lower_P2_P3_P1", 3.0).sample(users[0], fs=50.0)  # ArmKinematics
 """
 
+from wsnlib.arm_model import ArmKinematics
 from wsnlib.sim.arm import (
     ANGLE_NAMES,
     JOINT_NAMES,
@@ -39,7 +47,6 @@ from wsnlib.sim.body import (
     POSTURES,
     TABLE1_POSITIONS_CM,
     TARGET_NAMES,
-    ArmKinematics,
     ArmMotion,
     BodyShape,
     User,
@@ -61,6 +68,7 @@ from wsnlib.sim.radio import (
     online_dynamic_session,
     online_static_session,
     simulate_rss,
+    static_session,
     training_session,
 )
 
@@ -88,6 +96,7 @@ __all__ = [
     "paper_user",
     "posture_direction",
     "simulate_rss",
+    "static_session",
     "training_session",
     "transition",
     "user_from_height",

@@ -89,7 +89,9 @@ import numpy as np
 from wsnlib import frames
 from wsnlib import quaternion as Q
 from wsnlib._validation import as_float_array, check_nonnegative, check_positive
-from wsnlib.sim.body import ArmKinematics, ArmMotion, User
+from wsnlib.arm_model import ArmKinematics
+from wsnlib.sim.arm_motion import ArmMotion
+from wsnlib.sim.users import User
 
 #: Down-sampling methods of :class:`SunspotAccSpec`.
 DOWNSAMPLE_METHODS = ("mean", "latest")
@@ -277,10 +279,13 @@ def segment_axis_in_device(mounting=None) -> np.ndarray:
 def ideal_specific_force(kin: ArmKinematics, *, gravity: float = frames.STANDARD_GRAVITY, mounting=None) -> np.ndarray:
     """Exact accelerometer reading (T, 2, 3) of T1 and T2: ``q_D* ⊗ (a + [0, 0, g]) ⊗ q_D`` (m/s²).
 
+    :meth:`wsnlib.arm_model.ArmKinematics.specific_force`, with the time axis first (the
+    layout of :class:`SunspotAcc`).
+
     Parameters
     ----------
-    kin : ArmKinematics
-        From :meth:`wsnlib.sim.body.ArmMotion.kinematics` (shoulder frame, z up).
+    kin : wsnlib.arm_model.ArmKinematics
+        E.g. from :meth:`wsnlib.sim.arm_motion.ArmMotion.kinematics` (shoulder frame, z up).
     gravity : float
         g (m/s²); the reading at rest is ``+g`` along the earth's up axis.
     mounting : array_like (4,) or (2, 4), optional
@@ -288,13 +293,8 @@ def ideal_specific_force(kin: ArmKinematics, *, gravity: float = frames.STANDARD
     """
     if not isinstance(kin, ArmKinematics):
         raise ValueError(f"kin must be an ArmKinematics, got {type(kin).__name__}")
-    gravity = check_positive(gravity, "gravity")
-    q = kin.quat
-    mount = _mounting(mounting)
-    if mount is not None:
-        q = Q.multiply(q, mount)
-    force = kin.acceleration + frames.gravity_specific_force_enu(gravity)
-    return Q.rotate_inverse(q, force)
+    _mounting(mounting)  # validates, with this module's messages
+    return np.moveaxis(kin.specific_force(gravity, mounting=mounting), 0, 1)
 
 
 def output_times(duration_s: float, output_rate_hz: float = 30.0) -> np.ndarray:
