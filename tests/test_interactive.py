@@ -147,3 +147,26 @@ def test_start_sets_the_starting_values(batch):
         with pytest.raises(ValueError):
             interactive.explore(Recorder(), {"a": [1, 2, 3], "w": ipywidgets.SelectMultiple(options=["A1"])},
                                 start=start)
+
+
+def test_compute_then_draw_per_panel(batch):
+    """With compute, each panel draws compute(**values) with draw(result, ax=ax)."""
+    computed, drawn = [], []
+
+    def compute(a, b):
+        computed.append({"a": a, "b": b})
+        return np.array([a, 10 * a])
+
+    def draw(result, *, ax):
+        drawn.append((result, ax))
+        ax.plot([0, 1], result, label="line")
+
+    fig = interactive.explore(draw, {"a": [1, 2, 3], "b": ["x", "y"]}, compute=compute,
+                              static=[{"a": 1}, {"a": 3, "b": "y"}])
+    assert computed == [{"a": 1, "b": "x"}, {"a": 3, "b": "y"}]
+    assert [ax for _, ax in drawn] == fig.axes
+    np.testing.assert_array_equal(drawn[1][0], [3, 30])
+    np.testing.assert_array_equal(fig.axes[1].get_lines()[0].get_ydata(), [3, 30])
+    assert fig.axes[1].get_title() == "a=3, b=y"
+    with pytest.raises(TypeError, match="compute"):
+        interactive.explore(draw, {"a": [1, 2]}, compute="not callable")

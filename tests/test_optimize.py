@@ -24,6 +24,7 @@ from wsnlib.optimize import (
     best_global,
     best_per_movement,
     coupled_selection_regret,
+    evaluate_chain,
     evaluate_setting,
     format_subset,
     held_out_gap,
@@ -394,6 +395,38 @@ def test_paper_tables_couple_target2_to_target1(rng):
     assert set(tables.deployable.columns) == {"Table 2", "Table 3"}
     avg = tables.average_pe()
     assert avg.loc["deterministic", "Table 2"] <= avg.loc["deterministic", "Table 3"] + 1e-9
+
+
+def test_evaluate_chain_equals_the_hand_wired_chain(rng):
+    """Target 2 from the elbow of target 1 (eq. (10)), as wired by hand before evaluate_chain."""
+    user1 = make_user(rng)
+    user2 = make_user(rng, segment=1, proximal=np.zeros(3))
+    setting1 = Setting("deterministic", (1, 2, 3), 3, "euclidean", 2)
+    setting2 = Setting("probabilistic", (1, 4, 5), 2)
+    chain = evaluate_chain(user1, user2, setting1, setting2)
+    first = evaluate_setting(user1, setting1)
+    second = evaluate_setting(user2.with_proximal(first["joints"]), setting2)
+    for key, hand in (("T1", first), ("T2", second)):
+        assert set(chain[key]) == {*hand, "radio_pe_m"}
+        for name, values in hand.items():
+            np.testing.assert_array_equal(chain[key][name], values)
+    for key, data, setting in (("T1", user1, setting1), ("T2", user2, setting2)):
+        radio = evaluate_setting(data, setting, estimate="radio")
+        np.testing.assert_array_equal(chain[key]["radio_pe_m"], radio["pe_m"])
+    # The elbow target 2 starts from lies at the upper-arm length from the shoulder.
+    np.testing.assert_allclose(np.linalg.norm(chain["T1"]["joints"], axis=-1), CHAIN.segment_lengths_m[0])
+    # Target 2 rides on target 1's estimate: another target-1 setting moves target 2's hybrid
+    # error but not its radio estimate; selection2 defaults to selection1.
+    other = evaluate_chain(user1, user2, Setting("deterministic", (6, 7), 1, "manhattan"), setting2)
+    assert np.abs(other["T2"]["pe_m"] - chain["T2"]["pe_m"]).max() > 1e-3
+    np.testing.assert_array_equal(other["T2"]["radio"], chain["T2"]["radio"])
+    same = evaluate_chain(user1, user2, setting1)
+    np.testing.assert_array_equal(same["T2"]["pe_m"],
+                                  evaluate_setting(user2.with_proximal(first["joints"]), setting1)["pe_m"])
+    with pytest.raises(ValueError, match="same online rows"):
+        evaluate_chain(user1, make_user(rng, segment=1, samples=(3, 3, 3, 3)), setting1)
+    with pytest.raises(ValueError, match="target2 must be a SearchData"):
+        evaluate_chain(user1, None, setting1)
 
 
 def _fake_results(pe):

@@ -1,4 +1,5 @@
-"""wsnlib.views: the draw helpers behind the notebooks' explore cells."""
+"""The explore panels: the studies compute (wsnlib.studies.burst_loss, .static_fingerprinting),
+wsnlib.plotting draws what they return, and the old wsnlib.views names still do both."""
 
 import time
 
@@ -6,10 +7,11 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
-from wsnlib import fingerprint, metrics, views
-from wsnlib.rss import rss_vectors
+from wsnlib import fingerprint, metrics, plotting, views
+from wsnlib.io.rss import rss_vectors
 from wsnlib.sim import arm_extension, simulate_recording
 from wsnlib.sim.campaign import simulate_campaign
+from wsnlib.studies import burst_loss, static_fingerprinting
 
 
 @pytest.fixture(scope="module")
@@ -85,3 +87,63 @@ def test_static_fingerprinting_bars_match_knn(campaign_vectors):
     ax = _axes()
     views.draw_static_fingerprinting(ax, train=train, online=online, n_neighbors=3, power=1, anchors=())
     assert not ax.patches and "at least one anchor" in ax.texts[0].get_text()
+
+
+def test_burst_recovery_returns_what_the_plot_draws(recording):
+    result = burst_loss.burst_recovery(recording, beta=0.1, loss_packets=4, loss_start=80, threshold_deg=5.0)
+    n_samples = recording.time_s.size
+    assert result.received.shape == (n_samples,) and result.received.dtype == bool
+    assert result.first_lost == int(np.flatnonzero(~result.received)[0])
+    assert set(result.pitch_error_deg) == {"data fusion", "single frame", "data fusion, no loss"}
+    assert all(error.shape == (n_samples,) and np.isfinite(error).all() for error in result.pitch_error_deg.values())
+    assert result.recovery.peak_deg == pytest.approx(
+        np.abs(result.pitch_error_deg["data fusion"][result.first_lost:][result.received[result.first_lost:]]).max())
+    assert result.recovery.recovery_s >= 0.0
+    ax = plotting.plot_burst_recovery(result, ax=_axes())
+    lines = _lines(ax)
+    for name, error in result.pitch_error_deg.items():
+        np.testing.assert_array_equal(lines[name], np.abs(error))
+    # The old draw function draws the same lines and note.
+    old = views.draw_loss_recovery(_axes(), recording=recording, beta=0.1, loss_packets=4, loss_start=80)
+    for name, values in _lines(old).items():
+        np.testing.assert_array_equal(values, lines[name])
+    assert old.texts[0].get_text() == ax.texts[0].get_text()
+    no_loss = burst_loss.burst_recovery(recording, beta=0.1, loss_packets=0, loss_start=80)
+    assert no_loss.first_lost is None and no_loss.received.all()
+    assert no_loss.recovery == burst_loss.RecoveryAfterBurst(peak_deg=None, recovery_s=None)
+
+
+def test_hybrid_vs_fusion_returns_what_the_plot_draws(recording):
+    result = burst_loss.hybrid_vs_fusion(recording, rho=1.0, tau=6.0, loss_packets=4, beta=0.041, loss_start=80)
+    np.testing.assert_array_equal(result.elbow_deg["truth"],
+                                  metrics.elbow_angle_deg(recording.quat_true[0], recording.quat_true[1]))
+    assert set(result.recovery) == {"data fusion", "hybrid"}
+    for name in ("data fusion", "hybrid"):
+        error = result.elbow_deg[name] - result.elbow_deg["truth"]
+        after = slice(result.first_lost, None)
+        assert result.recovery[name].peak_deg == pytest.approx(np.abs(error[after][result.received[after]]).max())
+    ax = plotting.plot_hybrid_vs_fusion(result, ax=_axes())
+    lines = _lines(ax)
+    for name, angle in result.elbow_deg.items():
+        np.testing.assert_array_equal(lines[name], angle)
+    assert ax.get_xlim()[0] == pytest.approx(result.time_s[result.first_lost] - 0.5)
+
+
+def test_static_fingerprinting_returns_what_the_plot_draws(campaign_vectors):
+    train, online = campaign_vectors
+    result = static_fingerprinting.static_fingerprinting(train, online, n_neighbors=3, power=2,
+                                                         anchors=("A1", "A4", "A6"))
+    assert result.anchors == (0, 3, 5)
+    assert result.error_cm.shape == result.posture.shape == result.target.shape == (len(online.label),)
+    np.testing.assert_allclose(result.mean_by_target["T1"], result.error_cm[result.target == "T1"].mean())
+    posture = result.mean_by_posture.index[0]
+    np.testing.assert_allclose(result.mean_by_posture.loc[posture, "T2"],
+                               result.error_cm[(result.posture == posture) & (result.target == "T2")].mean())
+    ax = plotting.plot_static_fingerprinting(result, ax=_axes())
+    heights = sorted(patch.get_height() for patch in ax.patches)
+    np.testing.assert_allclose(heights, np.sort(result.mean_by_posture.to_numpy().ravel()))
+    with pytest.raises(ValueError, match="at least one anchor"):
+        static_fingerprinting.static_fingerprinting(train, online, n_neighbors=1, power=1, anchors=())
+    with pytest.raises(ValueError, match="not in train.anchors"):
+        static_fingerprinting.static_fingerprinting(train, online, n_neighbors=1, power=1, anchors=("A99",))
+

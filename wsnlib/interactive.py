@@ -1,8 +1,10 @@
 """Knobs a student can move: a live widget panel in Jupyter, a static figure in the batch.
 
-:func:`explore` is the one entry point.  It holds no science: the caller passes ``draw``,
-a function of wsnlib (e.g. from :mod:`wsnlib.views`) that recomputes a result for given knob
-values and draws it on a matplotlib Axes.  This module only decides how the knobs are shown:
+:func:`explore` is the one entry point.  It holds no science: the caller passes a study of
+wsnlib (``compute``, e.g. from :mod:`wsnlib.studies`) that recomputes a result for given knob
+values and a function of :mod:`wsnlib.plotting` (``draw``) that draws it on a matplotlib Axes
+— or a single ``draw(ax, **values)`` that does both.  This module only decides how the knobs
+are shown:
 
 * in a live kernel, an :class:`ipywidgets.interactive` panel — a slider or a drop-down per
   knob — whose output area is redrawn (``draw`` called again) whenever a knob moves;
@@ -12,7 +14,8 @@ values and draws it on a matplotlib Axes.  This module only decides how the knob
 
 A notebook cell therefore reads::
 
-    view = interactive.explore(functools.partial(views.draw_..., data...), {"beta": [...], ...})
+    view = interactive.explore(plotting.plot_burst_recovery, {"beta": [...], ...},
+                               compute=functools.partial(burst_loss.burst_recovery, recording=...))
     if interactive.in_batch():
         plotting.savefig(view, "a01_explore_beta")
     view
@@ -69,16 +72,21 @@ class _Knob:
         return _format(value)
 
 
-def explore(draw: Callable, knobs: Mapping, *, static=None, start=None, ncols: int = 2, sharey: bool = True):
+def explore(draw: Callable, knobs: Mapping, *, compute: Callable | None = None, static=None, start=None,
+            ncols: int = 2, sharey: bool = True):
     """Explore how a result changes with a few knobs: widgets live, a static figure in the batch.
 
     Parameters
     ----------
-    draw : callable ``draw(ax, **values)``
-        Draws one panel on the matplotlib Axes ``ax`` for the knob values ``values`` (one
-        keyword per knob).  It should recompute what it shows, so that moving a knob reruns
-        the wsnlib computation; keep it under a second.  If it leaves the title empty, the
-        knob values become the title.
+    draw : callable ``draw(result, ax=ax)``, or ``draw(ax, **values)`` without ``compute``
+        Draws one panel on the matplotlib Axes ``ax``: the result ``compute`` returned for
+        the knob values, or, without ``compute``, for the knob values ``values`` (one
+        keyword per knob) — then it should recompute what it shows itself.  If it leaves the
+        title empty, the knob values become the title.
+    compute : callable ``compute(**values)``, optional
+        Recomputes the result for the knob values (one keyword per knob), so that moving a
+        knob reruns the wsnlib computation; keep it under a second.  Bind the data and fixed
+        settings by keyword with :func:`functools.partial`.
     knobs : mapping of str to knob specification
         Knob name (a keyword of ``draw``) to one of
 
@@ -117,10 +125,14 @@ def explore(draw: Callable, knobs: Mapping, *, static=None, start=None, ncols: i
         specification), a bad ``static`` or ``start`` (empty, unknown knob, value not among
         the knob's values) or ``ncols`` < 1.
     TypeError
-        ``draw`` is not callable.
+        ``draw`` or ``compute`` is not callable.
     """
     if not callable(draw):
         raise TypeError(f"draw must be callable as draw(ax, **values), got {type(draw).__name__}")
+    if compute is not None:
+        if not callable(compute):
+            raise TypeError(f"compute must be callable as compute(**values), got {type(compute).__name__}")
+        draw = _computed_panel(compute, draw)
     parsed = _with_start(_parse_knobs(knobs), start)
     if isinstance(ncols, bool) or not isinstance(ncols, numbers.Integral) or ncols < 1:
         raise ValueError(f"ncols must be a positive integer, got {ncols!r}")
@@ -128,6 +140,15 @@ def explore(draw: Callable, knobs: Mapping, *, static=None, start=None, ncols: i
     if in_batch():
         return _static_figure(draw, parsed, settings, int(ncols), sharey)
     return _live_panel(draw, parsed)
+
+
+def _computed_panel(compute: Callable, plot: Callable) -> Callable:
+    """``draw(ax, **values)`` that draws ``plot(compute(**values), ax=ax)``."""
+
+    def draw(ax, **values):
+        return plot(compute(**values), ax=ax)
+
+    return draw
 
 
 # --------------------------------------------------------------------------------------

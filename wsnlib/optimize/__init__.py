@@ -16,8 +16,9 @@ Modules, in the order they build on each other:
   (subset, distance, k, p_s) with the hybrid correction of eqs. (8)–(9), vectorised over
   subset chunks; :func:`evaluate_setting`, the per-sample view of one setting;
 * :mod:`.selection` — users averaging, per-movement (Table 2) and global (Table 3)
-  selection with its tie-break (:data:`TIE_TOL_CM`), and the elbow of eq. (10) under a
-  selection (:func:`proximal_from_selection`);
+  selection with its tie-break (:data:`TIE_TOL_CM`), the elbow of eq. (10) under a
+  selection (:func:`proximal_from_selection`) and both targets along the chain, target 2
+  from target 1's estimated elbow (:func:`evaluate_chain`);
 * :mod:`.tables` — the paper's Table 2/3 layout, the deployable anchor set
   (:func:`union_of_subsets`) and :func:`paper_tables`, which searches target 1, derives
   the elbows and searches target 2 (the T1 → T2 coupling);
@@ -50,6 +51,7 @@ from wsnlib.optimize.regret import (
 from wsnlib.optimize.selection import (
     TIE_TOL_CM,
     average_over_users,
+    evaluate_chain,
     evaluate_selection,
     proximal_from_selection,
     select_settings,
@@ -77,6 +79,7 @@ __all__ = [
     "best_global",
     "best_per_movement",
     "coupled_selection_regret",
+    "evaluate_chain",
     "evaluate_selection",
     "evaluate_setting",
     "format_subset",

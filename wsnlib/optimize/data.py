@@ -26,8 +26,8 @@ from sklearn.base import clone
 from sklearn.utils.validation import check_is_fitted
 
 from wsnlib._validation import as_float_array
-from wsnlib.fingerprint import METRICS, KNNFingerprint, ProbabilisticKNN, anchor_subsets
 from wsnlib.posture import ArmChain
+from wsnlib.radio import METRICS, KNNFingerprint, ProbabilisticKNN, anchor_subsets
 
 APPROACHES = ("deterministic", "probabilistic")
 ESTIMATES = ("hybrid", "radio")
@@ -53,7 +53,7 @@ class SearchGrid:
     ----------
     subsets : None or array_like of bool, shape (S, A)
         Anchor subsets as boolean masks; None = all ``2**A − 1`` non-empty subsets
-        (:func:`wsnlib.fingerprint.anchor_subsets`, fewest anchors first).  Given masks are
+        (:func:`wsnlib.radio.anchor_subsets`, fewest anchors first).  Given masks are
         reordered into that order (size, then lexicographic), which the tie-break relies on.
     metrics : sequence of {"euclidean", "manhattan"}
         kNN distances, in tie-break order.

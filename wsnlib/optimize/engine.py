@@ -18,10 +18,10 @@ How (no fit per setting)
 ------------------------
 Per user and target the estimators are fitted once
 (:meth:`~wsnlib.optimize.data.SearchData.fitted`); the per-anchor distance terms
-(:meth:`~wsnlib.fingerprint.KNNFingerprint.anchor_terms`, one array per distance) and
-log-likelihoods (:meth:`~wsnlib.fingerprint.ProbabilisticKNN.anchor_log_likelihoods`) are
-computed once; :func:`~wsnlib.fingerprint.knn_grid_from_terms` /
-:func:`~wsnlib.fingerprint.pknn_grid_from_loglik` turn them into the radio estimates of every
+(:meth:`~wsnlib.radio.KNNFingerprint.anchor_terms`, one array per distance) and
+log-likelihoods (:meth:`~wsnlib.radio.ProbabilisticKNN.anchor_log_likelihoods`) are
+computed once; :func:`~wsnlib.radio.grid.knn_grid_from_terms` /
+:func:`~wsnlib.radio.grid.pknn_grid_from_loglik` turn them into the radio estimates of every
 (subset, k, p_s) of a chunk of subsets; the hybrid correction and the PE of all those
 estimates follow as array operations, and the PE is averaged per movement with one matrix
 product.  Subsets are processed in chunks so that no array exceeds about ``chunk_elements``
@@ -56,12 +56,6 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
-from wsnlib.fingerprint import (
-    knn_from_terms,
-    knn_grid_from_terms,
-    pknn_from_loglik,
-    pknn_grid_from_loglik,
-)
 from wsnlib.optimize.data import (
     APPROACHES,
     SearchData,
@@ -73,6 +67,12 @@ from wsnlib.optimize.data import (
     format_subset,
 )
 from wsnlib.posture import DEFAULT_HEADING_TOL_M
+from wsnlib.radio.grid import (
+    knn_from_terms,
+    knn_grid_from_terms,
+    pknn_from_loglik,
+    pknn_grid_from_loglik,
+)
 
 #: Default bound on the numbers held by one array of a subset chunk.
 DEFAULT_CHUNK_ELEMENTS = 1 << 18  # ~2 MB per float array: stays in cache

@@ -6,7 +6,8 @@ recognition", Section 5.  From the per-user results of :func:`~wsnlib.optimize.e
 :func:`select_settings` (the best setting per approach, per movement or global), and
 :func:`evaluate_selection` / :func:`proximal_from_selection`, which evaluate a selection on
 one user's data — the latter gives the elbow of eq. (10) that target 2's search is measured
-from (see :mod:`wsnlib.optimize.tables`).
+from (see :mod:`wsnlib.optimize.tables`) — and :func:`evaluate_chain`, both targets of one
+user along the chain (target 2 from target 1's estimated elbow).
 
 Averaging, selection and ties
 -----------------------------
@@ -224,3 +225,57 @@ def proximal_from_selection(data: SearchData, selection, *, approach: str | None
     to pass as target 2's ``proximal``.
     """
     return evaluate_selection(data, selection, approach=approach)["joints"]
+
+
+def evaluate_chain(target1: SearchData, target2: SearchData, selection1, selection2=None, *,
+                   approach: str | None = None) -> dict[str, dict[str, np.ndarray]]:
+    """Both targets of one user along the arm chain: target 2 measured from target 1's elbow.
+
+    Paper 002's recursive process (Section 3.3, eq. (10)): the upper arm (target 1) is
+    estimated from the shoulder, its distal joint — the *estimated* elbow — is the proximal
+    joint of the forearm (target 2), whose hybrid estimate then starts there.  So target 2's
+    error includes target 1's elbow error.  This is the one place that wires the chain for an
+    evaluation; the searches (:func:`~wsnlib.optimize.paper_tables`,
+    :func:`~wsnlib.optimize.coupled_selection_regret`) take the same elbow from
+    :func:`proximal_from_selection` and search target 2 over the grid with it.
+
+    Parameters
+    ----------
+    target1, target2 : SearchData
+        One user's paired rows of the two targets (the same number of rows and the same
+        ``movement`` per row); ``target2.proximal`` is ignored (replaced by the elbow).
+    selection1 : Setting, or DataFrame from :func:`select_settings`
+        Target 1's setting(s), as in :func:`evaluate_selection`.
+    selection2 : Setting, or DataFrame from :func:`select_settings`, optional
+        Target 2's setting(s); default ``selection1``.
+    approach : str, optional
+        Rows of DataFrame selections to use, as in :func:`evaluate_selection`.
+
+    Returns
+    -------
+    dict
+        ``"T1"``, ``"T2"``: each target's :func:`evaluate_selection` output — ``"radio"``
+        (n, 3) radio estimate (m), ``"devices"`` (n, 3) hybrid estimate (m), ``"joints"``
+        (n, 3) distal joint (m; ``"T1"``'s is the elbow target 2 starts from, ``"T2"``'s the
+        wrist), ``"pe_m"`` (n,) hybrid error (m) — plus ``"radio_pe_m"`` (n,), the error of
+        the radio estimate alone (m).
+
+    Raises
+    ------
+    ValueError
+        ``target1`` or ``target2`` is not a :class:`SearchData`, or their rows are not paired.
+    """
+    for name, data in (("target1", target1), ("target2", target2)):
+        if not isinstance(data, SearchData):
+            raise ValueError(f"{name} must be a SearchData, got {type(data).__name__}")
+    if target1.online_rss.shape[0] != target2.online_rss.shape[0] or not np.array_equal(target1.movement,
+                                                                                       target2.movement):
+        raise ValueError("target1 and target2 must have the same online rows (movement): target 2's elbow "
+                         "comes from target 1's row")
+    selection2 = selection1 if selection2 is None else selection2
+    first = evaluate_selection(target1, selection1, approach=approach)
+    second = evaluate_selection(target2.with_proximal(first["joints"]), selection2, approach=approach)
+    out = {}
+    for key, result, data in (("T1", first, target1), ("T2", second, target2)):
+        out[key] = {**result, "radio_pe_m": np.linalg.norm(result["radio"] - data.true_positions, axis=-1)}
+    return out

@@ -1,8 +1,12 @@
+"""wsnlib.studies.posture: paper 002's posture study (formerly wsnlib.posture_study)."""
+
 import numpy as np
 import pytest
 
-from wsnlib.posture_study import study_inputs
+import wsnlib.posture_study
+import wsnlib.studies.posture
 from wsnlib.sim.campaign import simulate_dynamic_campaign
+from wsnlib.studies.posture import study_inputs
 
 
 @pytest.fixture(scope="module")
@@ -35,7 +39,7 @@ def test_pitch_follows_the_truth_roughly(campaign):
 
 def test_selected_errors_reproduce_the_tables(campaign):
     from wsnlib import optimize
-    from wsnlib.posture_study import kinect_errors, selected_errors
+    from wsnlib.studies.posture import kinect_errors, selected_errors
 
     inputs = study_inputs(campaign)
     grid = optimize.SearchGrid(metrics=("euclidean",), knn_neighbors=(1, 3), powers=(1,), pknn_neighbors=(1,))
@@ -57,7 +61,7 @@ def test_selected_errors_reproduce_the_tables(campaign):
 
 
 def test_pitch_errors_are_small_at_rest(campaign):
-    from wsnlib.posture_study import pitch_errors_deg
+    from wsnlib.studies.posture import pitch_errors_deg
 
     errors = pitch_errors_deg(campaign.data, method="none")
     at_rest = errors[errors["movement"] == 0]
@@ -66,7 +70,7 @@ def test_pitch_errors_are_small_at_rest(campaign):
 
 
 def test_true_joints_of_the_straight_arm_contain_both_targets(campaign):
-    from wsnlib.posture_study import true_joints_straight_arm
+    from wsnlib.studies.posture import true_joints_straight_arm
 
     inputs = study_inputs(campaign)
     joints = true_joints_straight_arm(inputs, "U1")
@@ -78,7 +82,7 @@ def test_true_joints_of_the_straight_arm_contain_both_targets(campaign):
 
 
 def test_reference_error_moves_every_system_against_the_same_reference(campaign):
-    from wsnlib.posture_study import kinect_errors, with_reference_error
+    from wsnlib.studies.posture import kinect_errors, with_reference_error
 
     inputs = study_inputs(campaign)
     same = with_reference_error(inputs, rng=np.random.default_rng(0), rotation_std_deg=0.0, timing_std_s=0.0)
@@ -104,8 +108,8 @@ def test_reference_error_moves_every_system_against_the_same_reference(campaign)
 
 
 def test_perturbed_channel_ranges():
-    from wsnlib.posture_study import RADIO_ASSUMPTIONS, perturbed_channel
     from wsnlib.sim.radio import RadioChannel
+    from wsnlib.studies.posture import RADIO_ASSUMPTIONS, perturbed_channel
 
     nominal = RadioChannel()
     assert perturbed_channel({}) == nominal
@@ -127,7 +131,7 @@ def test_perturbed_channel_ranges():
 
 def test_radio_sensitivity_quick_zero_spread_and_determinism():
     from wsnlib import optimize
-    from wsnlib.posture_study import RADIO_ASSUMPTIONS, radio_sensitivity, sensitivity_grid
+    from wsnlib.studies.posture import RADIO_ASSUMPTIONS, radio_sensitivity, sensitivity_grid
 
     result = radio_sensitivity(rng=np.random.default_rng(4), quick=True)
     assert result.factors.shape == (3, len(RADIO_ASSUMPTIONS))                 # nominal + 2 draws
@@ -152,3 +156,32 @@ def test_radio_sensitivity_quick_zero_spread_and_determinism():
         radio_sensitivity(rng=np.random.default_rng(0), spread=2.0)
     with pytest.raises(ValueError, match="rng"):
         radio_sensitivity(rng=1)
+
+
+def test_selected_errors_chain_target2_from_the_elbow_of_target1(campaign):
+    """Per user, target 2's errors are evaluate_chain's: the forearm starts at target 1's estimated elbow."""
+    from wsnlib import optimize
+    from wsnlib.studies.posture import evaluate_chain, selected_errors
+
+    inputs = study_inputs(campaign)
+    grid = optimize.SearchGrid(metrics=("euclidean",), knn_neighbors=(1, 3), powers=(1,), pknn_neighbors=(1,))
+    tables = optimize.paper_tables(inputs.target1, inputs.target2, grid=grid)
+    errors = selected_errors(inputs, tables, approach="probabilistic", per_movement=True)
+    selection = tables.selection2[tables.selection2["approach"] == "probabilistic"]
+    user = "U2"
+    rows = errors["user"] == user
+    chain = evaluate_chain(inputs.target1[user], inputs.target2[user],
+                           selection[selection["target"] == 1].drop(columns="target"),
+                           selection[selection["target"] == 2].drop(columns="target"))
+    np.testing.assert_array_equal(errors["T1"][rows], 100 * chain["T1"]["pe_m"])
+    np.testing.assert_array_equal(errors["T2"][rows], 100 * chain["T2"]["pe_m"])
+    # Started at the shoulder instead (no proximal joint), target 2's error would differ.
+    shoulder_start = optimize.evaluate_selection(inputs.target2[user],
+                                                 selection[selection["target"] == 2].drop(columns="target"))
+    assert np.abs(shoulder_start["pe_m"] - chain["T2"]["pe_m"]).max() > 1e-3
+
+
+def test_old_module_re_exports_the_same_objects():
+    for name in wsnlib.studies.posture.__all__:
+        assert getattr(wsnlib.posture_study, name) is getattr(wsnlib.studies.posture, name)
+    assert sorted(wsnlib.posture_study.__all__) == sorted(wsnlib.studies.posture.__all__)

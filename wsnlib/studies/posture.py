@@ -1,0 +1,444 @@
+"""Paper 002's posture study: from a simulated dynamic campaign to the errors of Sections 4.2 and 5.
+
+The recursive estimate of target 2 (forearm) starts from the elbow estimated with target 1
+(upper arm) — eq. (10), wired once in :func:`evaluate_chain` (defined in
+:mod:`wsnlib.optimize.selection`, re-exported here) — so the two targets' rows must be paired
+in time.  Each target node sends its own
+packets (~30/s, not simultaneously), so for every target-2 vector of a movement we take the
+latest target-1 vector of the same movement at or before it (causal: the base station has
+that one when the target-2 packet arrives); target-2 vectors with no target-1 vector before
+them in their movement are dropped.
+
+Pitch is computed from each target's accelerometer stream as a whole (all labels, in time
+order, at the packet rate), so that gating holds values across samples the way a running
+system would, and then read at the paired rows.
+
+Two checks of how far the Table 2–3 comparison can be trusted:
+
+* :func:`with_reference_error`: score everything against a reference derived by hand as the
+  paper's was (:func:`wsnlib.sim.optical.hand_derived_reference`), not against the truth;
+* :func:`radio_sensitivity`: rerun a small Table 2 with the assumed radio-channel numbers of
+  :class:`wsnlib.sim.radio.RadioChannel` perturbed (:data:`RADIO_ASSUMPTIONS`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from wsnlib.io.rss import rss_vectors
+from wsnlib.optimize import SearchData, evaluate_chain
+from wsnlib.posture import pitch_from_acc
+from wsnlib.sim.optical import REFERENCE_ROTATION_STD_DEG, REFERENCE_TIMING_STD_S, hand_derived_reference
+
+__all__ = [
+    "RADIO_ASSUMPTIONS",
+    "RadioSensitivity",
+    "StudyInputs",
+    "evaluate_chain",
+    "kinect_errors",
+    "perturbed_channel",
+    "pitch_errors_deg",
+    "radio_sensitivity",
+    "selected_errors",
+    "sensitivity_grid",
+    "study_inputs",
+    "true_joints_straight_arm",
+    "with_reference_error",
+]
+
+
+@dataclass(frozen=True)
+class StudyInputs:
+    """Paired per-user inputs for :func:`wsnlib.optimize.paper_tables` and the Kinect baseline.
+
+    Attributes
+    ----------
+    target1, target2 : dict[str, SearchData]
+        Per user, rows paired in time (same count and movement per row).
+    kinect : dict[str, numpy.ndarray]
+        Per user, Kinect-estimated target positions ``(n, 2, 3)`` (m) at the same rows.
+    time_s : dict[str, numpy.ndarray]
+        Per user, time of each row (the target-2 packet, s).
+    """
+
+    target1: dict
+    target2: dict
+    kinect: dict
+    time_s: dict
+
+
+def _pitch_stream(rows, method: str, fs: float, **options) -> np.ndarray:
+    order = np.argsort(rows.time_s, kind="stable")
+    pitch = np.empty(len(rows))
+    pitch[order] = pitch_from_acc(rows.acc[order], method=method, fs=fs, **options)
+    return pitch
+
+
+def study_inputs(campaign, *, pitch_method: str = "gating", fs: float = 30.0, **pitch_options) -> StudyInputs:
+    """Build paired :class:`~wsnlib.optimize.SearchData` for both targets of every user.
+
+    Parameters
+    ----------
+    campaign : wsnlib.sim.campaign.DynamicCampaign
+    pitch_method : str
+        ``method`` of :func:`wsnlib.posture.pitch_from_acc` (``"gating"`` is the paper's).
+    fs : float
+        Rate of the accelerometer samples aligned to the packets (Hz).
+    **pitch_options
+        Passed to :func:`~wsnlib.posture.pitch_from_acc` (``xi``, ``cutoff_hz`` …).
+
+    Returns
+    -------
+    StudyInputs
+    """
+    data = campaign.data
+    training = rss_vectors(campaign.training_rss)
+    chains = campaign.chains
+    target1, target2, kinect, times = {}, {}, {}, {}
+    for user in dict.fromkeys(data.user):
+        rows = {t: data.select(user=user, target=t) for t in ("T1", "T2")}
+        pitch = {t: _pitch_stream(r, pitch_method, fs, **pitch_options) for t, r in rows.items()}
+        pick1, pick2 = [], []
+        for movement in sorted(set(rows["T2"].movement[rows["T2"].movement > 0])):
+            idx1 = np.flatnonzero(rows["T1"].movement == movement)
+            idx2 = np.flatnonzero(rows["T2"].movement == movement)
+            idx1 = idx1[np.argsort(rows["T1"].time_s[idx1], kind="stable")]
+            idx2 = idx2[np.argsort(rows["T2"].time_s[idx2], kind="stable")]
+            latest = np.searchsorted(rows["T1"].time_s[idx1], rows["T2"].time_s[idx2], side="right") - 1
+            keep = latest >= 0
+            pick1.append(idx1[latest[keep]])
+            pick2.append(idx2[keep])
+        pick1, pick2 = np.concatenate(pick1), np.concatenate(pick2)
+        shared = {"movement": rows["T2"].movement[pick2], "chain": chains[user]}
+        for key, target, pick, segment in (("T1", target1, pick1, 0), ("T2", target2, pick2, 1)):
+            train = training.select(user=user, target=key)
+            target[user] = SearchData(online_rss=rows[key].rss[pick], true_positions=rows[key].position[pick],
+                                      pitch=pitch[key][pick], segment=segment, training_rss=train.rss,
+                                      training_positions=train.position, **shared)
+        kinect[user] = np.stack([rows["T1"].kinect[pick1], rows["T2"].kinect[pick2]], axis=1)
+        times[user] = rows["T2"].time_s[pick2]
+    return StudyInputs(target1=target1, target2=target2, kinect=kinect, time_s=times)
+
+
+def selected_errors(inputs: StudyInputs, tables, *, approach: str, per_movement: bool) -> dict[str, np.ndarray]:
+    """Per-sample position errors (cm) of the selected settings (Table 2 or 3), users pooled.
+
+    Target 2 is evaluated from the elbow of target 1 under the same selection
+    (:func:`evaluate_chain`), as in :func:`wsnlib.optimize.paper_tables`.
+
+    Parameters
+    ----------
+    inputs : StudyInputs
+    tables : wsnlib.optimize.PaperTables
+    approach : {"deterministic", "probabilistic"}
+    per_movement : bool
+        True: Table 2's per-movement settings (Fig. 6(a)); False: Table 3's (Fig. 6(b)).
+
+    Returns
+    -------
+    dict
+        ``"T1"``, ``"T2"``: errors (cm) of every paired row of every user; ``"movement"``:
+        the movement of each row; ``"user"``: its user (for intervals over users).
+    """
+    selection = tables.selection2 if per_movement else tables.selection3
+    selection = selection[selection["approach"] == approach]
+    pick = {t: selection[selection["target"] == n].drop(columns="target") for n, t in ((1, "T1"), (2, "T2"))}
+    errors = {"T1": [], "T2": [], "movement": [], "user": []}
+    for user, data1 in inputs.target1.items():
+        chain = evaluate_chain(data1, inputs.target2[user], pick["T1"], pick["T2"])
+        errors["T1"].append(100 * chain["T1"]["pe_m"])
+        errors["T2"].append(100 * chain["T2"]["pe_m"])
+        errors["movement"].append(data1.movement)
+        errors["user"].append(np.full(data1.movement.size, user, dtype=object))
+    return {key: np.concatenate(values) for key, values in errors.items()}
+
+
+def kinect_errors(inputs: StudyInputs) -> dict[str, np.ndarray]:
+    """Per-sample position errors (cm) of the Kinect-like baseline at the same rows, users pooled.
+
+    Keys as :func:`selected_errors` (``"T1"``, ``"T2"``, ``"movement"``, ``"user"``); the errors
+    are measured against ``true_positions`` of ``inputs`` (the hand-derived reference after
+    :func:`with_reference_error`).
+    """
+    errors = {"T1": [], "T2": [], "movement": [], "user": []}
+    for user, positions in inputs.kinect.items():
+        for index, target in enumerate(("T1", "T2")):
+            truth = (inputs.target1 if index == 0 else inputs.target2)[user].true_positions
+            errors[target].append(100 * np.linalg.norm(positions[:, index] - truth, axis=-1))
+        errors["movement"].append(inputs.target1[user].movement)
+        errors["user"].append(np.full(inputs.target1[user].movement.size, user, dtype=object))
+    return {key: np.concatenate(values) for key, values in errors.items()}
+
+
+def pitch_errors_deg(data, *, method: str, fs: float = 30.0, **options):
+    """Accelerometer pitch minus true pitch (°) for every aligned row of a dynamic campaign.
+
+    Pitch is computed per (user, target) stream in time order, as in :func:`study_inputs`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``user``, ``target``, ``movement`` (0 outside movements), ``label``,
+        ``error_deg``.
+    """
+    import pandas as pd
+
+    frames = []
+    for user in dict.fromkeys(data.user):
+        for target in ("T1", "T2"):
+            rows = data.select(user=user, target=target)
+            error = np.degrees(_pitch_stream(rows, method, fs, **options) - rows.pitch_true_rad)
+            frames.append(pd.DataFrame({"user": user, "target": target, "movement": rows.movement,
+                                        "label": rows.label, "error_deg": error}))
+    return pd.concat(frames, ignore_index=True)
+
+
+def true_joints_straight_arm(inputs: StudyInputs, user: str) -> dict[str, np.ndarray]:
+    """True elbow and wrist (m) at the paired rows, for a straight arm (all of paper 002's movements).
+
+    With the elbow extended, both targets lie on the line from the shoulder, so the elbow is
+    the target-1 direction at the upper-arm length and the wrist the same direction at the
+    whole arm's length.
+    """
+    data1 = inputs.target1[user]
+    lengths = data1.chain.segment_lengths_m
+    direction = data1.true_positions / np.linalg.norm(data1.true_positions, axis=1, keepdims=True)
+    return {"elbow": direction * lengths[0], "wrist": direction * (lengths[0] + lengths[1])}
+
+
+def with_reference_error(inputs: StudyInputs, *, rng: np.random.Generator,
+                         rotation_std_deg: float = REFERENCE_ROTATION_STD_DEG,
+                         timing_std_s: float = REFERENCE_TIMING_STD_S) -> StudyInputs:
+    """The same inputs scored against a hand-derived reference, as paper 002 was (Sec. 4.2).
+
+    Every user's ``true_positions`` of both targets are replaced by
+    :func:`wsnlib.sim.optical.hand_derived_reference` (one posture rotation and one timing
+    offset per movement, shared by the two targets of a row); the RSS, pitch, Kinect
+    positions and fitted estimators are unchanged.  :func:`wsnlib.optimize.paper_tables`,
+    :func:`selected_errors` and :func:`kinect_errors` on the result then measure every system —
+    ours and the Kinect alike — against that reference, as the paper did.
+
+    Parameters
+    ----------
+    inputs : StudyInputs
+    rng : numpy.random.Generator
+        Drawn user by user, in ``inputs`` order.
+    rotation_std_deg, timing_std_s : float
+        As in :func:`~wsnlib.sim.optical.hand_derived_reference` (defaults: 3°, 0.1 s, assumed).
+
+    Returns
+    -------
+    StudyInputs
+    """
+    if not isinstance(inputs, StudyInputs):
+        raise ValueError(f"inputs must be a StudyInputs, got {type(inputs).__name__}")
+    target1, target2 = {}, {}
+    for user, data1 in inputs.target1.items():
+        data2 = inputs.target2[user]
+        truth = np.stack([data1.true_positions, data2.true_positions], axis=1)
+        reference = hand_derived_reference(truth, data1.movement, inputs.time_s[user], rng=rng,
+                                           rotation_std_deg=rotation_std_deg, timing_std_s=timing_std_s)
+        target1[user] = dataclasses.replace(data1, true_positions=reference[:, 0])
+        target2[user] = dataclasses.replace(data2, true_positions=reference[:, 1])
+    return dataclasses.replace(inputs, target1=target1, target2=target2)
+
+
+# --- Sensitivity of Table 2 to the assumed radio numbers -------------------------------------
+
+#: The radio-channel numbers marked *assumed* or *unverified* in :mod:`wsnlib.sim.radio`, with the
+#: half-width of their perturbation: ``(field, half_width, kind)``; ``"relative"`` draws
+#: ``value · (1 + h·u)``, ``"additive"`` draws ``value + h·u``, ``u ~ U[−1, 1]`` times ``spread``.
+#: A dotted field is a field of a :class:`~wsnlib.sim.radio.PathLossModel`.  The ranges are
+#: ours: ±50 % for assumed scales and caps, ±100 % (down to 0, up to double) for assumed rates,
+#: offsets and noise, ±20–30 % for the unverified path-loss fits, a few dB for assumed levels.
+RADIO_ASSUMPTIONS = (
+    ("sensitivity_dbm", 3.0, "additive"),
+    ("onbody_los.exponent", 0.2, "relative"),
+    ("onbody_los.sigma_db", 0.3, "relative"),
+    ("onbody_nlos.exponent", 0.2, "relative"),
+    ("onbody_nlos.sigma_db", 0.3, "relative"),
+    ("offbody.exponent", 0.2, "relative"),
+    ("offbody.sigma_db", 0.3, "relative"),
+    ("creeping_db_per_cm", 0.5, "relative"),
+    ("offbody_shadow_cap_db", 0.5, "relative"),
+    ("limb_shadow_cap_db", 0.5, "relative"),
+    ("onbody_room_path_loss_db", 6.0, "additive"),
+    ("body_trim_m", 0.5, "relative"),
+    ("antenna_peak_gain_dbi", 2.0, "additive"),
+    ("antenna_floor_db", 5.0, "additive"),
+    ("shadow_length_m", 0.5, "relative"),
+    ("day_decorrelation", 1.0, "relative"),
+    ("fading_k_onbody_los_db", 6.0, "additive"),
+    ("slow_sigma_db", 1.0, "relative"),
+    ("slow_time_s", 0.5, "relative"),
+    ("interference_fraction", 1.0, "relative"),
+    ("interference_mean_burst", 0.5, "relative"),
+    ("link_loss_rate", 1.0, "relative"),
+    ("link_loss_mean_burst", 0.5, "relative"),
+    ("tx_loss_rate", 1.0, "relative"),
+    ("tx_power_offset_db", 1.0, "relative"),
+    ("rssi_offset_db", 1.0, "relative"),
+    ("rssi_noise_db", 1.0, "relative"),
+    ("timing_jitter_s", 1.0, "relative"),
+)
+
+_FRACTIONS = {"day_decorrelation", "interference_fraction", "link_loss_rate", "tx_loss_rate"}
+
+
+def perturbed_channel(factors: dict, channel=None):
+    """A :class:`~wsnlib.sim.radio.RadioChannel` with :data:`RADIO_ASSUMPTIONS` perturbed.
+
+    Parameters
+    ----------
+    factors : dict
+        ``field → s`` with ``s ∈ [−1, 1]`` (already multiplied by the spread): the field becomes
+        ``value · (1 + h·s)`` or ``value + h·s`` (see :data:`RADIO_ASSUMPTIONS`).  Fields not
+        given keep their value.  Fractions are clipped to [0, 1], the antenna floor to ≤ 0 dB.
+    channel : RadioChannel, optional
+        The nominal channel; default ``RadioChannel()``.
+    """
+    from wsnlib.sim.radio import RadioChannel
+
+    channel = RadioChannel() if channel is None else channel
+    known = {name: (half, kind) for name, half, kind in RADIO_ASSUMPTIONS}
+    unknown = sorted(set(factors) - set(known))
+    if unknown:
+        raise ValueError(f"factors names unknown fields {unknown}; see RADIO_ASSUMPTIONS")
+    top: dict = {}
+    nested: dict = {}
+    for name, s in factors.items():
+        s = float(s)
+        if not -1.0 - 1e-12 <= s <= 1.0 + 1e-12:
+            raise ValueError(f"factor of {name} must lie in [-1, 1], got {s}")
+        half, kind = known[name]
+        owner, _, field = name.rpartition(".")
+        base = getattr(getattr(channel, owner), field) if owner else getattr(channel, name)
+        value = base * (1.0 + half * s) if kind == "relative" else base + half * s
+        if name in _FRACTIONS:
+            value = min(max(value, 0.0), 1.0)
+        if name == "antenna_floor_db":
+            value = min(value, 0.0)
+        if owner:
+            nested.setdefault(owner, {})[field] = value
+        else:
+            top[name] = value
+    for owner, changes in nested.items():
+        top[owner] = dataclasses.replace(getattr(channel, owner), **changes)
+    return dataclasses.replace(channel, **top)
+
+
+@dataclass(frozen=True)
+class RadioSensitivity:
+    """What :func:`radio_sensitivity` returns.
+
+    Attributes
+    ----------
+    factors : pandas.DataFrame
+        One row per draw (index ``draw``; draw 0 is the nominal channel when included), one
+        column per :data:`RADIO_ASSUMPTIONS` field: the factor ``s ∈ [−spread, spread]``.
+    pe : pandas.DataFrame
+        Table 2's PE (cm) per draw: columns ``draw``, ``target``, ``movement``, ``approach``,
+        ``pe_cm``.
+    summary : pandas.DataFrame
+        Index ``(target, movement, approach)``; columns ``nominal_cm`` (draw 0; NaN, stated
+        here, when ``include_nominal`` is False), and with perturbed draws ``min_cm``,
+        ``median_cm``, ``max_cm`` and ``range_cm`` over them (draw 0 excluded).
+    """
+
+    factors: object
+    pe: object
+    summary: object
+
+
+def sensitivity_grid():
+    """The small search grid of :func:`radio_sensitivity`: every subset, both distances, k ∈ {1, 3}, p_s = 2."""
+    from wsnlib.optimize import SearchGrid
+
+    return SearchGrid(knn_neighbors=(1, 3), powers=(2,), pknn_neighbors=(1, 3))
+
+
+def radio_sensitivity(*, rng: np.random.Generator, n_draws: int = 8, spread: float = 1.0,
+                      campaign_seed: int = 2023, n_users: int = 2, hold_s: float = 8.0, grid=None,
+                      include_nominal: bool = True, quick: bool = False, pitch_method: str = "gating",
+                      **pitch_options) -> RadioSensitivity:
+    """Spread of Table 2's per-movement PE when the assumed radio numbers move within their ranges.
+
+    For each draw, every field of :data:`RADIO_ASSUMPTIONS` gets a factor ``spread·u``,
+    ``u ~ U[−1, 1]`` from ``rng``; the campaign is simulated with that channel
+    (:func:`wsnlib.sim.campaign.simulate_dynamic_campaign`, always from
+    ``default_rng(campaign_seed)``: the same users, motions and noise draws, so that draws
+    differ by the channel numbers, as far as the simulator's draws do not depend on them),
+    turned into :func:`study_inputs` and searched with a small grid
+    (:func:`sensitivity_grid`) by :func:`wsnlib.optimize.paper_tables`.  Users, hold times
+    and the grid are smaller than the paper's, so read the spread relative to the nominal
+    run of the same size, not against Table 2 itself.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        Draws the factors.
+    n_draws : int
+        Perturbed channels (the nominal one comes in addition).
+    spread : float
+        Multiplies every half-width (1 = the ranges of :data:`RADIO_ASSUMPTIONS`; 0 = none).
+    campaign_seed : int
+    n_users, hold_s : int, float
+        Size of each simulated campaign.
+    grid : SearchGrid, optional
+        Default :func:`sensitivity_grid`.
+    include_nominal : bool
+        Add draw 0, the unperturbed channel.
+    quick : bool
+        A few seconds' version: 2 draws, 1 user, 4 s holds (overrides those arguments).
+    pitch_method, **pitch_options
+        As in :func:`study_inputs`.
+
+    Returns
+    -------
+    RadioSensitivity
+    """
+    import pandas as pd
+
+    from wsnlib.optimize import paper_tables
+    from wsnlib.sim.campaign import simulate_dynamic_campaign
+
+    if not isinstance(rng, np.random.Generator):
+        raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+    if quick:
+        n_draws, n_users, hold_s = 2, 1, 4.0
+    if isinstance(n_draws, bool) or not isinstance(n_draws, int | np.integer) or n_draws < 0:
+        raise ValueError(f"n_draws must be a non-negative integer, got {n_draws!r}")
+    if n_draws == 0 and not include_nominal:
+        raise ValueError("nothing to run: n_draws = 0 and include_nominal = False")
+    spread = float(spread)
+    if not 0.0 <= spread <= 1.0:
+        raise ValueError(f"spread must lie in [0, 1], got {spread!r}")
+    grid = sensitivity_grid() if grid is None else grid
+    names = [name for name, _, _ in RADIO_ASSUMPTIONS]
+    draws = spread * rng.uniform(-1.0, 1.0, size=(n_draws, len(names)))
+    if include_nominal:
+        draws = np.vstack([np.zeros((1, len(names))), draws])
+    first = 0 if include_nominal else 1
+    factors = pd.DataFrame(draws, columns=names, index=pd.RangeIndex(first, first + draws.shape[0], name="draw"))
+    frames = []
+    for draw, row in factors.iterrows():
+        channel = perturbed_channel(row.to_dict())
+        campaign = simulate_dynamic_campaign(n_users, rng=np.random.default_rng(campaign_seed), hold_s=hold_s,
+                                             channel=channel)
+        inputs = study_inputs(campaign, pitch_method=pitch_method, **pitch_options)
+        tables = paper_tables(inputs.target1, inputs.target2, grid=grid)
+        frames.append(tables.selection2[["target", "movement", "approach", "pe_cm"]].assign(draw=draw))
+    pe = pd.concat(frames, ignore_index=True)[["draw", "target", "movement", "approach", "pe_cm"]]
+    keys = ["target", "movement", "approach"]
+    wide = pe.pivot_table(index=keys, columns="draw", values="pe_cm")
+    perturbed = wide.drop(columns=0, errors="ignore")
+    summary = pd.DataFrame({"nominal_cm": wide[0] if include_nominal else np.nan}, index=wide.index)
+    if n_draws:
+        summary["min_cm"] = perturbed.min(axis=1)
+        summary["median_cm"] = perturbed.median(axis=1)
+        summary["max_cm"] = perturbed.max(axis=1)
+        summary["range_cm"] = summary["max_cm"] - summary["min_cm"]
+    return RadioSensitivity(factors=factors, pe=pe, summary=summary)
