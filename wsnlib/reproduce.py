@@ -58,14 +58,16 @@ TCP, so nothing listens on the network and ipykernel has no unencrypted-TCP warn
 
 The manifest holds run times, so it is the one file in ``data/processed/`` that differs
 between two runs; reproducibility is judged on the hashes it lists.
+
+This module runs the kernels; which notebooks and parameters is :mod:`wsnlib.batch_selection`,
+the manifest and output bookkeeping :mod:`wsnlib.batch_manifest` (their public names are
+re-exported here).
 """
+
 from __future__ import annotations
 
 import argparse
-import ast
 import contextlib
-import fnmatch
-import json
 import os
 import shutil
 import signal
@@ -76,10 +78,29 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from wsnlib import paths
-from wsnlib._files import WRITTEN_LOG_ENV, atomic_write_text, is_temporary, sha256_of
-
-MANIFEST_NAME = "manifest.json"
-SOLUTIONS = "solutions"
+from wsnlib._files import WRITTEN_LOG_ENV
+from wsnlib.batch_manifest import (  # noqa: F401
+    MANIFEST_NAME,
+    STALE_FOLDER,
+    describe_outputs,
+    failing_cell,
+    files_written_since,
+    initial_entries,
+    last_started_cell,
+    logged_files,
+    manifest_path,
+    write_manifest,
+)
+from wsnlib.batch_selection import (  # noqa: F401
+    SOLUTIONS,
+    check_parameters,
+    list_batch,
+    list_notebooks,
+    list_solutions,
+    notebook_name,
+    notebook_parameters,
+    parse_value,
+)
 
 #: Default limit (s) on the run time of one cell: generous (the slowest cell of a full,
 #: non-quick run takes minutes), it only stops a batch that would otherwise hang forever.
@@ -87,9 +108,6 @@ DEFAULT_CELL_TIMEOUT_S = 3600.0
 
 #: Environment of the kernel during the batch (see the module docstring).
 BATCH_ENV = {"MPLBACKEND": "module://matplotlib_inline.backend_inline", "WSNLIB_BATCH": "1"}
-
-#: Folder (below the output root) that receives the previous outputs of a notebook about to run.
-STALE_FOLDER = Path("build") / "stale"
 
 _EXIT_FAILED = 1
 
@@ -100,80 +118,6 @@ class BatchInterrupted(KeyboardInterrupt):
     def __init__(self, signum: int):
         super().__init__(signal.Signals(signum).name)
         self.signum = signum
-
-
-def list_notebooks(pattern: str | None = None) -> list[Path]:
-    """Numbered notebooks in ``notebooks/`` in run order, optionally filtered by a glob."""
-    return _numbered(paths.NOTEBOOKS, pattern)
-
-
-def list_solutions(pattern: str | None = None) -> list[Path]:
-    """Numbered solutions notebooks in ``notebooks/solutions/`` in run order, optionally filtered."""
-    return _numbered(paths.NOTEBOOKS / SOLUTIONS, pattern)
-
-
-def list_batch(pattern: str | None = None) -> list[Path]:
-    """What the batch runs: the notebooks, then the solutions notebooks."""
-    return list_notebooks(pattern) + list_solutions(pattern)
-
-
-def notebook_name(notebook: Path) -> str:
-    """Name in the manifest and below ``build/executed/``: ``01_x.ipynb``, ``solutions/01_y.ipynb``."""
-    try:
-        return notebook.relative_to(paths.NOTEBOOKS).as_posix()
-    except ValueError:  # a notebook from elsewhere
-        return notebook.name
-
-
-def _numbered(folder: Path, pattern: str | None) -> list[Path]:
-    found = sorted(folder.glob("[0-9][0-9]_*.ipynb"))
-    if pattern:
-        found = [nb for nb in found if fnmatch.fnmatch(notebook_name(nb)[: -len(".ipynb")], f"*{pattern}*")]
-    return found
-
-
-def notebook_parameters(notebook: Path) -> list[str]:
-    """Names assigned in ``notebook``'s cell tagged ``parameters``, in order (``[]`` if it has none).
-
-    Raises ``ValueError`` naming the notebook when that cell is not valid Python.
-    """
-    import nbformat
-
-    nb = nbformat.read(notebook, as_version=4)
-    names: list[str] = []
-    for cell in nb.cells:
-        if cell.cell_type != "code" or "parameters" not in cell.get("metadata", {}).get("tags", []):
-            continue
-        try:
-            tree = ast.parse(cell.source)
-        except SyntaxError as exc:
-            raise ValueError(f"{notebook}: the parameters cell is not valid Python ({exc})") from exc
-        for node in tree.body:
-            targets = node.targets if isinstance(node, ast.Assign) else [getattr(node, "target", None)]
-            for target in targets:
-                for name in ast.walk(target) if target is not None else ():
-                    if isinstance(name, ast.Name) and name.id not in names:
-                        names.append(name.id)
-    return names
-
-
-def check_parameters(notebooks: list[Path], parameters: dict) -> None:
-    """``ValueError`` unless every name in ``parameters`` is a parameter of every notebook.
-
-    The message names the unknown parameter, each notebook that lacks it and the parameters
-    that notebook has (papermill itself would only warn and run on).
-    """
-    problems = []
-    for notebook in notebooks:
-        known = notebook_parameters(notebook)
-        unknown = [name for name in parameters if name not in known]
-        if unknown:
-            problems.append(
-                f"{notebook_name(notebook)} has no parameter {', '.join(map(repr, unknown))}; "
-                f"its parameters are {', '.join(known) if known else '(none)'}"
-            )
-    if problems:
-        raise ValueError("unknown -p parameter: " + "; ".join(problems))
 
 
 @contextlib.contextmanager
@@ -209,96 +153,6 @@ def _signals_interrupt() -> Iterator[None]:
     finally:
         for signum, previous in saved.items():
             signal.signal(signum, previous)
-
-
-def parse_value(text: str):
-    """Parse a ``-p NAME VALUE`` value: a Python literal if it is one, else the string."""
-    try:
-        return ast.literal_eval(text)
-    except (ValueError, SyntaxError):
-        return text
-
-
-def _output_folders() -> list[Path]:
-    return [paths.figures(), paths.data_processed(), paths.data_raw()]
-
-
-def _files_written_since(start_ns: int) -> list[Path]:
-    written = []
-    for folder in _output_folders():
-        for path in folder.rglob("*"):
-            if (path.is_file() and path.name != MANIFEST_NAME and not is_temporary(path)
-                    and path.stat().st_mtime_ns >= start_ns):
-                written.append(path)
-    return sorted(written)
-
-
-def _manifest_path() -> Path:
-    return paths.data_processed() / MANIFEST_NAME
-
-
-def _write_manifest(entries: list[dict], quick: bool, jobs: int = 1) -> Path:
-    manifest = {"quick": quick, "jobs": jobs, "kernel": paths.KERNEL_NAME, "notebooks": entries}
-    return atomic_write_text(_manifest_path(), json.dumps(manifest, indent=2, sort_keys=True) + "\n")
-
-
-def _previous_outputs() -> dict[str, list[str]]:
-    """Output paths (relative to the output root) per notebook in the existing manifest, if any."""
-    try:
-        manifest = json.loads(_manifest_path().read_text(encoding="utf-8"))
-        return {e["notebook"]: [o["path"] for o in e.get("outputs", [])] for e in manifest["notebooks"]}
-    except (OSError, ValueError, KeyError, TypeError):
-        return {}
-
-
-def _move_aside(relative_paths: list[str]) -> list[str]:
-    """Move the listed outputs (if still there) to ``build/stale/``; return those moved."""
-    root = paths.output_root().resolve()
-    folders = [folder.resolve() for folder in _output_folders()]
-    moved = []
-    for relative in relative_paths:
-        source = (root / relative).resolve()
-        if not source.is_file() or not any(source.is_relative_to(folder) for folder in folders):
-            continue  # gone already, or not one of ours (never touch anything else)
-        target = root / STALE_FOLDER / source.relative_to(root)
-        target.parent.mkdir(parents=True, exist_ok=True)
-        os.replace(source, target)
-        moved.append(source.relative_to(root).as_posix())
-    return moved
-
-
-def _last_started_cell(executed: Path) -> dict:
-    """Index and first line of the last cell papermill started in the executed copy ({} if unknown)."""
-    import nbformat
-
-    try:
-        nb = nbformat.read(executed, as_version=4)
-    except Exception:  # missing or half-written copy
-        return {}
-    started = [i for i, cell in enumerate(nb.cells)
-               if cell.get("metadata", {}).get("papermill", {}).get("start_time")]
-    if not started:
-        return {}
-    index = started[-1]
-    source = nb.cells[index].source
-    return {"cell_index": index, "cell_first_line": source.splitlines()[0] if source else ""}
-
-
-def _failing_cell(executed: Path) -> dict:
-    """Locate the first cell whose outputs hold an error in an executed notebook."""
-    import nbformat
-
-    try:
-        nb = nbformat.read(executed, as_version=4)
-    except (OSError, ValueError):
-        return {}
-    for index, cell in enumerate(nb.cells):
-        for output in cell.get("outputs", []):
-            if output.get("output_type") == "error":
-                first_line = cell.source.splitlines()[0] if cell.source else ""
-                return {"cell_index": index, "cell_first_line": first_line,
-                        "ename": output.get("ename"), "evalue": output.get("evalue")}
-    return {}
 
 
 def _ipc_kernel_manager(folder: Path, env: dict | None = None, started: list | None = None):
@@ -344,25 +198,10 @@ def run(notebooks: list[Path], parameters: dict, quick: bool, kernel: str = path
         shutil.rmtree(socket_folder, ignore_errors=True)
 
 
-def _initial_entries(notebooks: list[Path], quick: bool, jobs: int = 1) -> list[dict]:
-    """Manifest entries, all "not run", after moving aside what the last run listed for them."""
-    previous = _previous_outputs()
-    entries = [
-        {"notebook": notebook_name(nb), "status": "not run", "parameters": {}, "seconds": None, "outputs": []}
-        for nb in notebooks
-    ]
-    for entry in entries:  # before anything runs: nothing stale is left to look fresh
-        moved = _move_aside(previous.get(entry["notebook"], []))
-        if moved:
-            entry["moved_aside"] = moved
-    _write_manifest(entries, quick, jobs)
-    return entries
-
-
 def _run(notebooks, parameters, quick, kernel, cell_timeout, socket_folder) -> int:
     from tqdm.auto import tqdm
 
-    entries = _initial_entries(notebooks, quick)
+    entries = initial_entries(notebooks, quick)
     kernel_manager_class = _ipc_kernel_manager(socket_folder)
     progress = tqdm(notebooks, desc="notebooks", unit="nb", file=sys.stderr)
     for entry, notebook in zip(entries, progress, strict=True):
@@ -375,10 +214,10 @@ def _run(notebooks, parameters, quick, kernel, cell_timeout, socket_folder) -> i
         started = time.perf_counter()
         status, error, exit_code = _execute(notebook, executed, params, kernel, cell_timeout, kernel_manager_class)
         entry.update(status=status, seconds=round(time.perf_counter() - started, 1),
-                     outputs=_describe(_files_written_since(start_ns)))
+                     outputs=describe_outputs(files_written_since(start_ns)))
         if error is not None:
             entry["error"] = error
-        _write_manifest(entries, quick)
+        write_manifest(entries, quick)
         if status != "ok":
             progress.close()
             _report_failure(entry, executed)
@@ -401,16 +240,16 @@ def _execute(notebook: Path, executed: Path, params: dict, kernel: str, cell_tim
         )
     except papermill.PapermillExecutionError as exc:
         return "failed", {"cell_index": exc.cell_index, "ename": exc.ename, "evalue": exc.evalue,
-                          **_failing_cell(executed)}, _EXIT_FAILED
+                          **failing_cell(executed)}, _EXIT_FAILED
     except CellTimeoutError as exc:
         return "timeout", {"ename": "CellTimeoutError", "evalue": f"a cell ran longer than {cell_timeout:g} s ({exc})",
-                           "timeout_s": cell_timeout, **_last_started_cell(executed)}, _EXIT_FAILED
+                           "timeout_s": cell_timeout, **last_started_cell(executed)}, _EXIT_FAILED
     except BatchInterrupted as exc:
         return "interrupted", {"ename": "BatchInterrupted", "evalue": f"stopped by {signal.Signals(exc.signum).name}",
-                               **_last_started_cell(executed)}, 128 + exc.signum
+                               **last_started_cell(executed)}, 128 + exc.signum
     except Exception as exc:  # kernel died, missing kernel, unreadable notebook
         return "failed", {"ename": type(exc).__name__, "evalue": str(exc).strip(),
-                          **_last_started_cell(executed)}, _EXIT_FAILED
+                          **last_started_cell(executed)}, _EXIT_FAILED
     return "ok", None, 0
 
 
@@ -419,16 +258,7 @@ def _report_failure(entry: dict, executed: Path) -> None:
     cell = (f", cell {error['cell_index']} of the executed copy ({error.get('cell_first_line', '')!r})"
             if "cell_index" in error else "")
     print(f"\n{entry['status'].upper()}: {entry['notebook']}{cell}: {error['ename']}: {error['evalue']}\n"
-          f"Executed copy: {executed}\nManifest: {_manifest_path()}", file=sys.stderr)
-
-
-def _logged_files(log: Path) -> list[Path]:
-    """The files a notebook wrote, from its write log (:data:`wsnlib._files.WRITTEN_LOG_ENV`)."""
-    if not log.exists():
-        return []
-    folders = [folder.resolve() for folder in _output_folders()]
-    written = {Path(line) for line in log.read_text(encoding="utf-8").splitlines() if line}
-    return sorted(p for p in written if p.is_file() and any(p.is_relative_to(f) for f in folders))
+          f"Executed copy: {executed}\nManifest: {manifest_path()}", file=sys.stderr)
 
 
 def _run_parallel(notebooks, parameters, quick, kernel, cell_timeout, socket_folder, jobs) -> int:
@@ -444,7 +274,7 @@ def _run_parallel(notebooks, parameters, quick, kernel, cell_timeout, socket_fol
 
     from tqdm.auto import tqdm
 
-    entries = _initial_entries(notebooks, quick, jobs)
+    entries = initial_entries(notebooks, quick, jobs)
     stop, lock = threading.Event(), threading.Lock()
     managers: list = []
     running: set[int] = set()
@@ -471,12 +301,12 @@ def _run_parallel(notebooks, parameters, quick, kernel, cell_timeout, socket_fol
             if entry["status"] == "interrupted":  # the signal handler got here first
                 return entry.get("exit_code", 130)
             entry.update(status=status, seconds=round(time.perf_counter() - started, 1),
-                         outputs=_describe(_logged_files(log)))
+                         outputs=describe_outputs(logged_files(log)))
             if error is not None:
                 entry["error"] = error
                 stop.set()
                 _report_failure(entry, executed)
-            _write_manifest(entries, quick, jobs)
+            write_manifest(entries, quick, jobs)
             progress.update(1)
         return exit_code
 
@@ -492,10 +322,10 @@ def _run_parallel(notebooks, parameters, quick, kernel, cell_timeout, socket_fol
             for index in running:
                 entries[index].update(status="interrupted", exit_code=128 + exc.signum, error={
                     "ename": "BatchInterrupted", "evalue": f"stopped by {signal.Signals(exc.signum).name}",
-                    **_last_started_cell(paths.executed_notebooks() / notebook_name(notebooks[index]))})
+                    **last_started_cell(paths.executed_notebooks() / notebook_name(notebooks[index]))})
                 log = socket_folder / f"nb{index}" / "written.txt"
-                entries[index]["outputs"] = _describe(_logged_files(log))
-            _write_manifest(entries, quick, jobs)
+                entries[index]["outputs"] = describe_outputs(logged_files(log))
+            write_manifest(entries, quick, jobs)
         for manager in list(managers):  # the running kernels end; their threads then return
             with contextlib.suppress(Exception):
                 manager.provisioner.process.kill()
@@ -503,16 +333,11 @@ def _run_parallel(notebooks, parameters, quick, kernel, cell_timeout, socket_fol
         progress.close()
         for entry in entries:
             entry.pop("exit_code", None)
-        _write_manifest(entries, quick, jobs)
+        write_manifest(entries, quick, jobs)
         return 128 + exc.signum
     pool.shutdown(wait=True)
     progress.close()
     return max((f.result() for f in futures), default=0)
-
-
-def _describe(files: list[Path]) -> list[dict]:
-    root = paths.output_root()
-    return [{"path": f.relative_to(root).as_posix(), "sha256": sha256_of(f)} for f in files if f.is_file()]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -547,7 +372,7 @@ def main(argv: list[str] | None = None) -> int:
     status = run(notebooks, parameters, quick=args.quick, kernel=args.kernel, cell_timeout=args.cell_timeout,
                  jobs=args.jobs)
     if status == 0:
-        print(f"Ran {len(notebooks)} notebook(s); manifest: {_manifest_path()}", file=sys.stderr)
+        print(f"Ran {len(notebooks)} notebook(s); manifest: {manifest_path()}", file=sys.stderr)
     return status
 
 

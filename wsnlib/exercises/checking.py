@@ -1,0 +1,117 @@
+"""The checkers' shared machinery: the report of a passed check, argument checks, comparison.
+
+A checker draws random cases from the ``rng`` passed in (:class:`_Case`: inputs, the
+library's answer, a description of the inputs for the message) and :func:`_run_cases`
+compares the student's function with the library on each; the first disagreement raises
+``AssertionError`` saying what was expected and what came back.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class ExerciseReport:
+    """Outcome of a passed check.
+
+    Attributes
+    ----------
+    exercise : str
+        What was checked, e.g. ``"slerp_weight"``.
+    n_cases : int
+        Number of random inputs compared.
+    max_abs_difference : float
+        Largest absolute difference from the library over all cases (units of the output).
+    """
+
+    exercise: str
+    n_cases: int
+    max_abs_difference: float
+
+    def __str__(self) -> str:
+        return (f"{self.exercise}: passed on {self.n_cases} random cases "
+                f"(largest difference from wsnlib {self.max_abs_difference:.2e})")
+
+
+# ------------------------------------------------------------------------------------------
+# Shared helpers
+# ------------------------------------------------------------------------------------------
+
+
+def _check_arguments(student_function, rng, n_cases: int, atol: float) -> np.random.Generator:
+    if not callable(student_function):
+        raise ValueError(f"student_function must be callable, got {type(student_function).__name__}")
+    if not isinstance(rng, np.random.Generator):
+        raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+    if not isinstance(n_cases, int | np.integer) or n_cases < 1:
+        raise ValueError(f"n_cases must be a positive integer, got {n_cases!r}")
+    if not np.isfinite(atol) or atol <= 0:
+        raise ValueError(f"atol must be a positive finite number, got {atol!r}")
+    return rng
+
+
+def _as_output(value, shape: tuple[int, ...], exercise: str, inputs: str) -> np.ndarray:
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as error:
+        raise AssertionError(f"{exercise}: your function returned {value!r} for {inputs}, "
+                             f"which is not an array of numbers ({error})") from None
+    if arr.shape != shape:
+        raise AssertionError(f"{exercise}: your function returned shape {arr.shape} for {inputs}, "
+                             f"expected {shape}")
+    if not np.all(np.isfinite(arr)):
+        raise AssertionError(f"{exercise}: your function returned non-finite values {arr} for {inputs}")
+    return arr
+
+
+def _compare(got: np.ndarray, expected: np.ndarray, atol: float, exercise: str, inputs: str,
+             hint: str = "") -> float:
+    difference = float(np.max(np.abs(got - expected))) if got.size else 0.0
+    if not difference <= atol:
+        message = (f"{exercise}: for {inputs}\n  expected {np.array2string(expected, precision=6)}\n"
+                   f"  got      {np.array2string(got, precision=6)}\n  (largest difference {difference:.3g} > "
+                   f"tolerance {atol:g})")
+        raise AssertionError(message + (f"\n  Hint: {hint}" if hint else ""))
+    return difference
+
+
+def _random_unit_quaternion(rng: np.random.Generator) -> np.ndarray:
+    q = rng.normal(size=4)
+    q /= np.linalg.norm(q)
+    return q if q[0] >= 0 else -q
+
+
+def _same_rotation(got: np.ndarray, expected: np.ndarray) -> np.ndarray:
+    """``got`` with its sign flipped where that brings it nearer ``expected`` (q and −q are one rotation)."""
+    sign = np.where(np.sum(got * expected, axis=-1, keepdims=True) < 0, -1.0, 1.0)
+    return got * sign
+
+
+@dataclass(frozen=True)
+class _Case:
+    """One random case: how the error message shows it, the library's answer, the student's arguments."""
+
+    inputs: str
+    expected: object
+    arguments: tuple
+
+
+def _run_cases(exercise: str, student_function, draw, *, n_cases: int, atol: float, hint: str,
+               rotation: bool = False) -> ExerciseReport:
+    """Call ``student_function(*case.arguments)`` on ``draw(0)`` … ``draw(n_cases - 1)`` and compare.
+
+    ``rotation``: the outputs are quaternions, compared after choosing the sign nearer the
+    library's (q and −q are the same rotation).
+    """
+    worst = 0.0
+    for index in range(n_cases):
+        case = draw(index)
+        expected = np.asarray(case.expected, dtype=float)
+        got = _as_output(student_function(*case.arguments), expected.shape, exercise, case.inputs)
+        if rotation:
+            got = _same_rotation(got, expected)
+        worst = max(worst, _compare(got, expected, atol, exercise, case.inputs, hint=hint))
+    return ExerciseReport(exercise, n_cases, worst)

@@ -1,0 +1,49 @@
+"""Plot style, figure saving and the figures of the notebooks, one module per concern.
+
+* :mod:`wsnlib.plotting.style` — the palette (:data:`OKABE_ITO`, :data:`METHOD_COLORS`,
+  :data:`METHOD_MARKERS`), :func:`use_style`, the legibility limits and :func:`savefig`, the
+  one way figures are written (byte-reproducible PNG and PDF).
+* :mod:`wsnlib.plotting.traces` — angle and error traces with lost samples shaded, bands,
+  trade-offs, the paper's arm figure.
+* :mod:`wsnlib.plotting.grids` — annotated heatmaps and Pareto fronts of parameter searches.
+* :mod:`wsnlib.plotting.study_results` — panels of one burst loss and of static fingerprinting.
+* :mod:`wsnlib.plotting.loss_tolerance` — figures of the loss-tolerance study (notebook 10).
+
+Every public name is re-exported here, so ``plotting.savefig``, ``plotting.use_style()`` and
+``plotting.ANNOTATION_FONT_PT`` work as before the split.  Module-level state (the palette
+dictionaries, the style, the font limits) lives only in :mod:`wsnlib.plotting.style`: the
+dictionaries re-exported here are the same objects, but to patch a constant in a test, patch
+it there (``monkeypatch.setattr(wsnlib.plotting.style, "MIN_FONT_PT", ...)``).
+"""
+
+from wsnlib.plotting.grids import plot_heatmap, plot_heatmap_panels, plot_pareto
+from wsnlib.plotting.loss_tolerance import plot_burst_traces, plot_error_vs_loss_rate, plot_per_trial_dots
+from wsnlib.plotting.study_results import plot_burst_recovery, plot_hybrid_vs_fusion, plot_static_fingerprinting
+from wsnlib.plotting.style import (
+    ANNOTATION_FONT_PT,
+    DISPLAY_WIDTH_IN,
+    METHOD_COLORS,
+    METHOD_MARKERS,
+    MIN_FONT_PT,
+    OKABE_ITO,
+    effective_font_sizes,
+    method_style,
+    savefig,
+    use_style,
+)
+from wsnlib.plotting.traces import (
+    break_at_gaps,
+    loss_spans,
+    plot_angle_traces,
+    plot_arm_angles,
+    plot_band,
+    plot_tradeoff,
+)
+
+__all__ = [
+    "ANNOTATION_FONT_PT", "DISPLAY_WIDTH_IN", "METHOD_COLORS", "METHOD_MARKERS", "MIN_FONT_PT", "OKABE_ITO",
+    "break_at_gaps", "effective_font_sizes", "loss_spans", "method_style", "plot_angle_traces", "plot_arm_angles",
+    "plot_band", "plot_burst_recovery", "plot_burst_traces", "plot_error_vs_loss_rate", "plot_heatmap",
+    "plot_heatmap_panels", "plot_hybrid_vs_fusion", "plot_pareto", "plot_per_trial_dots",
+    "plot_static_fingerprinting", "plot_tradeoff", "savefig", "use_style",
+]

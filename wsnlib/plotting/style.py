@@ -1,0 +1,305 @@
+"""Plot style, palette and figure saving shared by every notebook.
+
+:func:`use_style` must be called explicitly (importing this module changes nothing global).
+:func:`savefig` is the one way figures are written: PNG and PDF into the figures folder with
+fixed metadata, so that running the batch twice gives byte-identical files.
+
+The palette (:data:`OKABE_ITO`, :data:`METHOD_COLORS`, :data:`METHOD_MARKERS`) lives here and
+only here: every figure module of :mod:`wsnlib.plotting` reads these same dictionaries.
+
+Legibility: every text of a saved figure must be at least :data:`MIN_FONT_PT` tall as a student
+sees it in a notebook, where a figure wider than :data:`DISPLAY_WIDTH_IN` is shrunk to that
+width (:func:`effective_font_sizes`).  :func:`savefig` checks it: in the batch
+(``WSNLIB_BATCH=1``) a too-small text is a ``ValueError``, interactively a warning.
+"""
+
+from __future__ import annotations
+
+import os
+import unittest.mock
+import warnings
+from pathlib import Path
+
+import matplotlib as mpl
+from matplotlib.text import Text
+
+from wsnlib import paths
+from wsnlib._files import atomic_path
+
+#: The Okabe–Ito palette (colour-blind safe): the only colours of the notebooks' figures, plus
+#: ``"grey"`` for references and context.  :func:`use_style` makes it matplotlib's colour cycle.
+OKABE_ITO = {
+    "blue": "#0072B2",
+    "orange": "#E69F00",
+    "bluish green": "#009E73",
+    "vermillion": "#D55E00",
+    "sky blue": "#56B4E9",
+    "reddish purple": "#CC79A7",
+    "yellow": "#F0E442",
+    "black": "#000000",
+    "grey": "#999999",
+}
+
+#: Colours per estimator, used consistently across notebooks (colour-blind safe, Okabe–Ito).
+#: With more methods than colours, a colour is reused across papers (never within a figure's
+#: notebook for two methods); :data:`METHOD_MARKERS` tells them apart.  :func:`method_style`
+#: gives both.
+METHOD_COLORS = {
+    "truth": "#000000",
+    "data fusion": "#0072B2",
+    "single frame": "#D55E00",
+    "hybrid": "#009E73",
+    "humerus": "#D55E00",
+    "forearm": "#0072B2",
+    "elbow": "#000000",
+    # Loss-handling options (notebooks 04-05); hold_last is plain data fusion.
+    "hold_last": "#0072B2",
+    "dt_extension": "#56B4E9",
+    "gyro_interpolation": "#E69F00",
+    "adaptive_beta": "#CC79A7",
+    # Peer filters (notebook 05): one colour per library, the hybrid variants told apart by
+    # marker (and, in notebook 05's figures, line style).
+    "Fusion": OKABE_ITO["grey"],
+    "Fusion + hybrid (output)": OKABE_ITO["grey"],
+    "Fusion + hybrid (feedback)": OKABE_ITO["grey"],
+    "VQF": OKABE_ITO["black"],
+    "VQF + hybrid (output)": OKABE_ITO["black"],
+    "VQF + hybrid (feedback)": OKABE_ITO["black"],
+    # Paper 002 (notebooks 06-09): fingerprinting approaches, estimates and the baseline.
+    "deterministic": OKABE_ITO["blue"],            # kNN (Shepard-weighted)
+    "probabilistic": OKABE_ITO["orange"],          # p-kNN
+    "kinect": OKABE_ITO["reddish purple"],         # Kinect-like optical baseline
+    "radio only": OKABE_ITO["sky blue"],           # position from the fingerprint alone
+    # Accelerometer pitch (notebook 07): raw eq. (6), the paper's gravity gate, a low-pass.
+    "none": OKABE_ITO["grey"],
+    "gating": OKABE_ITO["vermillion"],
+    "lowpass": OKABE_ITO["blue"],
+    # Targets of paper 002: target 1 sits on the upper arm (elbow), target 2 on the forearm (wrist).
+    "T1": OKABE_ITO["vermillion"],
+    "T2": OKABE_ITO["blue"],
+}
+
+#: Marker per estimator (lines get it every few points, scatters on every point); the second
+#: channel besides colour, so a figure survives greyscale printing.
+METHOD_MARKERS = {
+    "truth": "",
+    "data fusion": "o",
+    "single frame": "s",
+    "hybrid": "D",
+    # Loss-handling options and peer filters (notebooks 04-05); a peer's hybrid variants share
+    # its colour and differ in marker.
+    "hold_last": "o",
+    "dt_extension": ">",
+    "gyro_interpolation": "<",
+    "adaptive_beta": "d",
+    "Fusion": "v",
+    "Fusion + hybrid (output)": "p",
+    "Fusion + hybrid (feedback)": "h",
+    "VQF": "^",
+    "VQF + hybrid (output)": "p",
+    "VQF + hybrid (feedback)": "h",
+    "deterministic": "o",
+    "probabilistic": "s",
+    "kinect": "^",
+    "radio only": "v",
+    "none": "x",
+    "gating": "o",
+    "lowpass": "s",
+    "T1": "o",
+    "T2": "s",
+}
+
+#: Colours and markers of the loss-tolerance study's methods (:mod:`wsnlib.studies.loss_tolerance`);
+#: ``hold_last``, ``gyro_interpolation`` and the peers keep notebook 05's.
+METHOD_COLORS.update({"constant_rate": OKABE_ITO["sky blue"], "hybrid (feedback)": OKABE_ITO["bluish green"],
+                      "Kalman": OKABE_ITO["vermillion"], "smoother": OKABE_ITO["reddish purple"],
+                      "VQF (defaults)": OKABE_ITO["black"]})
+# Variants keep their base method's colour and differ in marker.
+METHOD_COLORS.update({"gated hybrid (feedback)": METHOD_COLORS["hybrid (feedback)"],
+                      "Fusion + gated hybrid (feedback)": METHOD_COLORS["Fusion + hybrid (feedback)"],
+                      "Fusion, constant rate": METHOD_COLORS["Fusion"], "VQF, constant rate": METHOD_COLORS["VQF"]})
+METHOD_MARKERS.update({"constant_rate": ">", "hybrid (feedback)": "D", "Kalman": "*", "smoother": "P",
+                       "VQF (defaults)": "X"})
+METHOD_MARKERS.update({"gated hybrid (feedback)": "d", "Fusion + gated hybrid (feedback)": "H",
+                       "Fusion, constant rate": "1", "VQF, constant rate": "2"})
+
+
+def method_style(name: str, **overrides) -> dict:
+    """Keyword arguments for ``Axes.plot``/``scatter`` drawing method ``name`` in its colour and marker.
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`METHOD_COLORS` (e.g. ``"deterministic"``, ``"hybrid"``, ``"kinect"``).
+    **overrides
+        Replace or add keyword arguments (e.g. ``ls="--"``, ``label="ours"``).
+
+    Returns
+    -------
+    dict
+        ``color``, ``marker`` (may be ``""``) and ``label`` (``name``), updated with ``overrides``.
+
+    Raises
+    ------
+    ValueError
+        ``name`` has no colour: add it to :data:`METHOD_COLORS` rather than falling back on the
+        colour cycle, so that one method keeps one colour in every notebook.
+    """
+    if name not in METHOD_COLORS:
+        raise ValueError(f"name must be a key of METHOD_COLORS ({', '.join(METHOD_COLORS)}), got {name!r}")
+    style = {"color": METHOD_COLORS[name], "marker": METHOD_MARKERS.get(name, ""), "label": name}
+    style.update(overrides)
+    return style
+
+_STYLE = {
+    "figure.figsize": (7.0, 3.6),
+    "figure.dpi": 100,
+    "savefig.dpi": 150,
+    "savefig.bbox": "tight",
+    # Every text at least 8 pt (MIN_FONT_PT) in a figure up to DISPLAY_WIDTH_IN wide.
+    "font.size": 10,
+    "axes.titlesize": 10,
+    "axes.labelsize": 10,
+    "xtick.labelsize": 9,
+    "ytick.labelsize": 9,
+    "legend.fontsize": 9,
+    "legend.title_fontsize": 9,
+    "figure.titlesize": 11,
+    "axes.grid": True,
+    "grid.alpha": 0.3,
+    "axes.spines.top": False,
+    "axes.spines.right": False,
+    "legend.frameon": False,
+    "lines.linewidth": 1.4,
+    # Embed fonts as Type 42 so PDFs are portable; hash salt fixed for reproducible SVG ids.
+    "pdf.fonttype": 42,
+    "svg.hashsalt": "wsn-motion",
+    # Unnamed series cycle through the Okabe–Ito colours, never matplotlib's tab10.
+    "axes.prop_cycle": mpl.cycler(color=[OKABE_ITO[name] for name in (
+        "blue", "orange", "bluish green", "vermillion", "sky blue", "reddish purple", "yellow", "black")]),
+}
+
+# Matplotlib writes a creation date and version into files unless told otherwise.
+_PNG_METADATA = {"Software": None}
+_PDF_METADATA = {"Creator": None, "Producer": None, "CreationDate": None, "ModDate": None}
+
+
+#: Width (inches) at which a notebook shows a figure at 100 % zoom: a wider figure is shrunk to it.
+DISPLAY_WIDTH_IN = 7.5
+
+#: Smallest legible text (points) as displayed in a notebook.
+MIN_FONT_PT = 8.0
+
+#: Font size (points) of in-plot notes: numbers in heatmap cells, labels next to points.
+ANNOTATION_FONT_PT = 8.0
+
+#: Environment variable that marks an unattended (batch) run (the same as wsnlib.interactive's).
+_BATCH_ENV_VAR = "WSNLIB_BATCH"
+
+
+def use_style() -> None:
+    """Apply the project's plot style to matplotlib's rcParams (call once per notebook)."""
+    mpl.rcParams.update(_STYLE)
+
+
+def savefig(fig: mpl.figure.Figure, name: str, formats: tuple[str, ...] = ("png", "pdf")) -> list[Path]:
+    """Save ``fig`` as ``<figures>/<name>.<fmt>`` for each format, reproducibly.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    name : str
+        File stem, e.g. ``"a01_fig02_humerus_pitch"``; letters, digits, ``_`` and ``-`` only.
+    formats : tuple of str
+        Any of ``"png"``, ``"pdf"`` (a single string is one format).  Every format is checked
+        before anything is written; each file is written to a temporary file in the figures
+        folder and renamed into place, so an interrupted save leaves the old file or none.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written.
+
+    Raises
+    ------
+    ValueError
+        A bad ``name`` or ``formats``; in the batch (``WSNLIB_BATCH=1``), also a text of ``fig``
+        smaller than :data:`MIN_FONT_PT` as a notebook shows it (:func:`effective_font_sizes`),
+        which interactively is a warning instead.  Nothing is written then.
+    """
+    if not name or not all(ch.isalnum() or ch in "_-" for ch in name):
+        raise ValueError(f"name must be a plain file stem (letters, digits, _ or -), got {name!r}")
+    if isinstance(formats, str):
+        formats = (formats,)
+    formats = tuple(formats)
+    metadata = {"png": _PNG_METADATA, "pdf": _PDF_METADATA}
+    bad = [fmt for fmt in formats if fmt not in metadata]
+    if bad or not formats:  # checked before anything is written
+        raise ValueError(f"formats may contain 'png' and 'pdf' (at least one), got {formats!r}")
+    _check_legibility(fig, name)
+    written = []
+    for fmt in dict.fromkeys(formats):
+        path = paths.figures() / f"{name}.{fmt}"
+        with atomic_path(path) as tmp:  # a killed batch leaves the old figure or none, never half
+            fig.savefig(tmp, format=fmt, metadata=metadata[fmt])
+        written.append(path)
+    return written
+
+
+def effective_font_sizes(fig: mpl.figure.Figure, display_width_in: float = DISPLAY_WIDTH_IN) -> list[tuple[str, float]]:
+    """Every visible, non-empty text of ``fig`` with its size (points) as shown in a notebook.
+
+    A figure wider than ``display_width_in`` is shrunk to that width, and its texts with it:
+    effective size = font size × min(1, display_width_in / figure width), the figure width
+    being that of the saved image (``savefig.bbox: tight`` crops or extends the canvas).
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    display_width_in : float
+        Width of the notebook's output area, inches (:data:`DISPLAY_WIDTH_IN`).
+
+    Returns
+    -------
+    list of (str, float)
+        Text and effective size in points, smallest first.
+    """
+    if not display_width_in > 0:
+        raise ValueError(f"display_width_in must be positive, got {display_width_in!r}")
+    drawn = []
+    original_draw = Text.draw
+
+    def record(text, renderer):
+        if text.get_visible() and text.get_text().strip():
+            drawn.append(text)
+        return original_draw(text, renderer)
+
+    # Draw once, noting every text matplotlib actually draws (not hidden tick labels, axes
+    # turned off, or tick labels outside the view).
+    with unittest.mock.patch.object(Text, "draw", record):
+        fig.draw_without_rendering()
+    if mpl.rcParams["savefig.bbox"] == "tight":
+        width_in = fig.get_tightbbox().width
+    else:
+        width_in = fig.get_size_inches()[0]
+    scale = min(1.0, display_width_in / float(width_in))
+    sizes = [(text.get_text(), float(text.get_fontsize()) * scale) for text in dict.fromkeys(drawn)]
+    return sorted(sizes, key=lambda item: item[1])
+
+
+def _too_small(fig: mpl.figure.Figure) -> list[tuple[str, float]]:
+    return [(text, size) for text, size in effective_font_sizes(fig) if size < MIN_FONT_PT - 1e-9]
+
+
+def _check_legibility(fig: mpl.figure.Figure, name: str) -> None:
+    """Raise (in the batch) or warn (interactively) when a text of ``fig`` is below :data:`MIN_FONT_PT`."""
+    small = _too_small(fig)
+    if not small:
+        return
+    shown = ", ".join(f"{text!r} {size:.1f} pt" for text, size in small[:5])
+    message = (f"figure {name!r}: {len(small)} text(s) smaller than {MIN_FONT_PT:g} pt at a notebook width of "
+               f"{DISPLAY_WIDTH_IN:g} in ({shown}{', …' if len(small) > 5 else ''}); use larger fonts or a "
+               "narrower figure")
+    if os.environ.get(_BATCH_ENV_VAR) == "1":
+        raise ValueError(message)
+    warnings.warn(message, stacklevel=3)
