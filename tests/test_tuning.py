@@ -55,3 +55,48 @@ def test_hybrid_options_pass_hold_window_only_for_hold():
     assert tuning.hybrid_options(setting) == {"method": "hybrid", "rho": 2.0, "tau": 6.0, "schedule": "decay",
                                               "blend": "output"}
     assert tuning.hybrid_options({**setting, "schedule": "hold"})["hold_window"] == 50
+
+
+@pytest.fixture(scope="module")
+def small_trials():
+    from wsnlib.sim import movement_set
+    from wsnlib.sim.trials import LossProfile, arm_loss_trials
+
+    movements = dict(list(movement_set(fs=50.0, duration_s=4.0).items())[:2])
+    return arm_loss_trials(movements, [LossProfile.burst(60, 4), LossProfile.gilbert_elliott(0.2)], 2,
+                           rng=np.random.default_rng(11))
+
+
+def test_hybrid_sweep_shapes_and_only_the_product_matters(small_trials):
+    rho_grid, tau_grid = [1.0, 2.0, 4.0], [2.0, 1.0]
+    foms, references = tuning.hybrid_sweep(small_trials, rho_grid, tau_grid, beta=0.041, hold_window=50,
+                                           threshold_deg=5.0, configurations=[("decay", "feedback")])
+    n_trials = len(small_trials.labels)
+    error = foms["decay", "feedback"][tuning.CANDIDATE_COLUMNS["mean max error (°)"]]
+    assert error.shape == (3, 2, n_trials)
+    # (ρ, τ) = (1, 2) and (2, 1) have the same product, (4, 1) another one.
+    assert np.allclose(error[0, 0], error[1, 1], atol=1e-6)
+    assert not np.allclose(error[0, 0], error[2, 1])
+    assert set(references) == {"data fusion", "single frame"}
+    assert references["data fusion"][tuning.CANDIDATE_COLUMNS["mean max error (°)"]].shape == (n_trials,)
+
+
+def test_candidate_table_and_recommendation_follow_the_costs(small_trials):
+    rho_grid, tau_grid = [0.5, 4.0], [1.0, 6.0]
+    configurations = [("hold", "output"), ("decay", "feedback")]
+    foms, _ = tuning.hybrid_sweep(small_trials, rho_grid, tau_grid, beta=0.041, hold_window=50, threshold_deg=5.0,
+                                  configurations=configurations)
+    candidates, costs = tuning.candidate_table(foms, rho_grid, tau_grid, configurations)
+    assert len(candidates) == 8 and list(candidates.columns[:4]) == ["schedule", "blend", "rho", "tau"]
+    for column in tuning.CANDIDATE_COLUMNS:
+        assert costs[column].shape == (8, len(small_trials.labels))
+        assert np.allclose(candidates[column], costs[column].mean(axis=1))
+    assert candidates.loc[4, "schedule"] == "decay" and candidates.loc[4, "rho"] == 0.5
+    recommendation, knee, boot = tuning.recommend_hybrid(candidates, costs, rng=np.random.default_rng(0), n_boot=20,
+                                                         beta=0.041)
+    assert knee == tuning.knee_point(candidates["mean max error (°)"], candidates["mean jerk (°/s³)"])
+    assert boot.shape == (20,)
+    row = candidates.iloc[knee]
+    assert (recommendation["schedule"], recommendation["rho"], recommendation["beta"]) == (
+        row["schedule"], row["rho"], 0.041)
+    assert recommendation["rho_tau_ci_low"] <= recommendation["rho_tau_ci_high"]

@@ -43,7 +43,9 @@ then each axis is saturated at ± full scale and quantised to the sensor resolut
 has per-sample standard deviation ``density · √B`` with noise bandwidth ``B = fs / 2``
 unless :attr:`ImuSpec.noise_bandwidth_hz` is set (assumption: the on-chip filters are set
 near the Nyquist frequency of the 50 Hz stream).  No scale-factor, misalignment, cross-axis
-or soft-iron errors are modelled (assumed calibrated away).
+or soft-iron errors are modelled (assumed calibrated away), unless a
+:class:`~wsnlib.sim.disturbance.Disturbance` is passed to :func:`simulate_imu` (hard/soft iron,
+passing ferrous objects, body translation; calibrated against BROAD).
 """
 
 from __future__ import annotations
@@ -57,8 +59,10 @@ import numpy as np
 from wsnlib import frames
 from wsnlib import quaternion as Q
 from wsnlib._validation import as_float_array, check_nonnegative, check_positive
+from wsnlib.arm_model import ArmGeometry, ArmKinematics
 from wsnlib.io.recording import Recording
-from wsnlib.sim.arm import ArmGeometry, ArmTrajectory, ArmTruth, arm_kinematics
+from wsnlib.sim.arm import ArmTrajectory, arm_kinematics
+from wsnlib.sim.disturbance import Disturbance, apply_disturbance, draw_disturbance
 
 #: 1 gauss = 100 µT.
 UT_PER_GAUSS = 100.0
@@ -296,7 +300,7 @@ class ImuSamples(NamedTuple):
 
 
 def ideal_imu(
-    truth: ArmTruth,
+    truth: ArmKinematics,
     *,
     gravity: float = frames.STANDARD_GRAVITY,
     mag_field_enu=None,
@@ -305,8 +309,8 @@ def ideal_imu(
 
     Parameters
     ----------
-    truth : ArmTruth
-        From :func:`wsnlib.sim.arm.arm_kinematics`.
+    truth : wsnlib.arm_model.ArmKinematics
+        From :func:`wsnlib.sim.arm.arm_kinematics` or any other motion generator.
     gravity : float
         Gravity magnitude (m/s²); the accelerometer reads ``+gravity`` along earth z at rest.
     mag_field_enu : array_like, shape (3,), optional
@@ -318,16 +322,15 @@ def ideal_imu(
         ``gyr = ω_B``; ``acc = q* ⊗ (a_lin + [0, 0, g]) ⊗ q``; ``mag = q* ⊗ m_E ⊗ q``;
         each ``(N_nodes, T, 3)``.
     """
-    if not isinstance(truth, ArmTruth):
-        raise ValueError(f"truth must be an ArmTruth, got {type(truth).__name__}")
+    if not isinstance(truth, ArmKinematics):
+        raise ValueError(f"truth must be an ArmKinematics, got {type(truth).__name__}")
     gravity = check_positive(gravity, "gravity")
     if mag_field_enu is None:
         mag_field_enu = frames.magnetic_field_enu()
     mag_field = as_float_array(mag_field_enu, "mag_field_enu")
     if mag_field.shape != (3,):
         raise ValueError(f"mag_field_enu must have shape (3,), got {mag_field.shape}")
-    specific_force = truth.acc_lin + frames.gravity_specific_force_enu(gravity)
-    acc = Q.rotate_inverse(truth.quat, specific_force)
+    acc = truth.specific_force(gravity)
     mag = Q.rotate_inverse(truth.quat, np.broadcast_to(mag_field, truth.acc_lin.shape))
     return ImuSamples(truth.gyr.copy(), acc, mag)
 
@@ -348,20 +351,22 @@ def _digitise(x: np.ndarray, step, full_scale: float, bits: int, spec: ImuSpec) 
 
 
 def simulate_imu(
-    truth: ArmTruth,
+    truth: ArmKinematics,
     spec: ImuSpec | None = None,
     *,
     rng: np.random.Generator,
     n_runs: int | None = None,
     gravity: float = frames.STANDARD_GRAVITY,
     mag_field_enu=None,
+    disturbance: Disturbance | None = None,
 ) -> ImuSamples:
     """Simulate gyroscope, accelerometer and magnetometer readings of every node.
 
     Parameters
     ----------
-    truth : ArmTruth
-        Ground truth from :func:`wsnlib.sim.arm.arm_kinematics`.
+    truth : wsnlib.arm_model.ArmKinematics
+        Ground truth from :func:`wsnlib.sim.arm.arm_kinematics` (or any generator that
+        records ``fs``, e.g. :meth:`wsnlib.sim.arm_motion.ArmMotion.sample`).
     spec : ImuSpec, optional
         Sensor parameters; default :class:`ImuSpec()` (the paper's sensors).
     rng : numpy.random.Generator
@@ -375,6 +380,11 @@ def simulate_imu(
         Gravity magnitude (m/s²).
     mag_field_enu : array_like, shape (3,), optional
         Earth magnetic field (µT, ENU); default :func:`wsnlib.frames.magnetic_field_enu`.
+    disturbance : Disturbance, optional
+        Magnetic disturbance and body translation (:mod:`wsnlib.sim.disturbance`), drawn per
+        run from ``rng`` *after* the sensor noise (so the noise is the same with and without
+        it) and added to the exact readings before the sensor errors.  None (default) leaves
+        the simulation exactly as without the argument.
 
     Returns
     -------
@@ -395,6 +405,8 @@ def simulate_imu(
             raise ValueError(f"n_runs must be a positive integer or None, got {n_runs!r}")
         batch = (int(n_runs),)
     ideal = ideal_imu(truth, gravity=gravity, mag_field_enu=mag_field_enu)
+    if truth.fs is None:
+        raise ValueError("truth.fs is None: simulate_imu needs uniformly sampled kinematics with a sampling rate")
     fs = truth.fs
     dt = 1.0 / fs
     n_nodes, n_samples = truth.quat.shape[:2]
@@ -409,10 +421,17 @@ def simulate_imu(
     gyr = ideal.gyr + gyr_bias + spec.gyr_noise_std_si(fs) * rng.standard_normal(shape)
 
     acc_bias = spec.acc_bias_mg * 1e-3 * frames.STANDARD_GRAVITY * rng.standard_normal(per_run)
-    acc = ideal.acc + acc_bias + spec.acc_noise_std_si(fs) * rng.standard_normal(shape)
+    acc_noise = spec.acc_noise_std_si(fs) * rng.standard_normal(shape)
 
     mag_bias = spec.mag_bias_ut * rng.standard_normal(per_run)
-    mag = ideal.mag + mag_bias + spec.mag_noise_std_si(fs) * rng.standard_normal(shape)
+    mag_noise = spec.mag_noise_std_si(fs) * rng.standard_normal(shape)
+
+    acc_exact, mag_exact = ideal.acc, ideal.mag
+    if disturbance is not None:
+        signals = draw_disturbance(disturbance, truth.pos, fs, batch, rng=rng)
+        acc_exact, mag_exact = apply_disturbance(truth.quat, acc_exact, mag_exact, signals)
+    acc = acc_exact + acc_bias + acc_noise
+    mag = mag_exact + mag_bias + mag_noise
 
     return ImuSamples(
         _digitise(gyr, spec.gyr_step_si, spec.gyr_full_scale_si, spec.gyr_bits, spec),
@@ -468,7 +487,7 @@ def simulate_recording(
         the generator, trajectory parameters, geometry, IMU spec, gravity, earth field and
         the rng's seed entropy when available.
     """
-    geometry = ArmGeometry() if geometry is None else geometry
+    geometry = ArmGeometry.paper001() if geometry is None else geometry
     spec = ImuSpec() if spec is None else spec
     if mag_field_enu is None:
         mag_field_enu = frames.magnetic_field_enu()
@@ -479,7 +498,7 @@ def simulate_recording(
     info = {
         "generator": "wsnlib.sim.imu.simulate_recording",
         "trajectory": dict(trajectory.metadata),
-        "geometry": dataclasses.asdict(geometry),
+        "geometry": geometry.to_dict(),
         "imu_spec": dataclasses.asdict(spec),
         "gravity_m_s2": float(gravity),
         "mag_field_enu_uT": [float(v) for v in np.asarray(mag_field_enu, dtype=float)],

@@ -23,6 +23,7 @@ import pandas as pd
 
 from wsnlib import loss
 from wsnlib.sim.arm import ArmTrajectory, arm_kinematics
+from wsnlib.sim.disturbance import Disturbance
 from wsnlib.sim.imu import ImuSpec, simulate_imu
 
 
@@ -137,7 +138,8 @@ class Trials:
 
 
 def arm_loss_trials(movements: dict[str, ArmTrajectory], profiles: list[LossProfile], n_repetitions: int, *,
-                    rng: np.random.Generator, spec: ImuSpec | None = None) -> Trials:
+                    rng: np.random.Generator, spec: ImuSpec | None = None,
+                    disturbance: Disturbance | None = None) -> Trials:
     """Simulate every movement × loss profile × repetition, stacked along axis 0.
 
     Every trial has its own sensor noise and its own loss draw; trials are ordered by
@@ -154,6 +156,10 @@ def arm_loss_trials(movements: dict[str, ArmTrajectory], profiles: list[LossProf
     rng : numpy.random.Generator
     spec : ImuSpec, optional
         Sensor model (datasheet defaults).
+    disturbance : Disturbance, optional
+        Magnetic disturbance and body translation added to every trial (each trial draws its
+        own; :data:`wsnlib.sim.disturbance.UNDISTURBED_BROAD` is calibrated to BROAD); None
+        (default) gives exactly the clean trials.
 
     Returns
     -------
@@ -172,7 +178,7 @@ def arm_loss_trials(movements: dict[str, ArmTrajectory], profiles: list[LossProf
     labels = []
     for name, trajectory in movements.items():
         truth = arm_kinematics(trajectory)
-        gyr, acc, mag = simulate_imu(truth, spec, rng=rng, n_runs=per_movement)
+        gyr, acc, mag = simulate_imu(truth, spec, rng=rng, n_runs=per_movement, disturbance=disturbance)
         parts["gyr"].append(gyr)
         parts["acc"].append(acc)
         parts["mag"].append(mag)
