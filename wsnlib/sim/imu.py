@@ -62,7 +62,7 @@ from wsnlib._validation import as_float_array, check_nonnegative, check_positive
 from wsnlib.arm_model import ArmGeometry, ArmKinematics
 from wsnlib.io.recording import Recording
 from wsnlib.sim.arm import ArmTrajectory, arm_kinematics
-from wsnlib.sim.disturbance import Disturbance, apply_disturbance, draw_disturbance
+from wsnlib.sim.disturbance.model import Disturbance, apply_disturbance, draw_disturbance
 
 #: 1 gauss = 100 µT.
 UT_PER_GAUSS = 100.0
