@@ -1,0 +1,58 @@
+"""Argument checks shared by the loss modules: each raises a ValueError naming the argument."""
+
+from __future__ import annotations
+
+import numpy as np
+
+# --------------------------------------------------------------------------------------------
+# Validation helpers
+# --------------------------------------------------------------------------------------------
+
+
+def _check_count(value, name: str, minimum: int = 0) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ValueError(f"{name} must be an integer, got {value!r}")
+    if value < minimum:
+        raise ValueError(f"{name} must be >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def _check_shape(shape, name: str = "shape") -> tuple[int, ...]:
+    if isinstance(shape, (int, np.integer)) and not isinstance(shape, bool):
+        shape = (shape,)
+    try:
+        shape = tuple(shape)
+    except TypeError:
+        raise ValueError(
+            f"{name} must be a tuple of non-negative integers, got {shape!r}"
+        ) from None
+    return tuple(_check_count(s, name) for s in shape)
+
+
+def _check_mask(value, name: str, min_ndim: int = 1) -> np.ndarray:
+    arr = np.asarray(value)
+    if arr.dtype != np.bool_:
+        raise ValueError(f"{name} must be a boolean mask (True = received), got dtype {arr.dtype}")
+    if arr.ndim < min_ndim:
+        raise ValueError(
+            f"{name} must have at least {min_ndim} dimension(s), got shape {arr.shape}"
+        )
+    return arr
+
+
+def _check_rate(value, name: str, upper_inclusive: bool) -> float:
+    try:
+        rate = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number, got {value!r}") from None
+    ok = 0.0 <= rate <= 1.0 if upper_inclusive else 0.0 <= rate < 1.0
+    if not ok:
+        interval = "[0, 1]" if upper_inclusive else "[0, 1)"
+        raise ValueError(f"{name} must lie in {interval}, got {value!r}")
+    return rate
+
+
+def _check_rng(rng) -> np.random.Generator:
+    if not isinstance(rng, np.random.Generator):
+        raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+    return rng

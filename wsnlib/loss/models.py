@@ -1,0 +1,305 @@
+"""Loss models: single bursts, burst trains, Bernoulli, Gilbert–Elliott, measured traces.
+
+Each returns a boolean mask with ``True`` = received; the package docstring
+(:mod:`wsnlib.loss`) gives the references.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+
+from wsnlib.loss._checks import _check_count, _check_rate, _check_rng, _check_shape
+from wsnlib.loss.masks import SAMPLES_PER_PACKET
+
+# --------------------------------------------------------------------------------------------
+# Deterministic bursts
+# --------------------------------------------------------------------------------------------
+
+
+def burst_loss(n_packets: int, start_packet: int, n_lost: int) -> np.ndarray:
+    """Per-packet mask with one burst of ``n_lost`` lost packets starting at ``start_packet``.
+
+    Parameters
+    ----------
+    n_packets : int
+        Length of the mask.
+    start_packet : int
+        Index of the first lost packet, ``0 <= start_packet <= n_packets``.
+    n_lost : int
+        Number of lost packets (≥ 0); a burst running past the end is cut there.
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (n_packets,)
+        False on ``start_packet … start_packet + n_lost − 1``, True elsewhere.
+    """
+    n_packets = _check_count(n_packets, "n_packets")
+    start = _check_count(start_packet, "start_packet")
+    if start > n_packets:
+        raise ValueError(f"start_packet must be <= n_packets = {n_packets}, got {start}")
+    n_lost = _check_count(n_lost, "n_lost")
+    mask = np.ones(n_packets, dtype=bool)
+    mask[start : start + n_lost] = False
+    return mask
+
+
+def burst_mask(
+    n_samples: int,
+    start_sample: int,
+    n_packets: int,
+    samples_per_packet: int = SAMPLES_PER_PACKET,
+    *,
+    align: str = "next",
+) -> np.ndarray:
+    """Per-sample mask with ``n_packets`` whole packets lost "right after ``start_sample`` samples".
+
+    Parameters
+    ----------
+    n_samples : int
+        Length ``T`` of the mask.
+    start_sample : int
+        Number of samples received before the burst may begin, ``0 <= start_sample <= T``.
+    n_packets : int
+        Number of lost packets (≥ 0); λ reaches ``n_packets · samples_per_packet`` unless the
+        burst is cut at the end of the recording.
+    samples_per_packet : int
+        Samples per packet ``S``.
+    align : {"next", "exact"}
+        Where the burst starts:
+
+        * ``"next"`` (default): on the packet grid of the module (packets start at multiples
+          of ``S``), the first lost packet is the first one starting at or after
+          ``start_sample``.  With ``S = 6``, ``burst_mask(T, 80, 4)`` loses samples 84–107
+          (packets 14–17): samples 0–83 are received.  The mask is then exactly
+          ``packets_to_samples(burst_loss(...), S, T)``.
+        * ``"exact"``: the burst starts at ``start_sample`` itself, as if the packet grid
+          were shifted so that a packet begins there.  ``burst_mask(T, 80, 4,
+          align="exact")`` loses samples 80–103, the literal reading of paper 001's "four
+          packets right after 80 samples" (80 is not a multiple of 6).
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (n_samples,)
+    """
+    n_samples = _check_count(n_samples, "n_samples")
+    start = _check_count(start_sample, "start_sample")
+    if start > n_samples:
+        raise ValueError(f"start_sample must be <= n_samples = {n_samples}, got {start}")
+    n_lost = _check_count(n_packets, "n_packets")
+    spp = _check_count(samples_per_packet, "samples_per_packet", 1)
+    if align == "next":
+        first = -(-start // spp) * spp
+    elif align == "exact":
+        first = start
+    else:
+        raise ValueError(f"align must be 'next' or 'exact', got {align!r}")
+    mask = np.ones(n_samples, dtype=bool)
+    mask[first : first + n_lost * spp] = False
+    return mask
+
+
+def burst_train(n_samples: int, start_sample: int, period_samples: int, n_packets: int,
+                samples_per_packet: int = SAMPLES_PER_PACKET) -> tuple[np.ndarray, np.ndarray]:
+    """Repeated bursts: ``n_packets`` lost every ``period_samples`` samples from ``start_sample`` on.
+
+    Each burst is placed like :func:`burst_mask` (on the packet grid, at or after its nominal
+    start); bursts that would not end before the record does are left out, so every burst has
+    a first received sample after it.
+
+    Returns
+    -------
+    received : numpy.ndarray of bool, shape (n_samples,)
+    burst_ends : numpy.ndarray of int, shape (B,)
+        Index of the first received sample after each burst (for
+        :func:`wsnlib.metrics.burst_response`).
+    """
+    n_samples = _check_count(n_samples, "n_samples")
+    period = _check_count(period_samples, "period_samples", minimum=1)
+    n_packets = _check_count(n_packets, "n_packets", minimum=1)
+    start = _check_count(start_sample, "start_sample")
+    length = n_packets * samples_per_packet
+    if period <= length:
+        raise ValueError(f"period_samples ({period}) must exceed the burst length ({length} samples)")
+    received = np.ones(n_samples, dtype=bool)
+    ends = []
+    for nominal in range(start, n_samples, period):
+        burst = burst_mask(n_samples, nominal, n_packets, samples_per_packet)
+        first_lost = int(np.argmin(burst))
+        if burst.all() or first_lost + length >= n_samples:
+            break
+        received &= burst
+        ends.append(first_lost + length)
+    return received, np.asarray(ends, dtype=np.int64)
+
+
+# --------------------------------------------------------------------------------------------
+# Random loss models
+# --------------------------------------------------------------------------------------------
+
+
+def bernoulli_loss(
+    n_packets: int, loss_rate: float, *, rng: np.random.Generator, shape=()
+) -> np.ndarray:
+    """Independent packet losses with probability ``loss_rate``.
+
+    Parameters
+    ----------
+    n_packets : int
+        Packets per sequence.
+    loss_rate : float
+        Probability that a packet is lost, in [0, 1].
+    rng : numpy.random.Generator
+    shape : tuple of int
+        Batch shape.
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (*shape, n_packets)
+        True = received.
+    """
+    n_packets = _check_count(n_packets, "n_packets")
+    rate = _check_rate(loss_rate, "loss_rate", upper_inclusive=True)
+    shape = _check_shape(shape)
+    rng = _check_rng(rng)
+    return rng.random(shape + (n_packets,)) >= rate
+
+
+def gilbert_elliott_probabilities(loss_rate: float, mean_burst: float) -> tuple[float, float]:
+    """Transition probabilities ``(p_GB, p_BG)`` of the Gilbert–Elliott chain.
+
+    ``p_BG = 1 / mean_burst`` (bursts of lost packets are geometric with that mean) and
+    ``p_GB = loss_rate · p_BG / (1 − loss_rate)``, so that the stationary probability of the
+    Bad state, ``p_GB / (p_GB + p_BG)``, equals ``loss_rate``.
+
+    Raises
+    ------
+    ValueError
+        Unless ``0 <= loss_rate < 1``, ``mean_burst >= 1``, and ``p_GB <= 1``, i.e.
+        ``loss_rate <= mean_burst / (1 + mean_burst)`` (with bursts of mean length ``m``
+        separated by at least one received packet, at most ``m / (1 + m)`` can be lost).
+    """
+    rate = _check_rate(loss_rate, "loss_rate", upper_inclusive=False)
+    try:
+        burst = float(mean_burst)
+    except (TypeError, ValueError):
+        raise ValueError(f"mean_burst must be a number >= 1, got {mean_burst!r}") from None
+    if not math.isfinite(burst) or burst < 1.0:
+        raise ValueError(f"mean_burst must be a finite number >= 1, got {mean_burst!r}")
+    p_bg = 1.0 / burst
+    p_gb = rate * p_bg / (1.0 - rate)
+    if p_gb > 1.0:
+        raise ValueError(
+            f"loss_rate = {rate:g} cannot be reached with mean_burst = {burst:g}: "
+            f"loss_rate must be <= mean_burst / (1 + mean_burst) = {burst / (1.0 + burst):g}"
+        )
+    return p_gb, p_bg
+
+
+def gilbert_elliott(
+    n_packets: int,
+    loss_rate: float,
+    mean_burst: float,
+    *,
+    rng: np.random.Generator,
+    shape=(),
+) -> np.ndarray:
+    """Bursty packet loss from the two-state Gilbert–Elliott Markov chain.
+
+    States: Good (packet received) and Bad (packet lost).  ``p(B→G) = 1 / mean_burst`` and
+    ``p(G→B)`` is set so that the stationary loss rate is ``loss_rate``
+    (:func:`gilbert_elliott_probabilities`).  The first packet's state is drawn from the
+    stationary distribution, so every packet is lost with probability ``loss_rate`` and the
+    lengths of loss bursts are geometric with mean ``mean_burst``.
+
+    Parameters
+    ----------
+    n_packets : int
+        Packets per sequence.
+    loss_rate : float
+        Long-run fraction of lost packets, ``0 <= loss_rate < 1``.
+    mean_burst : float
+        Mean number of consecutive lost packets, ``>= 1``.
+    rng : numpy.random.Generator
+    shape : tuple of int
+        Batch shape; each sequence is an independent chain.
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (*shape, n_packets)
+        True = received.
+    """
+    n_packets = _check_count(n_packets, "n_packets")
+    p_gb, p_bg = gilbert_elliott_probabilities(loss_rate, mean_burst)
+    shape = _check_shape(shape)
+    rng = _check_rng(rng)
+    u = rng.random(shape + (n_packets,))
+    lost = np.empty(shape + (n_packets,), dtype=bool)
+    if n_packets == 0:
+        return ~lost
+    stationary_bad = p_gb / (p_gb + p_bg)
+    state = u[..., 0] < stationary_bad
+    lost[..., 0] = state
+    for k in range(1, n_packets):
+        # Bad stays Bad with 1 - p_BG; Good turns Bad with p_GB.
+        state = np.where(state, u[..., k] >= p_bg, u[..., k] < p_gb)
+        lost[..., k] = state
+    return ~lost
+
+
+def loss_trace_from_file(path) -> np.ndarray:
+    """Read a measured per-packet loss trace.
+
+    Format: a text file of per-packet flags, ``1`` = received and ``0`` = lost (also
+    ``true``/``false``, any case).  Flags are separated by commas, semicolons, whitespace or
+    line breaks (one per line, or a CSV row); blank lines and lines starting with ``#`` are
+    ignored, and the first non-comment line may be the header ``received``.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (n_packets,)
+        True = received.
+
+    Raises
+    ------
+    ValueError
+        If the file is missing, empty or holds any other token (the file and the offending
+        token and line are named).
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ValueError(f"{path}: no such file") from None
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{path}: not a UTF-8 text file ({exc})") from None
+    values = {"1": True, "0": False, "true": True, "false": False}
+    flags: list[bool] = []
+    header_allowed = True
+    for line_no, line in enumerate(text.splitlines(), start=1):
+        stripped = line.strip()
+        if not stripped or stripped.startswith("#"):
+            continue
+        tokens = [tok for tok in re.split(r"[\s,;]+", stripped) if tok]
+        if header_allowed and [tok.lower() for tok in tokens] == ["received"]:
+            header_allowed = False
+            continue
+        header_allowed = False
+        for tok in tokens:
+            flag = values.get(tok.lower())
+            if flag is None:
+                raise ValueError(
+                    f"{path}: line {line_no}: {tok!r} is not a packet flag "
+                    "(1/0 or true/false, 1 = received)"
+                )
+            flags.append(flag)
+    if not flags:
+        raise ValueError(f"{path}: holds no packet flags")
+    return np.array(flags, dtype=bool)
