@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -12,6 +13,7 @@ from scipy.spatial.transform import Rotation
 from wsnlib import frames
 from wsnlib import quaternion as Q
 from wsnlib.orientation import estimate_orientation, madgwick
+from wsnlib.orientation._kalman_kernels import AR_RIDGE, gap_rate_end_weights, gap_rate_fit, gap_rate_predict
 from wsnlib.orientation.kalman import KalmanSettings, kalman_orientation
 from wsnlib.sim.arm import arm_kinematics, movement_set
 from wsnlib.sim.imu import ideal_imu
@@ -47,7 +49,16 @@ def _reference_filter(gyr, acc, mag, received, fs, st: KalmanSettings):
     lost_run = 0
     gap_sigma = 0.0
     ref = None
+    last_rx, q_last, rate_last = first, q, gyr[first].copy()  # for the gap replay
+    lin_var, lin_gain = 0.0, -math.expm1(-dt / st.acc_disturbance_tau_s)  # adaptive accelerometer noise
     for t in range(first + 1, n):
+        if received[t] and st.gap_replay and t - last_rx > 1:
+            # gap replay: re-integrate the gap from the last received state, rate interpolated
+            n_lost = t - last_rx - 1
+            q = q_last
+            for k in range(1, n_lost + 1):
+                w = rate_last + k / (n_lost + 1.0) * (gyr[t] - b - rate_last)
+                q = Q.normalize(Q.multiply(q, _rotvec_quat(w * dt)))
         if received[t]:
             held = gyr[t] - b
             lost_run = 0
@@ -77,11 +88,12 @@ def _reference_filter(gyr, acc, mag, received, fs, st: KalmanSettings):
         # accelerometer
         a_norm = np.linalg.norm(acc[t])
         dev = abs(a_norm - st.gravity)
+        lin_var += lin_gain * (dev**2 - lin_var)
         if dev <= st.acc_norm_gate and np.linalg.norm(held) <= st.acc_rate_gate:
             e = Q.rotate(q, acc[t] / a_norm)
             axis = np.cross(e, [0.0, 0.0, 1.0])
             phi = math.atan2(np.linalg.norm(axis), e[2]) * axis / np.linalg.norm(axis)
-            r = st.acc_noise**2 + (dev / st.gravity) ** 2
+            r = st.acc_noise**2 + (dev**2 + st.acc_disturbance_factor * lin_var) / st.gravity**2
             H = np.zeros((2, 9))
             H[0, 0] = H[1, 1] = 1.0
             S = H @ P @ H.T + r * np.eye(2)
@@ -108,7 +120,8 @@ def _reference_filter(gyr, acc, mag, received, fs, st: KalmanSettings):
         q = Q.normalize(Q.multiply(_rotvec_quat(dx[:3]), q))
         b = np.clip(b + dx[3:6], -st.bias_limit, st.bias_limit)
         v = v + dx[6:]
-        # magnetometer (the test data are undisturbed: the gate always accepts)
+        # magnetometer (the test data are undisturbed: the gate always accepts, and the online
+        # hard-iron estimate stays below mag_hard_iron_min_bias: checked in the test)
         m_e = Q.rotate(q, mag[t])
         dip = math.atan2(-m_e[2], math.hypot(m_e[0], m_e[1]))
         if ref is None:
@@ -132,6 +145,7 @@ def _reference_filter(gyr, acc, mag, received, fs, st: KalmanSettings):
         b = np.clip(b + dx[3:6], -st.bias_limit, st.bias_limit)
         v = v + dx[6:]
         out[t] = q
+        last_rx, q_last, rate_last = t, q, held.copy()
     return out, P
 
 
@@ -142,11 +156,170 @@ def test_kernel_matches_numpy_reference_to_1e12():
     gyr = gyr + 0.01
     received = np.ones(40, bool)
     received[[0, 9, 10, 11, 25]] = False
-    st = KalmanSettings(gap_rate_decay_s=0.2)
-    got = kalman_orientation(gyr, acc, mag, fs=FS, received=received, settings=st, full_output=True)
-    want, want_P = _reference_filter(gyr, acc, mag, received, FS, st)
-    np.testing.assert_allclose(Q.canonical(got.quat), Q.canonical(want), atol=1e-12)
-    np.testing.assert_allclose(got.covariance[-1], want_P, atol=1e-12, rtol=1e-10)
+    for replay, disturbance in ((True, 0.0), (False, 0.0), (True, 16.0)):
+        # (the gaps start before a window of rates exists: the decaying rate, as in the reference)
+        st = KalmanSettings(gap_rate_decay_s=0.2, gap_replay=replay, acc_disturbance_factor=disturbance)
+        got = kalman_orientation(gyr, acc, mag, fs=FS, received=received, settings=st, full_output=True)
+        want, want_P = _reference_filter(gyr, acc, mag, received, FS, st)
+        np.testing.assert_allclose(Q.canonical(got.quat), Q.canonical(want), atol=1e-12)
+        np.testing.assert_allclose(got.covariance[-1], want_P, atol=1e-12, rtol=1e-10)
+        # the hard-iron correction never applies on these clean data (the reference omits it)
+        no_hard_iron = dataclasses.replace(st, mag_hard_iron_min_bias=math.inf)
+        np.testing.assert_array_equal(got.quat, kalman_orientation(gyr, acc, mag, fs=FS, received=received,
+                                                                   settings=no_hard_iron))
+    replayed = kalman_orientation(gyr, acc, mag, fs=FS, received=received)
+    assert np.abs(replayed[12:] - kalman_orientation(gyr, acc, mag, fs=FS, received=received,
+                                                     settings=KalmanSettings(gap_replay=False))[12:]).max() > 1e-6
+
+
+def test_gap_replay_recovers_a_rate_that_changed_in_the_gap():
+    """The rate ramps up during a gap: the replayed state at the gap's end is closer to the truth
+    than the extrapolated one, and the lost samples' output is the extrapolation either way."""
+    n = 150
+    t = np.arange(n) / FS
+    rate = np.where(t < 1.0, 0.5, 0.5 + 4.0 * (t - 1.0))  # rad/s about a fixed body axis
+    axis = np.array([0.3, 0.4, 0.866])
+    axis /= np.linalg.norm(axis)
+    fine = np.linspace(0.0, t[-1], 20 * (n - 1) + 1)
+    fine_rate = np.where(fine < 1.0, 0.5, 0.5 + 4.0 * (fine - 1.0))
+    angle = np.concatenate([[0.0], np.cumsum(np.diff(fine) * 0.5 * (fine_rate[1:] + fine_rate[:-1]))])[::20]
+    q_true = Q.from_rotation_vector(angle[:, None] * axis)
+    gyr = rate[:, None] * axis
+    acc = Q.rotate_inverse(q_true, frames.gravity_specific_force_enu())
+    mag = Q.rotate_inverse(q_true, frames.magnetic_field_enu())
+    received = np.ones(n, bool)
+    received[60:80] = False  # 0.4 s in which the rate goes from 1.3 to 2.9 rad/s
+    on = kalman_orientation(gyr, acc, mag, fs=FS, received=received, q0=q_true[0])
+    off = kalman_orientation(gyr, acc, mag, fs=FS, received=received, q0=q_true[0],
+                             settings=KalmanSettings(gap_replay=False))
+    np.testing.assert_array_equal(on[:80], off[:80])
+    err_on, err_off = error_deg(on, q_true), error_deg(off, q_true)
+    assert err_off[80] > 5.0
+    assert err_on[80] < 0.2 * err_off[80]
+
+
+def test_hard_iron_offset_is_estimated_and_removed():
+    """A magnet fixed to the sensor after 5 s (constant body-frame offset, 40 % of the field):
+    with the online hard-iron estimate the heading stays close, without it the field is wrong."""
+    gyr, acc, mag, q_true = turning_recording(n=1500)
+    offset = 0.4 * np.linalg.norm(mag[0]) * np.array([0.6, -0.64, 0.48])
+    disturbed = mag.copy()
+    disturbed[250:] += offset
+    on = kalman_orientation(gyr, acc, disturbed, fs=FS)
+    off = kalman_orientation(gyr, acc, disturbed, fs=FS, settings=KalmanSettings(mag_hard_iron_min_bias=math.inf))
+    late = slice(750, None)
+    assert np.sqrt(np.mean(error_deg(on, q_true)[late] ** 2)) < 3.0
+    assert np.sqrt(np.mean(error_deg(off, q_true)[late] ** 2)) > 10.0
+
+
+# ------------------------------------------------------------------------------------------
+# The gap's linear prediction of the rate
+# ------------------------------------------------------------------------------------------
+
+
+def test_gap_rate_fit_matches_numpy_least_squares_and_predicts_an_oscillation():
+    t = np.arange(80) / FS
+    rates = np.stack([2.0 * np.exp(-0.3 * t) * np.sin(2 * np.pi * 1.5 * t), 0.5 * np.cos(2 * np.pi * 0.7 * t),
+                      0.1 + 0.0 * t], axis=1)
+    order, window, end = 4, 50, 60
+    coef = np.zeros((3, order))
+    largest = gap_rate_fit(rates, end, window, order, coef, np.empty((order, order)), np.empty(order))
+    for a in range(3):  # reference: ridge least squares with numpy
+        x = rates[end - window:end, a]
+        X = np.stack([x[i:window - order + i] for i in range(order)], axis=1)
+        A = X.T @ X
+        A += AR_RIDGE * max(1.0, np.trace(A) / order) * np.eye(order)
+        np.testing.assert_allclose(coef[a], np.linalg.solve(A, X.T @ x[order:]), rtol=1e-9, atol=1e-12)
+    assert largest == pytest.approx(np.linalg.norm(rates[end - window:end], axis=1).max())
+    # 10 steps ahead, fed back on its own predictions: close to the oscillation
+    buf = rates[:end].copy()
+    buf = np.concatenate([buf, np.zeros((10, 3))])
+    for k in range(end, end + 10):
+        gap_rate_predict(buf, k, order, coef, largest, buf[k])
+    assert np.abs(buf[end:, :2] - rates[end:end + 10, :2]).max() < 0.05
+
+
+def test_gap_rate_end_weights_are_the_gaussian_conditional_expectation():
+    order, n = 3, 12
+    coef = np.array([[0.2, -0.5, 1.1], [0.0, 0.0, 1.0], [0.1, 0.3, 0.4]])
+    h, weights = np.empty(n), np.empty(n)
+    for axis in range(3):
+        gap_rate_end_weights(coef, axis, order, n, h, weights)
+        # reference: the prediction errors e_1..e_n are M ε with M the lower-triangular Toeplitz
+        # matrix of the impulse response; E[e_k | e_n] = Cov(e_k, e_n)/Var(e_n) e_n
+        impulse = np.zeros(n)
+        impulse[0] = 1.0
+        for j in range(1, n):
+            impulse[j] = sum(coef[axis, i] * impulse[j - order + i] for i in range(order) if j - order + i >= 0)
+        M = np.array([[impulse[k - i] if k >= i else 0.0 for i in range(n)] for k in range(n)])
+        cov = M @ M.T
+        np.testing.assert_allclose(weights, cov[:, -1] / cov[-1, -1], rtol=1e-12)
+        assert weights[-1] == pytest.approx(1.0)
+    # a random walk (order 1, coefficient 1) gives the linear ramp k/n
+    gap_rate_end_weights(np.ones((3, 1)), 0, 1, n, h, weights)
+    np.testing.assert_allclose(weights, np.arange(1, n + 1) / n, rtol=1e-12)
+    # an explosive fit (impulse response 2^j) falls back to the ramp instead of overflowing
+    ramp = np.empty(400)
+    gap_rate_end_weights(np.full((3, 1), 2.0), 0, 1, 400, np.empty(400), ramp)
+    np.testing.assert_allclose(ramp, np.arange(1, 401) / 400, rtol=1e-12)
+
+
+def _oscillating_recording(n=600, freq=1.5, amp=6.0):
+    """A fast swing about a fixed body axis (rate ``amp`` rad/s at ``freq`` Hz), exact signals."""
+    t = np.arange(n) / FS
+    axis = np.array([0.2, 0.9, 0.39])
+    axis /= np.linalg.norm(axis)
+    gyr = amp * np.sin(2 * np.pi * freq * t)[:, None] * axis
+    quat = np.empty((n, 4))
+    quat[0] = Q.from_axis_angle([1.0, 0.0, 0.0], 0.3)
+    for k in range(1, n):
+        quat[k] = Q.normalize(Q.multiply(quat[k - 1], Q.from_rotation_vector(gyr[k] / FS)))
+    acc = Q.rotate_inverse(quat, frames.gravity_specific_force_enu())
+    mag = Q.rotate_inverse(quat, np.broadcast_to(frames.magnetic_field_enu(), (n, 3)))
+    return gyr, acc, mag, quat
+
+
+def test_linear_prediction_follows_a_swing_through_a_gap_and_replay_lands_on_it():
+    gyr, acc, mag, truth = _oscillating_recording()
+    received = np.ones(len(gyr), bool)
+    received[300:318] = False  # 0.36 s, half a period of the 1.5 Hz swing
+    base = KalmanSettings(acc_rate_gate=math.inf)
+    out = {name: kalman_orientation(gyr, acc, mag, fs=FS, received=received, q0=truth[0],
+                                    settings=dataclasses.replace(base, gap_rate_prediction=p, gap_replay=r))
+           for name, p, r in (("decay", False, False), ("decay+replay", False, True),
+                              ("predicted", True, False), ("predicted+replay", True, True))}
+    lost = slice(300, 318)
+    err = {name: error_deg(q, truth) for name, q in out.items()}
+    # on lost samples the output is the prediction: far closer to the swing than the decaying rate
+    assert err["predicted"][lost].mean() < 0.2 * err["decay"][lost].mean()
+    # at the gap's end (first received sample) the replay with the prediction lands close
+    assert err["predicted+replay"][318] < 0.2 * err["decay+replay"][318]
+    assert err["predicted+replay"][318] < 1.0
+
+
+def test_recent_linear_acceleration_lowers_the_accelerometer_weight():
+    """Sideways linear acceleration that keeps the norm within the gate (a swing in the
+    horizontal plane) tilts the measured direction; with the adaptive noise it moves the
+    estimate less."""
+    gyr, acc, mag, truth = turning_recording()
+    n = len(gyr)
+    t = np.arange(n) / FS
+    lin = np.zeros((n, 3))
+    # 4 m/s² horizontal circle (norm of the specific force ≈ √(g² + 16) − g ≈ 0.8 m/s² off)
+    lin[200:400, 0], lin[200:400, 1] = 4.0 * np.cos(2 * np.pi * t[200:400]), 4.0 * np.sin(2 * np.pi * t[200:400])
+    lin[200:400, 2] = 1.5 * np.sin(2 * np.pi * 2 * t[200:400])  # and some vertical, so the norm varies
+    bad = Q.rotate_inverse(truth, frames.gravity_specific_force_enu() + lin)
+    plain = KalmanSettings(velocity_noise=1e6)  # the accelerometer's update alone
+    off = kalman_orientation(gyr, bad, mag, fs=FS, settings=plain, full_output=True)
+    on = kalman_orientation(gyr, bad, mag, fs=FS, settings=dataclasses.replace(plain, acc_disturbance_factor=16.0),
+                            full_output=True)
+    assert off.acc_used[200:400].mean() > 0.3  # many samples pass the norm gate
+    rms_off = np.sqrt(np.mean(error_deg(off.quat, truth)[200:400] ** 2))
+    rms_on = np.sqrt(np.mean(error_deg(on.quat, truth)[200:400] ** 2))
+    assert rms_on < 0.7 * rms_off
+    # without linear acceleration the factor changes (almost) nothing
+    still = kalman_orientation(gyr, acc, mag, fs=FS, settings=dataclasses.replace(plain, acc_disturbance_factor=16.0))
+    assert error_deg(still, truth).max() < 0.5
 
 
 # ------------------------------------------------------------------------------------------
@@ -170,14 +343,19 @@ def test_prediction_continues_through_a_gap_instead_of_freezing():
     received = np.ones(len(gyr), bool)
     received[200:218] = False  # 3 packets of 6 samples, 0.36 s
     constant = kalman_orientation(gyr, acc, mag, fs=FS, received=received,
-                                  settings=KalmanSettings(gap_rate_decay_s=math.inf))
-    decaying = kalman_orientation(gyr, acc, mag, fs=FS, received=received)  # default: τ = 0.2 s
+                                  settings=KalmanSettings(gap_rate_decay_s=math.inf, gap_rate_prediction=False))
+    decaying = kalman_orientation(gyr, acc, mag, fs=FS, received=received,
+                                  settings=KalmanSettings(gap_rate_prediction=False))  # τ = 0.2 s
+    predicted = kalman_orientation(gyr, acc, mag, fs=FS, received=received,  # a window of 1 s before the gap
+                                   settings=KalmanSettings(gap_rate_prediction_order=8,
+                                                           gap_rate_prediction_window_s=1.0))
     held = madgwick(gyr, acc, mag, fs=FS, beta=0.041, received=received)
     # exact gyroscope: constant-rate extrapolation is far better than holding, the decaying
-    # rate (the default, better on BROAD's fast motion) in between
+    # rate in between; the linear prediction follows the sines of the rate better still
     err_held = error_deg(held, truth)[200:218].mean()
     assert error_deg(constant, truth)[200:218].mean() < 0.5 * err_held
     assert error_deg(constant, truth)[200:218].mean() < error_deg(decaying, truth)[200:218].mean() < err_held
+    assert error_deg(predicted, truth)[200:218].mean() < 0.5 * error_deg(constant, truth)[200:218].mean()
     assert not np.allclose(decaying[201], decaying[200])  # the estimate moves on lost samples
 
 
@@ -185,7 +363,11 @@ def test_covariance_grows_over_a_gap_and_shrinks_after():
     gyr, acc, mag, _ = turning_recording()
     received = np.ones(len(gyr), bool)
     received[300:330] = False
-    out = kalman_orientation(gyr, acc, mag, fs=FS, received=received, full_output=True)
+    default = kalman_orientation(gyr, acc, mag, fs=FS, received=received, full_output=True).covariance[:, 0, 0]
+    assert np.all(np.diff(default[300:330]) > 0) and default[330] < default[329]
+    # with the larger rate-error growth of an earlier default (0.5 × ‖ω‖) the gain is > 1/2
+    out = kalman_orientation(gyr, acc, mag, fs=FS, received=received, full_output=True,
+                             settings=KalmanSettings(gap_rate_relative_noise=0.5))
     tilt_var = out.covariance[:, 0, 0]
     assert np.all(np.diff(tilt_var[300:330]) > 0)  # grows at every lost sample
     assert tilt_var[329] > 100 * tilt_var[299]
@@ -295,6 +477,21 @@ def test_rejects_nan_in_received_sample_and_bad_settings():
         KalmanSettings(acc_noise=-1.0)
     with pytest.raises(ValueError, match="gyro_noise"):
         KalmanSettings(gyro_noise=math.inf)
+    with pytest.raises(ValueError, match="gap_replay"):
+        KalmanSettings(gap_replay=1.0)
+    with pytest.raises(ValueError, match="mag_hard_iron_tau_s"):
+        KalmanSettings(mag_hard_iron_tau_s=0.0)
+    assert KalmanSettings(gap_replay=np.bool_(False)).gap_replay is False
+    with pytest.raises(ValueError, match="gap_rate_prediction_order"):
+        KalmanSettings(gap_rate_prediction_order=2.5)
+    with pytest.raises(ValueError, match="gap_rate_prediction_order"):
+        KalmanSettings(gap_rate_prediction_order=0)
+    with pytest.raises(ValueError, match="gap_rate_prediction"):
+        KalmanSettings(gap_rate_prediction="yes")
+    with pytest.raises(ValueError, match="acc_disturbance_factor"):
+        KalmanSettings(acc_disturbance_factor=-1.0)
+    assert KalmanSettings(acc_disturbance_factor=0).acc_disturbance_factor == 0.0
+    assert KalmanSettings(gap_rate_prediction_order=4.0).gap_rate_prediction_order == 4
 
 
 # ------------------------------------------------------------------------------------------

@@ -121,6 +121,9 @@ def test_compiled_code_is_cached_on_disk(tmp_path):
     subprocess.run([sys.executable, "-c", code], env=env, check=True, timeout=600)
     cached = {p.name.split(".")[1].split("-")[0] for p in tmp_path.rglob("_kernels*.nbi")}
     assert {"filter_stream", "first_unusable"} <= cached, cached
+    # the scalar kernels filter_stream calls live in another module and are cached there too
+    scalar = {p.name.split(".")[1].split("-")[0] for p in tmp_path.rglob("_scalar_kernels*.nbi")}
+    assert {"madgwick_update", "triad"} <= scalar, scalar
 
 
 @pytest.mark.parametrize(("method", "blend"), [("hold_last", "output"), ("hybrid", "output"), ("hybrid", "feedback"),
@@ -201,3 +204,25 @@ def test_the_parallel_and_serial_checks_report_the_same_sample(data, monkeypatch
     bad[4, t - 1] = np.nan  # a later batch element: the first in (batch..., t) order is reported
     with pytest.raises(ValueError, match=rf"acc is a zero vector at received sample \(batch..., t\) = \(3, {t}\)"):
         estimate_orientation(gyr, bad, mag, fs=FS, beta=0.1, received=masks)
+
+
+def test_cached_code_is_dropped_when_a_source_of_the_package_changes(tmp_path):
+    """numba alone only notices a change in a kernel's own file; the package stamp catches the rest."""
+    from wsnlib.orientation import _numba_cache
+
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    compile_one = "from wsnlib.orientation import _scalar_kernels as s; s.squared_norm3(1.0, 2.0, 3.0)"
+
+    def run(code):
+        subprocess.run([sys.executable, "-c", code], env=env, check=True, timeout=600)
+
+    run(compile_one)
+    cached = list(tmp_path.rglob("_scalar_kernels.squared_norm3-*.nbi"))
+    (stamp,) = tmp_path.rglob(_numba_cache.STAMP_NAME)
+    assert cached and stamp.read_text().strip() == _numba_cache.sources_digest()
+    run("import wsnlib.orientation")  # same sources: the cache stays
+    assert all(path.exists() for path in cached)
+    stamp.write_text("0" * 64)  # as if a source had changed since the cache was written
+    run("import wsnlib.orientation")
+    assert list(tmp_path.rglob("*.nb[ic]")) == []
+    assert stamp.read_text().strip() == _numba_cache.sources_digest()

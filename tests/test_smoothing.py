@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
+
 import numpy as np
 from _recordings import error_deg, turning_recording
 
@@ -64,8 +67,53 @@ def test_hermite_gap_matches_both_ends_and_is_exact_for_constant_rate():
     mag = Q.rotate_inverse(quat, np.broadcast_to(frames.magnetic_field_enu(), (n, 3)))
     received = np.ones(n, bool)
     received[80:120] = False
-    smooth = smooth_orientation(gyr, acc, mag, fs=FS, received=received)
+    # exact when the forward pass extrapolates the constant rate undamped
+    constant = dataclasses.replace(SMOOTHER_SETTINGS, gap_rate_decay_s=math.inf, gap_rate_prediction=False)
+    smooth = smooth_orientation(gyr, acc, mag, fs=FS, received=received, settings=constant)
     assert error_deg(smooth, quat)[80:120].max() < 0.5
+    # the gap curve from both sides' linear prediction is exact for a constant rate too
+    window = dataclasses.replace(SMOOTHER_SETTINGS, gap_rate_prediction_order=8, gap_rate_prediction_window_s=1.0)
+    predicted = smooth_orientation(gyr, acc, mag, fs=FS, received=received, settings=window)
+    assert error_deg(predicted, quat)[80:120].max() < 0.5
+
+
+def _swing(n=600, freq=1.5, amp=6.0):
+    """A fast swing about a fixed body axis (rate ``amp`` rad/s at ``freq`` Hz), exact signals."""
+    t = np.arange(n) / FS
+    axis = np.array([0.2, 0.9, 0.39]) / np.linalg.norm([0.2, 0.9, 0.39])
+    gyr = amp * np.sin(2 * np.pi * freq * t)[:, None] * axis
+    quat = np.empty((n, 4))
+    quat[0] = Q.from_axis_angle([1.0, 0.0, 0.0], 0.3)
+    for k in range(1, n):
+        quat[k] = Q.normalize(Q.multiply(quat[k - 1], Q.from_rotation_vector(gyr[k] / FS)))
+    acc = Q.rotate_inverse(quat, frames.gravity_specific_force_enu())
+    mag = Q.rotate_inverse(quat, np.broadcast_to(frames.magnetic_field_enu(), (n, 3)))
+    return gyr, acc, mag, quat
+
+
+def test_predicted_gap_follows_a_swing_that_hermite_cuts_across():
+    gyr, acc, mag, truth = _swing()
+    received = np.ones(len(gyr), bool)
+    received[300:330] = False  # 0.6 s, most of a period: the end rates say little about the middle
+    base = dataclasses.replace(SMOOTHER_SETTINGS, acc_rate_gate=math.inf, gap_rate_prediction_order=8,
+                               gap_rate_prediction_window_s=1.0)
+    predicted = smooth_orientation(gyr, acc, mag, fs=FS, received=received, settings=base)
+    hermite = smooth_orientation(gyr, acc, mag, fs=FS, received=received,
+                                 settings=dataclasses.replace(base, gap_rate_prediction=False))
+    err_p, err_h = error_deg(predicted, truth)[300:330], error_deg(hermite, truth)[300:330]
+    assert err_h.max() > 20.0
+    assert err_p.max() < 1.0
+
+
+def test_gap_without_a_window_on_each_side_keeps_the_hermite_curve():
+    gyr, acc, mag, _ = turning_recording(noise=0.02)
+    received = np.ones(len(gyr), bool)
+    received[20:38] = False  # 0.4 s of history only: less than the 1 s window (filter and smoother)
+    window = dataclasses.replace(SMOOTHER_SETTINGS, gap_rate_prediction_order=8, gap_rate_prediction_window_s=1.0)
+    with_prediction = smooth_orientation(gyr, acc, mag, fs=FS, received=received, settings=window)
+    without = smooth_orientation(gyr, acc, mag, fs=FS, received=received,
+                                 settings=dataclasses.replace(window, gap_rate_prediction=False))
+    np.testing.assert_array_equal(with_prediction, without)
 
 
 def test_batch_shape_and_unit_norm():

@@ -14,6 +14,11 @@ import pandas as pd
 #: Paper 001, Section II (Fig. 3): maximum humerus pitch error (°) of each estimator.
 PAPER001_SECTION2_MAX_ERROR_DEG = {"single frame": 8.5, "data fusion": 14.9}
 
+#: Paper 001, Section IV (Figs. 6 and 8, stated in words) after its 4-packet loss: data fusion
+#: deviates for more than 2 s; the hybrid stays around 10° for about 1 s.
+PAPER001_SECTION4_AFTER_LOSS = {"data fusion": {"words": "deviates for > 2 s", "error_deg": None, "duration_s": 2.0},
+                                "hybrid": {"words": "≈ 10° for ≈ 1 s", "error_deg": 10.0, "duration_s": 1.0}}
+
 #: Paper 002, Section 5 (static conditions): average position error (cm) of each approach.
 PAPER002_STATIC_PE_CM = {"deterministic": 3.0, "probabilistic": 4.8}
 

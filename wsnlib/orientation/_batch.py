@@ -266,14 +266,16 @@ def raise_on_overflow(status: np.ndarray, batch: tuple[int, ...], **params) -> N
 
 
 def run_filter(signals, received, q0, batch, *, fs, method, blend=K.NO_BLEND, beta=0.0, beta_max=None,
-               rho=1.0, tau=1.0, schedule=K.DECAY, window=1, gap="hold", gap_time_constant=None) -> np.ndarray:
+               rho=1.0, tau=1.0, schedule=K.DECAY, window=1, gap="hold", gap_time_constant=None,
+               single_frame_gate=None) -> np.ndarray:
     """Madgwick's filter with a loss-handling method over a batch: ``(*batch, T, 4)``.
 
     ``signals`` from :func:`check_inputs` (checked here with :func:`check_usable`), ``received``
     ``(..., T)`` bool or None, ``q0`` ``(..., 4)`` unit or None (then every batch element must
     receive a sample), ``batch`` the broadcast of all leading shapes, parameters (scalars or
     arrays broadcasting to ``batch``) as in :func:`._kernels.filter_stream`; ``gap`` and
-    ``gap_time_constant`` checked by :func:`check_gap`.
+    ``gap_time_constant`` checked by :func:`check_gap`; ``single_frame_gate`` the gated hybrid's
+    vector (:data:`._kernels.GATE_SIZE` floats, needs ``mag``) or None.
     """
     n_t = signals["gyr"].shape[-2]
     mask = np.ones(n_t, dtype=bool) if received is None else received
@@ -293,17 +295,19 @@ def run_filter(signals, received, q0, batch, *, fs, method, blend=K.NO_BLEND, be
     windows = per_element(window, batch, np.int64)
     predict = gap == "constant_rate"
     rate_factor = 1.0 if gap_time_constant is None else float(np.exp(-1.0 / (fs * gap_time_constant)))
+    gated = single_frame_gate is not None
+    gate = np.zeros(K.GATE_SIZE) if single_frame_gate is None else np.asarray(single_frame_gate, dtype=float)
     flat_out = out.reshape(-1, n_t, 4)
     status = np.empty(flat_out.shape[0], dtype=np.int64)
     if status.size == 1:  # one stream: the loop itself, no thread start-up
         status[0] = K.filter_stream(gyr[0], acc[0], mag[0], use_mag, masks[0], starts[0], q0 is not None,
                                     method, blend, 1.0 / fs, *(x[0] for x in params), schedule, windows[0],
-                                    predict, rate_factor, flat_out[0])
+                                    predict, rate_factor, gated, gate, flat_out[0])
     else:
         index = [index_into(shape, batch) for shape in (signals["gyr"].shape[:-2], signals["acc"].shape[:-2],
                                                         signals["mag"].shape[:-2] if use_mag else (),
                                                         mask.shape[:-1], () if q0 is None else q0.shape[:-1])]
         K.run_filter(gyr, acc, mag, use_mag, masks, starts, q0 is not None, *index, method, blend, 1.0 / fs,
-                     *params, schedule, windows, predict, rate_factor, flat_out, status)
+                     *params, schedule, windows, predict, rate_factor, gated, gate, flat_out, status)
     raise_on_overflow(status, batch, fs=fs, beta=beta)
     return out

@@ -1,7 +1,8 @@
 """Compiled kernels of the gap-aware error-state Kalman filter (:mod:`wsnlib.orientation.kalman`).
 
 One numba function per step of the filter's equations (prediction, accelerometer and
-magnetometer corrections, the scalar update, the injection), the loop over time of one
+magnetometer corrections, the scalar update, the injection, the gap's linear prediction of
+the rate and its end correction), the loop over time of one
 recording (:func:`kalman_stream`) and its parallel batch driver (:func:`run_kalman`).  The
 scalar quaternion helpers are those of :mod:`._kernels`, shared with Madgwick's filter.
 """
@@ -34,7 +35,17 @@ _MAG_NEW_TIME, _MAG_NEW_MIN_RATE, _MAG_MAX_REJECT, _MAG_REJECT_VAR_FACTOR = rang
 _INIT_TILT_VAR, _INIT_HEADING_VAR, _INIT_BIAS_VAR, _BIAS_LIMIT = range(17, 21)
 _ACC_INNOVATION_GATE, _GAP_NOISE, _GAP_RELATIVE_NOISE = range(21, 24)
 _VEL_DECAY, _VEL_VAR, _ACC_SENSOR_VAR, _GAP_ACC_VAR, _MAG_DIP_TILT_SIGMAS = range(24, 29)
-_N_SETTINGS = 29
+_HI_DECAY, _HI_RIDGE, _HI_MIN_BIAS, _GAP_REPLAY = range(29, 33)
+_AR_ON, _AR_ORDER, _AR_WINDOW = range(33, 36)
+_ACC_DIST_FACTOR, _ACC_DIST_GAIN = range(36, 38)
+_N_SETTINGS = 38
+#: Ridge of the gap's linear-prediction fit, relative to the mean squared rate of the window
+#: (and at least this in (rad/s)²): keeps a window of near rest from fitting its noise.
+AR_RIDGE = 1e-3
+#: Position of the gap-replay switch (1.0 on, 0.0 off) in the settings vector.
+KALMAN_GAP_REPLAY = _GAP_REPLAY
+#: Positions of the gap's linear prediction (switch, order, window in samples).
+KALMAN_AR_ON, KALMAN_AR_ORDER, KALMAN_AR_WINDOW = _AR_ON, _AR_ORDER, _AR_WINDOW
 #: Error-state size: [δθ (3), δb (3), δv (3)].
 NX = 9
 #: Positions of Δt and of the variances (which must be finite and > 0) in the settings vector.
@@ -46,7 +57,13 @@ KALMAN_VARIANCES = (_GYRO_VAR, _BIAS_VAR, _ACC_VAR, _MAG_VAR, _GAP_VAR, _VEL_VAR
 # rate-error std, and the leaky velocity v̂ (earth frame, m/s).
 _REF_NORM, _REF_DIP, _CAND_NORM, _CAND_DIP, _CAND_T, _REJECT_T, _LOST_RUN, _GAP_SIGMA = range(8)
 _VEL = 8  # v̂ at _VEL, _VEL + 1, _VEL + 2
-_N_GATE = 11
+# Online hard-iron estimate (kalman_hard_iron): the normal equations A (6 unique entries of the
+# symmetric 3 × 3, order 00 01 02 11 12 22) and r (3), the previous received field and rate
+# (3 each), whether the previous sample was received (1/0), and the estimate b̂_m (3).
+_HI_A, _HI_R, _PREV_M, _PREV_W, _PREV_OK, _HI_B = 11, 17, 20, 23, 26, 27
+# Low-pass of (‖a‖ − g)² over received samples (m²/s⁴): the recent linear-acceleration level.
+_LIN_VAR = 30
+_N_GATE = 31
 
 
 def kalman_settings_vector(settings, dt: float) -> np.ndarray:
@@ -83,6 +100,17 @@ def kalman_settings_vector(settings, dt: float) -> np.ndarray:
     vector[_ACC_SENSOR_VAR] = (s.acc_sensor_noise * dt) ** 2
     vector[_GAP_ACC_VAR] = (s.gap_acc_noise * dt) ** 2
     vector[_MAG_DIP_TILT_SIGMAS] = s.mag_dip_tilt_sigmas
+    vector[_HI_DECAY] = math.exp(-dt / s.mag_hard_iron_tau_s)
+    # Ridge of the hard-iron normal equations: as much as 1 s of rotation at 0.3 rad/s, so that
+    # the estimate shrinks to 0 when the sensor has not turned enough to observe it.
+    vector[_HI_RIDGE] = 0.09 / dt
+    vector[_HI_MIN_BIAS] = s.mag_hard_iron_min_bias
+    vector[_GAP_REPLAY] = 1.0 if s.gap_replay else 0.0
+    vector[_AR_ON] = 1.0 if s.gap_rate_prediction else 0.0
+    vector[_AR_ORDER] = s.gap_rate_prediction_order
+    vector[_AR_WINDOW] = round(s.gap_rate_prediction_window_s / dt)
+    vector[_ACC_DIST_FACTOR] = s.acc_disturbance_factor
+    vector[_ACC_DIST_GAIN] = -math.expm1(-dt / s.acc_disturbance_tau_s)
     return vector
 
 
@@ -122,12 +150,14 @@ def kalman_inject(q, bias, gate, dx, bias_limit):
 
 
 @njit(**COMPILE)
-def kalman_predict(q, bias, P, held_rate, gate, gyr, acc, received, s, R, F, FP):
+def kalman_predict(q, bias, P, held_rate, gate, gyr, acc, received, s, R, F, FP, predicted_rate, use_predicted):
     """Prediction of one sample (module docstring); returns ``q⁻``.
 
     ``q`` 4-tuple; ``bias`` (3,) read; ``P`` (NX, NX), ``held_rate`` (3,) (the bias-corrected
     rate used, on return) and ``gate`` (_N_GATE, with v̂) updated in place; ``gyr``, ``acc``
-    (3,) read only if ``received``.  On return ``R`` (3, 3) holds R(q⁻) and ``F`` (NX, NX) the
+    (3,) read only if ``received``.  On a lost sample the rate is ``predicted_rate`` (3,) if
+    ``use_predicted`` (the gap's linear prediction, :func:`gap_rate_fit`), else the held rate
+    times the decay.  On return ``R`` (3, 3) holds R(q⁻) and ``F`` (NX, NX) the
     transition matrix of the sample; ``FP`` (NX, NX) is scratch.
     """
     dt = s[_DT]
@@ -138,8 +168,9 @@ def kalman_predict(q, bias, P, held_rate, gate, gyr, acc, received, s, R, F, FP)
         gate[_LOST_RUN] = 0.0
     else:
         for a in range(3):
-            held_rate[a] *= s[_GAP_DECAY]
+            held_rate[a] = predicted_rate[a] if use_predicted else held_rate[a] * s[_GAP_DECAY]
         gate[_LOST_RUN] += 1.0
+        gate[_PREV_OK] = 0.0
     omega = (held_rate[0], held_rate[1], held_rate[2])
 
     # --- Strapdown prediction: q⁻ = q ⊗ Exp((ω − b) Δt) -----------------------------------
@@ -214,6 +245,7 @@ def kalman_correct(q, bias, P, gate, acc, mag, has_mag, omega, s, dx, K, row):
     acc_used = False
     acc_norm = vec_norm(acc)
     deviation = abs(acc_norm - s[_GRAVITY])
+    gate[_LIN_VAR] += s[_ACC_DIST_GAIN] * (deviation * deviation - gate[_LIN_VAR])
     if deviation <= s[_ACC_NORM_GATE] and vec_norm(omega) <= s[_ACC_RATE_GATE]:
         e = quat_rotate(q, (acc[0] / acc_norm, acc[1] / acc_norm, acc[2] / acc_norm))
         cx, cy = e[1], -e[0]  # e × e_z
@@ -223,7 +255,9 @@ def kalman_correct(q, bias, P, gate, acc, mag, has_mag, omega, s, dx, K, row):
             phi_x, phi_y = angle * cx / sin_angle, angle * cy / sin_angle
         else:
             phi_x, phi_y = (angle, 0.0) if e[2] < 0.0 else (0.0, 0.0)
-        r = s[_ACC_VAR] + (deviation / s[_GRAVITY]) ** 2
+        # Linear acceleration tilts the measured direction: by at least |‖a‖ − g|/g now, and by
+        # about the recent level (low-passed (‖a‖ − g)², × acc_disturbance_factor) sideways.
+        r = s[_ACC_VAR] + (deviation * deviation + s[_ACC_DIST_FACTOR] * gate[_LIN_VAR]) / s[_GRAVITY] ** 2
         # Innovation gate (robust, Huber): d² = φᵀ S⁻¹ φ with S = P_tilt + r I (2 × 2).  Beyond
         # the gate the sample is not dropped but S is scaled by d/√gate (r enlarged to match),
         # so its pull is bounded: an outlier moves the estimate little, while a filter that is
@@ -251,12 +285,80 @@ def kalman_correct(q, bias, P, gate, acc, mag, has_mag, omega, s, dx, K, row):
 
 
 @njit(**COMPILE)
+def kalman_hard_iron(gate, mag, omega, s):
+    """Update the online hard-iron estimate with one received field; returns the field to use.
+
+    A magnet or ferrous part fixed to the sensor adds a constant body-frame offset ``b_m``:
+    ``m = Rᵀ m_E + b_m``.  Since ``d/dt (Rᵀ m_E) = −ω × (Rᵀ m_E)``, two consecutive received
+    samples give ``ṁ + ω × m = ω × b_m`` (ṁ, ω, m at the midpoint), linear in ``b_m`` and
+    independent of the orientation (gyroscope-aided hard-iron estimation).  ``b̂_m`` solves the
+    exponentially forgotten (time constant ``mag_hard_iron_tau_s``) least-squares normal
+    equations ``(A + εI) b = r``, ``A = Σ [ω]×ᵀ[ω]×``, ``r = Σ [ω]×ᵀ y``, ε the ridge
+    (1 s at 0.3 rad/s), so it shrinks to 0 while the sensor does not turn.  ``m − b̂_m`` is
+    returned if ``‖b̂_m‖ ≥ mag_hard_iron_min_bias · ‖m_ref‖`` and its norm is closer to the
+    reference norm than the raw field's; otherwise ``m``.
+    """
+    m = (mag[0], mag[1], mag[2])
+    if gate[_PREV_OK] == 1.0:
+        dt = s[_DT]
+        w = (0.5 * (omega[0] + gate[_PREV_W]), 0.5 * (omega[1] + gate[_PREV_W + 1]),
+             0.5 * (omega[2] + gate[_PREV_W + 2]))
+        mm = (0.5 * (m[0] + gate[_PREV_M]), 0.5 * (m[1] + gate[_PREV_M + 1]), 0.5 * (m[2] + gate[_PREV_M + 2]))
+        wxm = (w[1] * mm[2] - w[2] * mm[1], w[2] * mm[0] - w[0] * mm[2], w[0] * mm[1] - w[1] * mm[0])
+        y = ((m[0] - gate[_PREV_M]) / dt + wxm[0], (m[1] - gate[_PREV_M + 1]) / dt + wxm[1],
+             (m[2] - gate[_PREV_M + 2]) / dt + wxm[2])
+        lam = s[_HI_DECAY]
+        w2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
+        # [ω]×ᵀ[ω]× = ‖ω‖² I − ω ωᵀ;  [ω]×ᵀ y = y × ω
+        a = _HI_A
+        gate[a] = lam * gate[a] + w2 - w[0] * w[0]
+        gate[a + 1] = lam * gate[a + 1] - w[0] * w[1]
+        gate[a + 2] = lam * gate[a + 2] - w[0] * w[2]
+        gate[a + 3] = lam * gate[a + 3] + w2 - w[1] * w[1]
+        gate[a + 4] = lam * gate[a + 4] - w[1] * w[2]
+        gate[a + 5] = lam * gate[a + 5] + w2 - w[2] * w[2]
+        gate[_HI_R] = lam * gate[_HI_R] + (y[1] * w[2] - y[2] * w[1])
+        gate[_HI_R + 1] = lam * gate[_HI_R + 1] + (y[2] * w[0] - y[0] * w[2])
+        gate[_HI_R + 2] = lam * gate[_HI_R + 2] + (y[0] * w[1] - y[1] * w[0])
+        # (A + εI) b = r by Cramer's rule (symmetric positive definite 3 × 3)
+        eps = s[_HI_RIDGE]
+        a00, a01, a02 = gate[a] + eps, gate[a + 1], gate[a + 2]
+        a11, a12, a22 = gate[a + 3] + eps, gate[a + 4], gate[a + 5] + eps
+        c00 = a11 * a22 - a12 * a12
+        c01 = a02 * a12 - a01 * a22
+        c02 = a01 * a12 - a02 * a11
+        c11 = a00 * a22 - a02 * a02
+        c12 = a01 * a02 - a00 * a12
+        c22 = a00 * a11 - a01 * a01
+        det = a00 * c00 + a01 * c01 + a02 * c02
+        r0, r1, r2 = gate[_HI_R], gate[_HI_R + 1], gate[_HI_R + 2]
+        gate[_HI_B] = (c00 * r0 + c01 * r1 + c02 * r2) / det
+        gate[_HI_B + 1] = (c01 * r0 + c11 * r1 + c12 * r2) / det
+        gate[_HI_B + 2] = (c02 * r0 + c12 * r1 + c22 * r2) / det
+    for k in range(3):
+        gate[_PREV_M + k] = m[k]
+        gate[_PREV_W + k] = omega[k]
+    gate[_PREV_OK] = 1.0
+    b = (gate[_HI_B], gate[_HI_B + 1], gate[_HI_B + 2])
+    ref = gate[_REF_NORM]
+    raw_norm = vec_norm(m)
+    if ref == 0.0:
+        ref = raw_norm
+    if vec_norm(b) >= s[_HI_MIN_BIAS] * ref:
+        corrected = (m[0] - b[0], m[1] - b[1], m[2] - b[2])
+        if abs(vec_norm(corrected) - ref) < abs(raw_norm - ref):
+            return corrected
+    return m
+
+
+@njit(**COMPILE)
 def kalman_correct_mag(q, bias, P, gate, mag, has_mag, omega, s, dx, K, row, acc_used):
     """Magnetometer part of :func:`kalman_correct`; returns ``(q, acc_used, mag_used)``."""
     dt = s[_DT]
     # --- Magnetometer: heading update, gated on norm and dip ----------------------------
     mag_used = False
     if has_mag:
+        mag = kalman_hard_iron(gate, mag, omega, s)
         m_norm = vec_norm(mag)
         m_e = quat_rotate(q, (mag[0], mag[1], mag[2]))
         dip = math.atan2(-m_e[2], math.hypot(m_e[0], m_e[1]))
@@ -305,6 +407,120 @@ def kalman_correct_mag(q, bias, P, gate, mag, has_mag, omega, s, dx, K, row, acc
             q = kalman_inject(q, bias, gate, dx, s[_BIAS_LIMIT])
             mag_used = True
     return q, acc_used, mag_used
+
+
+# ------------------------------------------------------------------------------------------
+# Gap: linear prediction of the angular rate (gap_rate_prediction)
+# ------------------------------------------------------------------------------------------
+
+
+@njit(**COMPILE)
+def gap_rate_fit(rates, end, window, order, coef, A, r):
+    """Fit the linear predictor of the rate on ``rates[end − window : end]``; returns its largest norm.
+
+    Per axis ``a``, least squares for ``ω_a[k] ≈ Σ_i c_ai ω_a[k − order + i]`` over the window
+    (an autoregressive model of order ``order``: a sum of damped oscillations, which is what
+    an arm's swing looks like over a fraction of a second), with ridge ``AR_RIDGE ·
+    max(1, tr(XᵀX)/order)`` on the normal equations, solved by Cholesky.  ``rates`` (T, 3)
+    holds the bias-corrected rates the filter used; ``coef`` (3, order) receives the
+    coefficients; ``A`` (order, order) and ``r`` (order,) are scratch.
+    """
+    lo = end - window
+    for a in range(3):
+        for i in range(order):
+            r[i] = 0.0
+            for j in range(order):
+                A[i, j] = 0.0
+        for k in range(lo, end - order):
+            y = rates[k + order, a]
+            for i in range(order):
+                xi = rates[k + i, a]
+                r[i] += xi * y
+                for j in range(i + 1):
+                    A[i, j] += xi * rates[k + j, a]
+        trace = 0.0
+        for i in range(order):
+            trace += A[i, i]
+        ridge = AR_RIDGE * max(1.0, trace / order)
+        for i in range(order):  # in-place Cholesky of the lower triangle: A = L Lᵀ
+            A[i, i] += ridge
+            for j in range(i + 1):
+                acc_ij = A[i, j]
+                for k in range(j):
+                    acc_ij -= A[i, k] * A[j, k]
+                A[i, j] = math.sqrt(acc_ij) if i == j else acc_ij / A[j, j]
+        for i in range(order):  # L y = r, then Lᵀ c = y
+            acc_i = r[i]
+            for k in range(i):
+                acc_i -= A[i, k] * coef[a, k]
+            coef[a, i] = acc_i / A[i, i]
+        for i in range(order - 1, -1, -1):
+            acc_i = coef[a, i]
+            for k in range(i + 1, order):
+                acc_i -= A[k, i] * coef[a, k]
+            coef[a, i] = acc_i / A[i, i]
+    largest = 0.0
+    for k in range(lo, end):
+        largest = max(largest, math.sqrt(rates[k, 0] ** 2 + rates[k, 1] ** 2 + rates[k, 2] ** 2))
+    return largest
+
+
+@njit(**COMPILE)
+def gap_rate_predict(rates, t, order, coef, largest, out):
+    """One step of the linear predictor: ``out[a] = Σ_i coef[a, i] rates[t − order + i, a]``,
+    its norm capped at ``largest`` (the window's largest rate: an unstable fit cannot run away)."""
+    for a in range(3):
+        v = 0.0
+        for i in range(order):
+            v += coef[a, i] * rates[t - order + i, a]
+        out[a] = v
+    norm = math.sqrt(out[0] ** 2 + out[1] ** 2 + out[2] ** 2)
+    if norm > largest:
+        for a in range(3):
+            out[a] *= largest / norm
+
+
+@njit(**COMPILE)
+def gap_rate_end_weights(coef, axis, order, n, h, weights):
+    """Weights ``w_k`` (k = 1..n) of the end correction of the gap's predicted rates, one axis.
+
+    The predictor is an autoregressive model ``ω[j] = Σ_i c_i ω[j − order + i] + e[j]`` with
+    white innovations ``e``; the prediction error at the k-th step after the gap's start is
+    ``Σ_{i=1..k} h[k − i] e[i]`` (``h`` the model's impulse response, ``h[0] = 1``).  Knowing the
+    error at step ``n`` (the first received sample after the gap, measured minus predicted),
+    the conditional expectation of the error at step ``k`` is ``w_k`` times it, with
+
+        w_k = Σ_{i=1..k} h[k − i] h[n − i] / Σ_{j=0..n−1} h[j]²
+
+    (Gaussian conditioning; ``w_n = 1``).  For a slowly varying rate (``h ≈ 1``) this is the
+    linear ramp ``k/n``; for an oscillation it follows the oscillation instead of ramping
+    across it.  If the impulse response grows beyond 1e50 (an unstable fit over a long gap),
+    the linear ramp is used.  ``h``, ``weights`` (≥ n,) are written.
+    """
+    h[0] = 1.0
+    unstable = False
+    for j in range(1, n):
+        v = 0.0
+        for i in range(order):
+            lag = j - order + i  # h at a negative index is 0
+            if lag >= 0:
+                v += coef[axis, i] * h[lag]
+        h[j] = v
+        if abs(v) > 1e50:
+            unstable = True
+            break
+    if unstable:
+        for k in range(1, n + 1):
+            weights[k - 1] = k / n
+        return
+    den = 0.0
+    for j in range(n):
+        den += h[j] * h[j]
+    for k in range(1, n + 1):
+        cov = 0.0
+        for i in range(1, k + 1):
+            cov += h[k - i] * h[n - i]
+        weights[k - 1] = cov / den
 
 
 # ------------------------------------------------------------------------------------------
@@ -373,9 +589,72 @@ def kalman_stream(gyr, acc, mag, has_mag, received, q_init, start, init_only, s,
             for a in range(NX):
                 for b in range(NX):
                     pred_F[t, a, b] = 1.0 if a == b else 0.0
+    replay = s[_GAP_REPLAY] != 0.0
+    dt = s[_DT]
+    # Gap's linear prediction: the rates used at every sample (the window it is fitted on).
+    order = int(s[_AR_ORDER])
+    window = int(s[_AR_WINDOW])
+    use_ar = s[_AR_ON] != 0.0 and window >= 3 * order
+    rates = np.zeros((n_t if use_ar else 1, 3))
+    coef = np.zeros((3, order))
+    ar_A = np.empty((order, order))
+    ar_r = np.empty(order)
+    predicted = np.zeros(3)
+    gap_predicted = False  # this gap's rates come from the linear prediction
+    largest = 0.0
+    history_start = start  # first sample whose rate is in `rates`
+    last_rx = start if init_only else -1  # last received sample the filter has used
+    q_last = q  # the state after it, and its bias-corrected rate
+    rate_last = np.zeros(3)
+    if init_only and start < n_t:
+        for a in range(3):
+            rate_last[a] = gyr[start, a]
+            if use_ar:
+                rates[start, a] = gyr[start, a]
     for t in range(first, n_t):
         ok = received[t]
-        q = kalman_predict(q, bias, P, held_rate, gate, gyr[t], acc[t], ok, s, R, F, FP)
+        if use_ar and not ok:
+            if t == first or received[t - 1]:  # a gap starts: fit the predictor on the last window
+                gap_predicted = t - window >= history_start
+                if gap_predicted:
+                    largest = gap_rate_fit(rates, t, window, order, coef, ar_A, ar_r)
+            if gap_predicted:
+                gap_rate_predict(rates, t, order, coef, largest, predicted)
+        if ok and replay and last_rx >= 0 and t - last_rx > 1 and use_ar and gap_predicted:
+            # Gap replay with the linear prediction: the rates the gap used, plus the predictor's
+            # error at this sample (measured − predicted) spread over the gap by its conditional
+            # expectation (gap_rate_end_weights).
+            n_lost = t - last_rx - 1
+            gap_rate_predict(rates, t, order, coef, largest, predicted)
+            impulse = np.empty(n_lost + 1)
+            weights = np.empty((3, n_lost + 1))
+            for a in range(3):
+                gap_rate_end_weights(coef, a, order, n_lost + 1, impulse, weights[a])
+            q = q_last
+            for k in range(1, n_lost + 1):
+                w0 = rates[last_rx + k, 0] + weights[0, k - 1] * (gyr[t, 0] - bias[0] - predicted[0])
+                w1 = rates[last_rx + k, 1] + weights[1, k - 1] * (gyr[t, 1] - bias[1] - predicted[1])
+                w2 = rates[last_rx + k, 2] + weights[2, k - 1] * (gyr[t, 2] - bias[2] - predicted[2])
+                q = quat_normalize(quat_multiply(q, quat_exp((w0 * dt, w1 * dt, w2 * dt))))
+        elif ok and replay and last_rx >= 0 and t - last_rx > 1:
+            # Gap replay: the gap's samples were output as the extrapolation; now that the rate
+            # after the gap is known, the state at its end is re-integrated from the last
+            # received state with the rate interpolated linearly between both ends (the
+            # paper's gyroscope interpolation, applied to the filter's state; P keeps the
+            # growth of the gap).
+            n_lost = t - last_rx - 1
+            q = q_last
+            for k in range(1, n_lost + 1):
+                frac = k / (n_lost + 1.0)
+                w0 = rate_last[0] + frac * (gyr[t, 0] - bias[0] - rate_last[0])
+                w1 = rate_last[1] + frac * (gyr[t, 1] - bias[1] - rate_last[1])
+                w2 = rate_last[2] + frac * (gyr[t, 2] - bias[2] - rate_last[2])
+                q = quat_normalize(quat_multiply(q, quat_exp((w0 * dt, w1 * dt, w2 * dt))))
+        q = kalman_predict(q, bias, P, held_rate, gate, gyr[t], acc[t], ok, s, R, F, FP, predicted,
+                           use_ar and gap_predicted)
+        if use_ar:
+            for a in range(3):
+                rates[t, a] = held_rate[a]
         if record:
             for a in range(4):
                 pred_q[t, a] = q[a]
@@ -389,6 +668,9 @@ def kalman_stream(gyr, acc, mag, has_mag, received, q_init, start, init_only, s,
             omega = (held_rate[0], held_rate[1], held_rate[2])
             q, used_a, used_m = kalman_correct(q, bias, P, gate, acc[t], mag[t if has_mag else 0], has_mag, omega, s,
                                                dx, K, row)
+            last_rx, q_last = t, q
+            for a in range(3):
+                rate_last[a] = omega[a]
         for a in range(4):
             out_q[t, a] = q[a]
         for a in range(3):

@@ -29,14 +29,29 @@ Equations (one sample, Δt = 1/fs; names used in the kernel's comments)
   and ``P⁻ = F P Fᵀ + Q``, ``Q = diag(σ_g² Δt I, σ_b² Δt I, (σ_s Δt)² I)`` (gyro white noise
   density σ_g, bias random walk σ_b, accelerometer noise σ_s; isotropic, so
   ``R σ_g² Rᵀ = σ_g² I``).
-* **Gap**: on a lost sample nothing is measured; the prediction goes on with the last received
-  bias-corrected rate, optionally decaying, ``ω_k = ω_last · exp(−kΔt/τ_decay)``, and the
-  error of that extrapolated rate (std ``σ_gap``, constant across the gap) adds
-  ``σ_gap² Δt² (2k − 1)`` to the attitude variances at the k-th lost sample, so that after
-  ``k`` lost samples the added variance is ``(σ_gap · kΔt)²``: the covariance grows with the
-  elapsed gap, and the first measurements after it get large gains by construction.  The
+* **Gap**: on a lost sample nothing is measured; the prediction goes on with a predicted rate:
+  by default (``gap_rate_prediction``) a linear predictor (autoregressive, order ``p``, per
+  axis) fitted at the gap's start on the rates of the last ``gap_rate_prediction_window_s``
+  and run on its own outputs, ``ω_k = Σ_i c_i ω_{k−p+i}`` (norm capped at the window's
+  largest), which follows a swing of the arm instead of overshooting it; otherwise (or
+  without a full window of history) the last received bias-corrected rate, optionally
+  decaying, ``ω_k = ω_last · exp(−kΔt/τ_decay)``.  The error of that extrapolated rate (std
+  ``σ_gap``, constant across the gap) adds ``σ_gap² Δt² (2k − 1)`` to the attitude variances
+  at the k-th lost sample, so that after ``k`` lost samples the added variance is
+  ``(σ_gap · kΔt)²``: the covariance grows with the elapsed gap, and the first measurements
+  after it get large gains by construction.  The
   unknown linear acceleration of the gap (std ``σ_gap,acc``) likewise replaces ``(σ_s Δt)²``
   in the velocity variances by ``(σ_gap,acc Δt)² (2k − 1)``.
+* **Gap replay** (``gap_replay``): at the first received sample after a gap of ``L`` samples
+  the state at the gap's end is recomputed from the last received state ``q_s`` as
+  ``q_s ⊗ Π_{k=1..L} Exp(ω_k Δt)``.  With the linear prediction, ``ω_k`` is the predicted
+  rate plus ``w_k`` times the predictor's error at the received sample (measured − predicted),
+  ``w_k`` the Gaussian conditional expectation of the k-th step's prediction error given the
+  last one under the fitted model (:func:`~._kalman_kernels.gap_rate_end_weights`: a linear
+  ramp for a slowly varying rate, following the oscillation for a swing); without it,
+  ``ω_k`` is linear between the bias-corrected rates before and after the gap (paper 001's
+  gyroscope interpolation applied to the state).  Causal: the lost samples were already
+  output as the extrapolation; ``P`` keeps the gap's growth.
 * **Accelerometer (tilt) update**: ``e = R(q⁻) a/‖a‖`` should be earth up ``e_z``; the
   measured tilt error is the rotation taking ``e`` onto ``e_z``,
   ``φ = atan2(‖e × e_z‖, e·e_z) · (e × e_z)/‖e × e_z‖`` (exact for large errors, e.g. after a
@@ -67,8 +82,12 @@ Gates (where they come from)
 ----------------------------
 * Accelerometer, hard: used only if ``|‖a‖ − g| ≤ acc_norm_gate`` and ``‖ω − b̂‖ ≤
   acc_rate_gate``.  Soft: inside the gate the noise variance is inflated to ``σ_a² +
-  ((‖a‖ − g)/g)²``, since a linear acceleration that changes the norm by ``d`` tilts the
-  direction by at least about ``d/g`` rad.  Rejecting outright far from ``g`` (rather than
+  ((‖a‖ − g)² + f ℓ²)/g²``, since a linear acceleration that changes the norm by ``d`` tilts
+  the direction by at least about ``d/g`` rad, and one perpendicular to gravity tilts it
+  without changing the norm: ``ℓ²`` is the low-pass (``acc_disturbance_tau_s``) of
+  ``(‖a‖ − g)²`` over received samples, the recent linear-acceleration level, and ``f`` is
+  ``acc_disturbance_factor`` (an adaptive measurement noise; VQF instead low-passes the
+  earth-frame specific force, which the leaky velocity below does).  Rejecting outright far from ``g`` (rather than
   only inflating) keeps impacts and fast swings out of the tilt, which under loss matters
   more than usual: after a gap the gain is large and one bad sample would be taken almost
   whole.  Fusion rejects by the angle between measured and estimated gravity instead; that
@@ -89,6 +108,13 @@ Gates (where they come from)
   samples (time the sensor was observed).  The heading measured through a tilt error ε is
   off by up to ``tan(dip) · ε``, so the heading variance is ``σ_m² + tan²(dip_ref) σ_tilt²``
   (``|dip_ref|`` capped at 1.5 rad).
+* Magnetometer, hard iron (a magnet or ferrous part fixed to the sensor, BROAD trials 33–36):
+  the field is ``m = Rᵀ m_E + b_m`` with a constant body-frame ``b_m``; the gyroscope makes
+  ``b_m`` observable without any orientation, ``ṁ + ω × m = ω × b_m``, and an exponentially
+  forgotten least-squares estimate (``mag_hard_iron_tau_s``) is subtracted before the gate when
+  it is large (``mag_hard_iron_min_bias``) and brings the norm closer to the reference
+  (:func:`~._kalman_kernels.kalman_hard_iron`).  Without it such a field fails the norm gate
+  for as long as the magnet stays, and the heading runs on the gyroscope alone.
 
 Initialisation: with ``q0=None`` each batch element starts at its first received sample from
 TRIAD (``mag`` given) or the tilt (no ``mag``, zero heading), as Madgwick's filter in wsnlib
@@ -129,12 +155,18 @@ from wsnlib.orientation.triad import tilt_quaternion, triad
 class KalmanSettings:
     """Noise levels and gates of :func:`kalman_orientation` (and :func:`smooth_orientation`).
 
-    Defaults: ``mag_noise``, ``mag_norm_gate`` and ``gap_rate_decay_s`` are the values chosen
-    most often by leave-one-trial-out tuning (8 settings, as every peer) on the 17 shared
-    BROAD trials at 50 Hz under Gilbert–Elliott loss (10 %, mean burst 3 packets of 6
-    samples), see ``benchmarks/eval_loss_tolerance.py``; ``velocity_noise``, ``acc_noise`` and
-    ``gap_rate_noise`` were chosen the same way in earlier runs of that script (with other
-    grids) and kept; the other numbers are as documented per field.
+    Defaults: ``gap_replay``, ``acc_disturbance_factor``, ``gap_rate_prediction_order`` and
+    ``gap_rate_prediction_window_s`` are the values chosen most often by leave-one-trial-out
+    tuning (8 settings, as every peer: gap_replay ∈ {True, False} × acc_disturbance_factor ∈
+    {4, 16} × (order, window) ∈ {(24, 3 s), (48, 6 s)}) on the 17 shared BROAD trials at 50 Hz
+    under Gilbert–Elliott loss (10 %, mean burst 3 packets of 6 samples), see
+    ``benchmarks/eval_loss_tolerance.py``; ``gap_rate_prediction`` (on) and
+    ``acc_disturbance_factor`` > 0 were chosen by every fold in earlier runs of that script
+    against the decaying rate (``gap_rate_prediction=False``) and 0, as were
+    ``mag_hard_iron_min_bias``, ``gap_rate_relative_noise``, ``mag_noise``,
+    ``mag_norm_gate``, ``gap_rate_decay_s``, ``velocity_noise``, ``acc_noise`` and
+    ``gap_rate_noise`` (most often, with other grids); the other numbers are as documented
+    per field.
 
     Attributes
     ----------
@@ -167,6 +199,8 @@ class KalmanSettings:
     gap_rate_relative_noise : float
         Added to ``gap_rate_noise`` times the last received rate's norm (dimensionless): the
         faster the motion, the less the rate at the start of a gap says about the rest of it.
+        Default 0.1, chosen most often by LOTO from {0.5, 0.1} (a larger value lets the first
+        samples after a gap in fast motion over-correct).
     gap_rate_decay_s : float
         Time constant (s) with which the extrapolated rate decays to 0 during a gap; ``inf``
         keeps it constant.  Default 0.2 s, chosen most often by LOTO from {inf, 0.2}.
@@ -210,6 +244,57 @@ class KalmanSettings:
         like ``(σ kΔt)²`` after ``k`` lost samples).  Default 5 m/s² (about half a g).
     mag_dip_tilt_sigmas : float
         The dip gate widens by this many tilt standard deviations.  Default 3.
+    mag_hard_iron_tau_s : float
+        Forgetting time constant (s) of the online hard-iron estimate (a magnet or iron fixed
+        to the sensor: a constant body-frame offset of the field, estimated from the gyroscope
+        and the field's rate of change, see
+        :func:`wsnlib.orientation._kalman_kernels.kalman_hard_iron`).  Default 3 s: about 150
+        samples of rotation at 50 Hz average the differentiated field's noise down to ~1 µT,
+        and a removed magnet is forgotten within seconds.
+    mag_hard_iron_min_bias : float
+        The estimate is subtracted only when its norm is at least this times the reference
+        field norm (and the corrected norm is closer to the reference than the raw one);
+        ``inf`` switches the correction off.  Default 0.1, the size ``mag_norm_gate`` would
+        reject; chosen most often by LOTO from {0.1, inf}.
+    gap_replay : bool
+        When the first sample after a gap arrives, re-integrate the state over the gap from
+        the last received state with the angular rate interpolated linearly between the rates
+        before and after the gap (paper 001's gyroscope interpolation applied to the state;
+        causal: the lost samples were already output as the extrapolation, only the state
+        from the gap's end on changes).  Default True.  :func:`smooth_orientation` always
+        runs its forward pass without it (its Hermite curve uses both ends instead, and the
+        RTS pass needs the recorded predictions to be the filter's own).  Chosen most often
+        by LOTO from {True, False}.
+    gap_rate_prediction : bool
+        Over a gap, predict the angular rate by linear prediction (an autoregressive model per
+        axis, :func:`wsnlib.orientation._kalman_kernels.gap_rate_fit`) fitted at the gap's start
+        on the rates of the last ``gap_rate_prediction_window_s``, instead of the last received
+        rate decaying with ``gap_rate_decay_s``; with ``gap_replay`` the replay then uses these
+        rates plus a linear ramp that brings the prediction at the first received sample onto
+        the measured rate.  An arm's swing is a damped oscillation, which a short linear
+        predictor follows for a fraction of a period, while a held or decaying rate overshoots
+        it.  The predicted rate's norm is capped at the window's largest.  Falls back to the
+        decay when fewer than a window of rates precede the gap, or when the window holds
+        fewer than ``3 × gap_rate_prediction_order`` samples at this ``fs``.  Default True
+        (see the class's defaults; on gaps of 18 samples cut into the 17 shared BROAD trials,
+        starting from the true orientation, order 8 on 1 s gives a mean error at the gap's end
+        of 34° against 47° for the rate decaying with 0.2 s).
+    gap_rate_prediction_order : int
+        Order of the linear predictor (rates of the last this many samples), 1 to 64.
+        Default 48 (LOTO, see the class's defaults).
+    gap_rate_prediction_window_s : float
+        Length (s) of the rate history the predictor is fitted on.  Default 6 s (LOTO, see
+        the class's defaults): a long window averages the fit over many swings.
+    acc_disturbance_factor : float
+        Adaptive accelerometer noise: the tilt variance of an accepted sample is
+        ``σ_a² + ((‖a‖ − g)² + acc_disturbance_factor · ℓ²)/g²`` with ``ℓ²`` the low-pass
+        (time constant ``acc_disturbance_tau_s``) of ``(‖a‖ − g)²`` over received samples: a
+        linear acceleration perpendicular to gravity hardly changes the norm but tilts the
+        direction, and it comes in phases of motion, so the recent level says how far a
+        sample that passes the norm gate may still be off.  ``0``: off.  Default 4 (LOTO, see
+        the class's defaults).
+    acc_disturbance_tau_s : float
+        Time constant (s) of that low-pass.  Default 0.5 s (about one swing of the arm).
     acc_innovation_gate : float
         Beyond this normalised innovation ``d² = φᵀ S⁻¹ φ`` (2 degrees of freedom) the
         accelerometer's variance is enlarged so that its pull stays bounded (Huber-type
@@ -225,7 +310,7 @@ class KalmanSettings:
     acc_noise: float = 0.4
     mag_noise: float = 0.2
     gap_rate_noise: float = 0.3
-    gap_rate_relative_noise: float = 0.5
+    gap_rate_relative_noise: float = 0.1
     gap_rate_decay_s: float = 0.2
     gravity: float = 9.80665
     acc_norm_gate: float = 0.2 * 9.80665
@@ -243,27 +328,56 @@ class KalmanSettings:
     acc_sensor_noise: float = 0.05
     gap_acc_noise: float = 5.0
     mag_dip_tilt_sigmas: float = 3.0
+    mag_hard_iron_tau_s: float = 3.0
+    mag_hard_iron_min_bias: float = 0.1
+    gap_replay: bool = True
+    gap_rate_prediction: bool = True
+    gap_rate_prediction_order: int = 48
+    gap_rate_prediction_window_s: float = 6.0
+    acc_disturbance_factor: float = 4.0
+    acc_disturbance_tau_s: float = 0.5
 
     def __post_init__(self):
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
+            if f.name in _BOOLEAN_SETTINGS:
+                if not isinstance(value, (bool, np.bool_)):
+                    raise ValueError(f"KalmanSettings.{f.name} must be True or False, got {value!r}")
+                object.__setattr__(self, f.name, bool(value))
+                continue
             try:
                 number = float(value)
             except (TypeError, ValueError) as exc:
                 raise ValueError(f"KalmanSettings.{f.name} must be a number, got {value!r}") from exc
+            if number == 0.0 and f.name in _MAY_BE_ZERO:
+                object.__setattr__(self, f.name, number)
+                continue
             if math.isnan(number) or number <= 0.0:
                 raise ValueError(f"KalmanSettings.{f.name} must be > 0, got {value!r}")
             if math.isinf(number) and f.name not in _MAY_BE_INFINITE:
                 raise ValueError(f"KalmanSettings.{f.name} must be finite, got {value!r}")
             if number > _LARGEST_SETTING and not math.isinf(number):
                 raise ValueError(f"KalmanSettings.{f.name} = {value!r} is too large (> {_LARGEST_SETTING:g})")
+            if f.name in _INTEGER_SETTINGS:
+                if number != round(number) or number > _LARGEST_ORDER:
+                    raise ValueError(f"KalmanSettings.{f.name} must be a whole number in [1, {_LARGEST_ORDER}], "
+                                     f"got {value!r}")
+                number = int(number)
             object.__setattr__(self, f.name, number)
 
 
+#: Settings that are switches (True/False).
+_BOOLEAN_SETTINGS = frozenset({"gap_replay", "gap_rate_prediction"})
+#: Settings that may be 0 (switches the feature off).
+_MAY_BE_ZERO = frozenset({"acc_disturbance_factor"})
+#: Settings that are whole numbers, and their largest value.
+_INTEGER_SETTINGS = frozenset({"gap_rate_prediction_order"})
+_LARGEST_ORDER = 64
 #: Settings that may be ``inf`` (switches the feature off).
 _MAY_BE_INFINITE = frozenset({"gap_rate_decay_s", "acc_innovation_gate", "acc_norm_gate", "acc_rate_gate",
                               "mag_norm_gate", "mag_dip_gate", "mag_reference_tau_s", "mag_new_time_s",
-                              "mag_max_rejection_s", "velocity_tau_s",
+                              "mag_max_rejection_s", "velocity_tau_s", "mag_hard_iron_tau_s",
+                              "mag_hard_iron_min_bias",
                               "bias_limit"})
 #: Finite settings above this would overflow when squared.
 _LARGEST_SETTING = 1e100

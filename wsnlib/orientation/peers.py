@@ -58,414 +58,44 @@ update, so that the state itself is pulled towards TRIAD.  Both libraries allow 
   consistent with the filtered vector and persists.
 
 Feedback calls the library once per blended sample (Fusion: always once per sample).
+``single_frame_gate`` makes either hybrid the *gated hybrid*: no blend on received samples
+whose TRIAD looks untrustworthy (:class:`wsnlib.orientation.SingleFrameGate`).
+
+Gap prediction
+--------------
+``gap="constant_rate"`` (as in :func:`wsnlib.orientation.estimate_orientation`): on a lost
+sample the output is the last received output turned on by the last received angular rate
+(raw gyroscope, body frame), ``q_k = q_last ⊗ Exp(ω Δt Σ_{j≤k} f^j)`` with ``f = 1`` or
+``f = exp(−Δt/τ)`` (``gap_time_constant`` τ); the rotation is about one body axis, so this is
+exact for that rate.  At the next received sample the filter's orientation is set to the last
+prediction (Fusion: ``set_quaternion``; VQF: ``gyrQuat``, as for the feedback hybrid) and
+the library updates from there.  ``gap="hold"`` (default) holds the output.  A gap before the
+first received sample is held either way (the filter has not started).
+
+Modules
+-------
+* :mod:`wsnlib.orientation.fusion_peer`: :func:`fusion_ahrs` and its settings;
+* :mod:`wsnlib.orientation.vqf_peer`: :func:`vqf_orientation`;
+* :mod:`wsnlib.orientation._peer_common`: the checks and the loss, hybrid and gap plumbing both share.
+
+Every name is re-exported here: ``from wsnlib.orientation.peers import fusion_ahrs`` keeps working.
 """
 
 from __future__ import annotations
 
-import imufusion
-import numpy as np
-import vqf
-
-from wsnlib import quaternion as Q
-from wsnlib._validation import check_nonnegative, check_positive
-from wsnlib.orientation import _batch as B
-from wsnlib.orientation import _kernels as K
-from wsnlib.orientation.loss_handling import (
+# The names marked F401 were imported or defined here by earlier versions; kept importable.
+from wsnlib.orientation._peer_common import HYBRIDS, _predict_gap  # noqa: F401
+from wsnlib.orientation.fusion_peer import FUSION_DEFAULT_SETTINGS, fusion_ahrs
+from wsnlib.orientation.loss_handling import (  # noqa: F401
     DEFAULT_HOLD_WINDOW,
     SCHEDULES,
+    SingleFrameGate,
     blend_with_single_frame,
+    check_single_frame_gate,
     effective_lost_run,
     slerp_weight,
 )
-from wsnlib.orientation.triad import triad
+from wsnlib.orientation.triad import triad  # noqa: F401
+from wsnlib.orientation.vqf_peer import _vqf_set_quat9d, vqf_orientation  # noqa: F401
 
-#: Values of the ``hybrid`` argument besides ``None``.
-HYBRIDS = ("output", "feedback")
-
-#: Fields of ``imufusion.AhrsSettings`` a caller may set through ``settings``, with
-#: Fusion's defaults (all switch the feature off); see :func:`fusion_ahrs` for units.
-FUSION_DEFAULT_SETTINGS = {
-    "gyroscope_range": 0.0,
-    "acceleration_rejection": 0.0,
-    "magnetic_rejection": 0.0,
-    "rejection_timeout": 0.0,
-}
-
-#: m/s² per g, to feed Fusion's accelerometer in g.
-_G = 9.80665
-
-
-# --------------------------------------------------------------------------------------------
-# Validation shared by both wrappers
-# --------------------------------------------------------------------------------------------
-
-
-def _prepare(gyr, acc, mag, fs, received):
-    """Checked, broadcast signals ``(*batch, T, 3)`` and mask ``(*batch, T)``."""
-    fs = check_positive(fs, "fs")
-    signals, mask, _, shapes = B.check_inputs(gyr, acc, mag, received)
-    n_t = signals["gyr"].shape[-2]
-    if mask is None:
-        mask = np.ones(n_t, dtype=bool)
-    batch = B.broadcast_batch(shapes)
-    B.check_usable(signals, mask)  # NaN/inf (zero acc, mag) in received samples
-    mask = np.broadcast_to(mask, batch + (n_t,))
-    has_sample = mask.any(axis=-1)
-    if not np.all(has_sample):
-        bad = tuple(int(i) for i in np.argwhere(~has_sample)[0])
-        raise ValueError(f"received has no received sample for batch element {bad}: the output is undefined there")
-    signals = {name: np.broadcast_to(arr, batch + (n_t, 3)) for name, arr in signals.items()}
-    return fs, signals, mask, batch
-
-
-def _hybrid_options(hybrid, mag, rho, tau, schedule, hold_window):
-    if hybrid is not None and (not isinstance(hybrid, str) or hybrid not in HYBRIDS):
-        raise ValueError(f"hybrid must be None, 'output' or 'feedback'; got {hybrid!r}")
-    rho = check_positive(rho, "rho")
-    tau = check_positive(tau, "tau")
-    schedule = B.check_choice(schedule, "schedule", SCHEDULES)
-    window = B.check_hold_window(hold_window, schedule, DEFAULT_HOLD_WINDOW)
-    if window is not None and window.ndim:
-        raise ValueError(f"hold_window must be one positive integer here, got {hold_window!r}")
-    if hybrid is not None and mag is None:
-        raise ValueError(f"mag is required for hybrid={hybrid!r}: TRIAD (q_s) needs the magnetometer")
-    return hybrid, rho, tau, schedule, window
-
-
-def _feedback_inputs(signals, mask, rho, tau, schedule, window):
-    """Where the feedback blends ``(*batch, T)``, TRIAD there ``(*batch, T, 4)`` and μ ``(*batch, T)``."""
-    started_gap = mask | ~np.logical_or.accumulate(mask, axis=-1)  # no gap before the first sample
-    lam = effective_lost_run(started_gap, schedule, window)
-    blend_at = mask & (lam > 0.0)
-    q_s = np.zeros(mask.shape + (4,))
-    q_s[..., 0] = 1.0
-    if blend_at.any():
-        q_s[blend_at] = triad(signals["acc"][blend_at], signals["mag"][blend_at])
-    return blend_at, q_s, slerp_weight(lam, rho, tau)
-
-
-def _slerp(q_s: np.ndarray, q_d: np.ndarray, mu: float) -> np.ndarray:
-    """Eq. (4) for one sample, in ``q_d``'s hemisphere (:func:`wsnlib.orientation._kernels.slerp`)."""
-    return np.array(K.slerp(tuple(q_s.tolist()), tuple(q_d.tolist()), float(mu)))
-
-
-def _hold(out: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """Rows of ``out`` ``(T, 4)`` filled on received samples: lost ones take the last received
-    row, those before the first received sample the first one."""
-    index = np.arange(mask.shape[-1])
-    src = np.maximum.accumulate(np.where(mask, index, -1))
-    return out[np.where(src < 0, np.argmax(mask), src)]
-
-
-def _run_batch(one, signals, mask, batch, feedback):
-    """``one(gyr, acc, mag, mask, fb)`` on every batch element; ``(*batch, T, 4)``."""
-    n_t = mask.shape[-1]
-    out = np.empty(batch + (n_t, 4))
-    for idx in np.ndindex(*batch):
-        gyr, acc = (np.ascontiguousarray(signals[name][idx]) for name in ("gyr", "acc"))
-        mag = np.ascontiguousarray(signals["mag"][idx]) if "mag" in signals else None
-        fb = None if feedback is None else tuple(x[idx] for x in feedback)
-        out[idx] = _hold(one(gyr, acc, mag, mask[idx], fb), mask[idx])
-    return out
-
-
-def _finish(quat, signals, mask, hybrid, rho, tau, schedule, window):
-    if hybrid != "output":
-        return quat
-    hold_window = None if window is None else int(window)
-    return blend_with_single_frame(
-        quat, signals["acc"], signals["mag"], mask, rho=rho, tau=tau, schedule=schedule, hold_window=hold_window
-    )
-
-
-# --------------------------------------------------------------------------------------------
-# x-io Fusion
-# --------------------------------------------------------------------------------------------
-
-
-def _fusion_settings(fs: float, gain, settings) -> imufusion.AhrsSettings:
-    values = dict(FUSION_DEFAULT_SETTINGS)
-    if settings is not None:
-        if not isinstance(settings, dict):
-            raise ValueError(f"settings must be a dict of imufusion.AhrsSettings fields, got {type(settings).__name__}")
-        for key, value in settings.items():
-            if key in ("sample_rate", "convention", "gain"):
-                raise ValueError(f"settings[{key!r}] is set by fusion_ahrs itself (fs, ENU, gain=); leave it out")
-            if key not in FUSION_DEFAULT_SETTINGS:
-                listed = ", ".join(repr(k) for k in FUSION_DEFAULT_SETTINGS)
-                raise ValueError(f"settings has unknown key {key!r}; known: {listed}")
-            values[key] = check_nonnegative(value, f"settings[{key!r}]")
-    obj = imufusion.AhrsSettings()
-    obj.sample_rate = fs
-    obj.convention = imufusion.CONVENTION_ENU  # the constructor argument is ignored in 1.3.3
-    obj.gain = check_nonnegative(gain, "gain")
-    for key, value in values.items():
-        setattr(obj, key, value)
-    if obj.convention != imufusion.CONVENTION_ENU:  # pragma: no cover - guards a library change
-        raise RuntimeError("imufusion did not accept CONVENTION_ENU")
-    return obj
-
-
-def _fusion_one(settings):
-    def one(gyr, acc, mag, mask, feedback):
-        ahrs = imufusion.Ahrs()
-        ahrs.set_settings(settings)
-        gyr_deg = np.degrees(gyr).tolist()
-        acc_g = (acc / _G).tolist()
-        mag = None if mag is None else mag.tolist()
-        out = np.empty((mask.shape[-1], 4))
-        if feedback is not None:
-            blend_at, q_s, mu = feedback
-        for t in np.flatnonzero(mask).tolist():
-            if mag is None:
-                ahrs.update_no_magnetometer(gyr_deg[t], acc_g[t])
-            else:
-                ahrs.update(gyr_deg[t], acc_g[t], mag[t])
-            if feedback is not None and blend_at[t]:
-                q = ahrs.get_quaternion().astype(float)
-                q = _slerp(q_s[t], q / np.linalg.norm(q), mu[t])
-                ahrs.set_quaternion(q)
-                out[t] = q
-            else:
-                out[t] = ahrs.get_quaternion()
-        out[mask] /= np.linalg.norm(out[mask], axis=-1, keepdims=True)  # Fusion computes in float32
-        return out
-
-    return one
-
-
-def fusion_ahrs(
-    gyr,
-    acc,
-    mag=None,
-    *,
-    fs: float,
-    received=None,
-    gain: float = 0.5,
-    settings: dict | None = None,
-    hybrid: str | None = None,
-    rho: float = 2.0,
-    tau: float = 6.0,
-    schedule: str = "decay",
-    hold_window: int | None = None,
-) -> np.ndarray:
-    """x-io Fusion AHRS (``imufusion.Ahrs``) over whole recordings, with packet loss, batched.
-
-    Each batch element gets a fresh ``imufusion.Ahrs`` with ``convention =
-    CONVENTION_ENU``, ``sample_rate = fs`` and the settings below, then one ``update`` (or
-    ``update_no_magnetometer``) per received sample, gyroscope converted to °/s and
-    accelerometer to g.  Lost samples make no call and hold the output (module docstring).
-    Fusion's start-up is kept: its gain starts at 10 and falls linearly to ``gain`` over
-    3 s of updates (150 received samples at 50 Hz), with rejection inactive meanwhile.
-
-    Parameters
-    ----------
-    gyr, acc : array_like, shape (..., T, 3)
-        Angular rate (rad/s) and specific force (m/s², +g up at rest) in the body frame.
-    mag : array_like, shape (..., T, 3), optional
-        Magnetic field in the body frame (µT; Fusion uses the direction only).  ``None``:
-        ``update_no_magnetometer`` (heading from the gyroscope, zeroed during start-up).
-    fs : float
-        Sampling rate (Hz), > 0: every received sample is integrated over 1/fs.
-    received : array_like of bool, shape (..., T), optional
-        True = received; lost samples are never read (they may hold NaN).  ``None``: all.
-    gain : float
-        Fusion's gain (rad/s per unit of the cross-product error, default 0.5, Fusion's
-        default), >= 0: how strongly accelerometer and magnetometer correct the gyroscope.
-    settings : dict, optional
-        Overrides of the other ``imufusion.AhrsSettings`` fields (defaults, Fusion's own:
-        every feature off):
-
-        * ``"gyroscope_range"`` (°/s, default 0 = off): a gyroscope axis above 98 % of it
-          restarts the start-up ramp (keeping the orientation);
-        * ``"acceleration_rejection"`` (degrees, default 0 = off): the accelerometer is
-          ignored while its direction disagrees with the estimated gravity by more than
-          this (Fusion's README suggests 10°);
-        * ``"magnetic_rejection"`` (degrees, default 0 = off): the same for the
-          magnetometer's heading (README: 10°–20°);
-        * ``"rejection_timeout"`` (s, default 0): after this long of rejection the sensor
-          is used again (recovery); 0 switches both rejections off.  Counted in updates,
-          i.e. in received samples × 1/fs.
-
-        ``sample_rate`` (= ``fs``), ``convention`` (= ENU) and ``gain`` (its own argument)
-        are not accepted here.
-    hybrid : {None, "output", "feedback"}
-        Paper 001's SLERP towards TRIAD after a gap (module docstring); needs ``mag``.
-    rho, tau : float
-        ρ, τ of eq. (3) (finite, > 0; default 2 and 6, μ = 1/2 at λ_eff = 12 samples).
-    schedule : {"decay", "hold", "instant"}
-        λ_eff after a gap (:func:`wsnlib.orientation.effective_lost_run`).
-    hold_window : int, optional
-        Received samples during which ``schedule="hold"`` keeps λ_eff (default 50); only
-        with that schedule.
-
-    Returns
-    -------
-    numpy.ndarray, shape (..., T, 4)
-        ENU unit quaternions (body → earth), ``...`` the broadcast of the leading dimensions
-        of the signals and ``received``.  Lost samples hold the previous output; samples
-        before the first received one hold the output at it.
-
-    Raises
-    ------
-    ValueError
-        Naming the argument: wrong shapes, mismatched T, leading dimensions that do not
-        broadcast, a non-boolean ``received``, NaN/inf or a zero ``acc``/``mag`` vector in
-        a received sample, ``fs`` <= 0, ``gain`` < 0, an unknown or negative setting, an
-        unknown ``hybrid`` or ``schedule``, bad ρ, τ or ``hold_window``, ``mag`` None with
-        a hybrid, or a batch element with no received sample.
-
-    Notes
-    -----
-    Fusion computes in single precision: outputs are normalised again in double, and two
-    runs on the same data agree exactly, but comparisons with double-precision filters
-    should allow ~1e-6.
-    """
-    fs, signals, mask, batch = _prepare(gyr, acc, mag, fs, received)
-    hybrid, rho, tau, schedule, window = _hybrid_options(hybrid, mag, rho, tau, schedule, hold_window)
-    ahrs_settings = _fusion_settings(fs, gain, settings)
-    feedback = _feedback_inputs(signals, mask, rho, tau, schedule, window) if hybrid == "feedback" else None
-    quat = _run_batch(_fusion_one(ahrs_settings), signals, mask, batch, feedback)
-    return _finish(quat, signals, mask, hybrid, rho, tau, schedule, window)
-
-
-# --------------------------------------------------------------------------------------------
-# VQF
-# --------------------------------------------------------------------------------------------
-
-
-def _vqf_params(params) -> dict:
-    if params is None:
-        return {}
-    if not isinstance(params, dict):
-        raise ValueError(f"params must be a dict of VQF parameters, got {type(params).__name__}")
-    known = vqf.VQF(1.0).params
-    for key in params:
-        if key in ("gyrTs", "accTs", "magTs"):
-            raise ValueError(f"params[{key!r}] is set from fs; leave it out")
-        if key not in known:
-            raise ValueError(f"params has unknown key {key!r}; known: {', '.join(sorted(known))}")
-    return dict(params)
-
-
-def _pieces(mask: np.ndarray, blend_at) -> tuple[np.ndarray, np.ndarray]:
-    """Starts and ends of the runs of received samples, also cut after every blended sample."""
-    prev = np.concatenate(([False], mask[:-1]))
-    nxt = np.concatenate((mask[1:], [False]))
-    cut = np.zeros_like(mask) if blend_at is None else blend_at
-    prev_cut = np.concatenate(([False], cut[:-1]))
-    starts = np.flatnonzero(mask & (~prev | prev_cut))
-    ends = np.flatnonzero(mask & (~nxt | cut)) + 1
-    return starts, ends
-
-
-def _vqf_set_quat9d(filt, q_f: np.ndarray) -> None:
-    """Make ``filt``'s 9D output ``q_f`` by replacing ``gyrQuat`` (module docstring)."""
-    state = filt.state
-    half = -0.5 * state["delta"]
-    undo_delta = np.array([np.cos(half), 0.0, 0.0, np.sin(half)])
-    gyr_quat = Q.multiply(Q.conjugate(np.asarray(state["accQuat"])), Q.multiply(undo_delta, q_f))
-    state["gyrQuat"] = gyr_quat / np.linalg.norm(gyr_quat)
-    filt.state = state
-
-
-def _vqf_one(fs: float, params: dict):
-    def one(gyr, acc, mag, mask, feedback):
-        try:
-            filt = vqf.VQF(1.0 / fs, **params)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"params rejected by vqf.VQF: {exc}") from exc
-        key = "quat6D" if mag is None else "quat9D"
-        out = np.empty((mask.shape[-1], 4))
-        blend_at, q_s, mu = (None, None, None) if feedback is None else feedback
-        for start, end in zip(*_pieces(mask, blend_at), strict=True):
-            piece = filt.updateBatch(gyr[start:end], acc[start:end], None if mag is None else mag[start:end])
-            out[start:end] = piece[key]
-            last = end - 1
-            if feedback is not None and blend_at[last]:
-                out[last] = _slerp(q_s[last], out[last], mu[last])
-                _vqf_set_quat9d(filt, out[last])
-        return out
-
-    return one
-
-
-def vqf_orientation(
-    gyr,
-    acc,
-    mag=None,
-    *,
-    fs: float,
-    received=None,
-    params: dict | None = None,
-    hybrid: str | None = None,
-    rho: float = 2.0,
-    tau: float = 6.0,
-    schedule: str = "decay",
-    hold_window: int | None = None,
-) -> np.ndarray:
-    """VQF (Laidig & Seel 2023, ``vqf.VQF``) over whole recordings, with packet loss, batched.
-
-    Each batch element gets a fresh ``vqf.VQF(1/fs, **params)``; every contiguous run of
-    received samples goes through one ``updateBatch`` call, the state carrying over between
-    calls, which is exactly "lost samples are skipped, the next received one uses the
-    nominal Ts".  The output is ``quat9D`` with ``mag``, ``quat6D`` without.  This is the
-    causal (online) filter; ``vqf.offlineVQF`` (acausal) is not used.
-
-    Parameters
-    ----------
-    gyr, acc : array_like, shape (..., T, 3)
-        Angular rate (rad/s) and specific force (m/s²) in the body frame; VQF uses these
-        units as given (rest detection and bias estimation thresholds are in them).
-    mag : array_like, shape (..., T, 3), optional
-        Magnetic field in the body frame (µT; VQF accepts any unit).  ``None``: 6D output,
-        heading relative to the start.
-    fs : float
-        Sampling rate (Hz), > 0; VQF's ``gyrTs = 1/fs`` (accelerometer and magnetometer
-        the same).
-    received : array_like of bool, shape (..., T), optional
-        True = received; lost samples are never read.  ``None``: all.
-    params : dict, optional
-        Overrides of ``VQFParams`` (``vqf.VQF`` keyword arguments); VQF's defaults:
-        ``tauAcc`` 3.0 s, ``tauMag`` 9.0 s (inclination and heading correction time
-        constants), ``motionBiasEstEnabled`` True, ``restBiasEstEnabled`` True,
-        ``magDistRejectionEnabled`` True, ``biasSigmaInit`` 0.5 °/s,
-        ``biasForgettingTime`` 100 s, ``biasClip`` 2 °/s, ``biasSigmaMotion`` 0.1 °/s,
-        ``biasVerticalForgettingFactor`` 1e-4, ``biasSigmaRest`` 0.03 °/s, ``restMinT``
-        1.5 s, ``restFilterTau`` 0.5 s, ``restThGyr`` 2 °/s, ``restThAcc`` 0.5 m/s²,
-        ``magCurrentTau`` 0.05 s, ``magRefTau`` 20 s, ``magNormTh`` 0.1 (relative),
-        ``magDipTh`` 10°, ``magNewTime`` 20 s, ``magNewFirstTime`` 5 s, ``magNewMinGyr``
-        20 °/s, ``magMinUndisturbedTime`` 0.5 s, ``magMaxRejectionTime`` 60 s,
-        ``magRejectionFactor`` 2.  Times are counted in received samples × Ts.  The
-        sampling times come from ``fs`` and are not accepted here.
-    hybrid : {None, "output", "feedback"}
-        Paper 001's SLERP towards TRIAD after a gap (module docstring); needs ``mag``.
-    rho, tau : float
-        ρ, τ of eq. (3) (finite, > 0; default 2 and 6).
-    schedule : {"decay", "hold", "instant"}
-        λ_eff after a gap (:func:`wsnlib.orientation.effective_lost_run`).
-    hold_window : int, optional
-        For ``schedule="hold"`` only (default 50 received samples).
-
-    Returns
-    -------
-    numpy.ndarray, shape (..., T, 4)
-        ENU unit quaternions (body → earth; y = magnetic north with ``mag``).  Lost samples
-        hold the previous output; samples before the first received one hold the output
-        at it.
-
-    Raises
-    ------
-    ValueError
-        Naming the argument: wrong shapes, mismatched T, leading dimensions that do not
-        broadcast, a non-boolean ``received``, NaN/inf or a zero ``acc``/``mag`` vector in
-        a received sample, ``fs`` <= 0, an unknown key in ``params`` (or a value VQF
-        rejects), an unknown ``hybrid`` or ``schedule``, bad ρ, τ or ``hold_window``,
-        ``mag`` None with a hybrid, or a batch element with no received sample.
-    """
-    fs, signals, mask, batch = _prepare(gyr, acc, mag, fs, received)
-    hybrid, rho, tau, schedule, window = _hybrid_options(hybrid, mag, rho, tau, schedule, hold_window)
-    vqf_params = _vqf_params(params)
-    feedback = _feedback_inputs(signals, mask, rho, tau, schedule, window) if hybrid == "feedback" else None
-    quat = _run_batch(_vqf_one(fs, vqf_params), signals, mask, batch, feedback)
-    return _finish(quat, signals, mask, hybrid, rho, tau, schedule, window)
+__all__ = ["FUSION_DEFAULT_SETTINGS", "HYBRIDS", "fusion_ahrs", "vqf_orientation"]

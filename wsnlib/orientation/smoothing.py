@@ -21,7 +21,20 @@ with the Hermite basis ``h10 = u³ − 2u² + u``, ``h01 = 3u² − 2u³``, ``h1
 ``ω0``, ``ω1`` the bias-corrected rates received at both ends, so orientation *and* angular
 rate match at both ends (``J_r`` is the right Jacobian of SO(3)).  ``r1`` is taken as the
 rotation by ``‖r1‖ + 2πn`` (n ∈ {−1, 0, 1}) closest to ``h (ω0 + ω1)/2``, so a fast turn of
-more than 180° through a gap is not unwound the short way.  A gap at the end is the filter's
+more than 180° through a gap is not unwound the short way.
+
+With ``settings.gap_rate_prediction`` (default) and a full window
+(``gap_rate_prediction_window_s``) of samples on *both* sides of the gap, the curve is
+instead built from the rates the filter's linear predictor gives from each side
+(:func:`wsnlib.orientation._kalman_kernels.gap_rate_fit`: fitted on the window before the gap
+and run forward, and on the window after it read backward in time and run backward; lost
+samples inside a window are linear between their received neighbours, or, for earlier gaps,
+the rates of their curve), blended
+``ω(u) = (1 − u) ω_fwd + u ω_bwd``; that rate is integrated forward from ``q^s_{s0}`` and
+backward from ``q^s_{s1}``, and the two are blended on SO(3),
+``q(u) = q_f ⊗ Exp(u Log(q_f* ⊗ q_b))``, so both ends are matched.  A cubic in time cannot
+follow an arm that swings back within the gap; the predictors, fitted on the swing itself,
+can.  A gap at the end is the filter's
 extrapolation (nothing after it), one at the start (before the first received sample, ``q0``
 None) holds the initial estimate, as the filter does.
 """
@@ -34,7 +47,17 @@ import numpy as np
 from numba import njit, prange
 
 from wsnlib.orientation import _batch as B
-from wsnlib.orientation._kalman_kernels import KALMAN_DT, NX, kalman_stream
+from wsnlib.orientation._kalman_kernels import (
+    KALMAN_AR_ON,
+    KALMAN_AR_ORDER,
+    KALMAN_AR_WINDOW,
+    KALMAN_DT,
+    KALMAN_GAP_REPLAY,
+    NX,
+    gap_rate_fit,
+    gap_rate_predict,
+    kalman_stream,
+)
 from wsnlib.orientation._kernels import (
     COMPILE,
     cross3,
@@ -48,10 +71,15 @@ from wsnlib.orientation.kalman import KalmanSettings, check_finite_output, prepa
 
 #: Defaults of :func:`smooth_orientation`: the filter's settings except those that
 #: leave-one-trial-out tuning of the smoother chose differently from the filter's (most often,
-#: 8 settings, 17 BROAD trials, GE 10 %; ``benchmarks/eval_loss_tolerance.py``): the rate is
-#: extrapolated constant over a gap (the Hermite curve replaces the output there anyway) and
-#: the magnetometer's norm gate is 5 % instead of 10 %.
-SMOOTHER_SETTINGS = KalmanSettings(gap_rate_decay_s=math.inf, mag_norm_gate=0.05)
+#: 8 settings, 17 BROAD trials, GE 10 %; ``benchmarks/eval_loss_tolerance.py``): the
+#: magnetometer's norm gate is 5 % instead of 10 % and the accelerometer's innovation gate
+#: 6.0 instead of 13.8 (both chosen in earlier runs of that script); no gap replay (the
+#: forward pass never replays, see :func:`smooth_orientation`).  The gap's linear prediction
+#: (order 48 on 6 s) and the adaptive accelerometer noise (factor 4) are the filter's
+#: defaults, and also what the smoother's own LOTO chose most often (grid
+#: acc_disturbance_factor ∈ {4, 16} × acc_innovation_gate ∈ {13.8, 6} × (order, window) ∈
+#: {(24, 3 s), (48, 6 s)}).
+SMOOTHER_SETTINGS = KalmanSettings(mag_norm_gate=0.05, acc_innovation_gate=6.0, gap_replay=False)
 
 
 @njit(**COMPILE)
@@ -95,6 +123,70 @@ def _hermite_gap(out_q, s0, s1, q0, q1, w0, w1, dt):
         q = quat_normalize(quat_multiply(q0, quat_exp(r)))
         for a in range(4):
             out_q[t, a] = q[a]
+
+
+@njit(**COMPILE)
+def _predicted_rates(rates, lo, order, window, n, reverse, coef, A, r, buf, out):
+    """Rates over a gap of ``n`` samples by the linear predictor fitted on one side's window.
+
+    Forward (``reverse`` False): fitted on ``rates[lo : lo + window]``, the window ending at
+    the gap's first sample ``s0 = lo + window − 1``, predicting ``s0 + 1, …``.  Backward:
+    fitted on the same series read backward from ``rates[lo + window − 1]`` down to
+    ``rates[lo]`` (the window starting at the gap's end ``s1 = lo``), predicting
+    ``s1 − 1, s1 − 2, …``.  ``out[k]`` (n, 3) is the rate at the gap's k-th sample from its
+    start (forward) or from its end (backward).  ``buf`` (window + n, 3) is scratch.
+    """
+    for i in range(window):
+        src = lo + window - 1 - i if reverse else lo + i
+        for a in range(3):
+            buf[i, a] = rates[src, a]
+    largest = gap_rate_fit(buf, window, window, order, coef, A, r)
+    for k in range(n):
+        gap_rate_predict(buf, window + k, order, coef, largest, buf[window + k])
+        for a in range(3):
+            out[k, a] = buf[window + k, a]
+
+
+@njit(**COMPILE)
+def _predicted_gap(out_q, rates, s0, s1, q0, q1, order, window, dt):
+    """Fill ``out_q[s0 + 1 : s1]`` from both sides' linear predictions (module docstring).
+
+    The blended rates replace the linear fill of ``rates[s0 + 1 : s1]`` (gaps are filled in
+    time order, so a later gap's window before it holds predicted rates)."""
+    n = s1 - s0 - 1
+    coef = np.zeros((3, order))
+    A = np.empty((order, order))
+    r = np.empty(order)
+    buf = np.empty((window + n, 3))
+    fwd = np.empty((n, 3))
+    bwd = np.empty((n, 3))
+    _predicted_rates(rates, s0 - window + 1, order, window, n, False, coef, A, r, buf, fwd)
+    _predicted_rates(rates, s1, order, window, n, True, coef, A, r, buf, bwd)
+    blend = np.empty((n + 1, 3))  # rate at sample s0 + 1 + k; the last row is the measured one at s1
+    for k in range(n):
+        u = (k + 1.0) / (n + 1.0)
+        for a in range(3):
+            blend[k, a] = (1.0 - u) * fwd[k, a] + u * bwd[n - 1 - k, a]
+    for a in range(3):
+        blend[n, a] = rates[s1, a]
+    for k in range(n):  # later gaps' forward windows read these rates instead of the linear fill
+        for a in range(3):
+            rates[s0 + 1 + k, a] = blend[k, a]
+    q = q0  # forward integration from s0, kept in out_q
+    for k in range(n):
+        q = quat_normalize(quat_multiply(q, quat_exp((blend[k, 0] * dt, blend[k, 1] * dt, blend[k, 2] * dt))))
+        for a in range(4):
+            out_q[s0 + 1 + k, a] = q[a]
+    q = q1  # backward integration from s1, blended with the forward one
+    for k in range(n - 1, -1, -1):
+        w = blend[k + 1]
+        q = quat_normalize(quat_multiply(q, quat_exp((-w[0] * dt, -w[1] * dt, -w[2] * dt))))
+        u = (k + 1.0) / (n + 1.0)
+        q_f = (out_q[s0 + 1 + k, 0], out_q[s0 + 1 + k, 1], out_q[s0 + 1 + k, 2], out_q[s0 + 1 + k, 3])
+        d = quat_log(quat_multiply(quat_conjugate(q_f), q))
+        qb = quat_normalize(quat_multiply(q_f, quat_exp((u * d[0], u * d[1], u * d[2]))))
+        for a in range(4):
+            out_q[s0 + 1 + k, a] = qb[a]
 
 
 @njit(**COMPILE)
@@ -142,6 +234,28 @@ def _smooth_stream(gyr, acc, mag, has_mag, received, q_init, start, init_only, s
     if not interpolate_gaps:
         return
     dt = s[KALMAN_DT]
+    # Rates for the gaps' linear prediction: bias-corrected where received, linear between
+    # the received neighbours where lost (only read inside the windows).
+    order = int(s[KALMAN_AR_ORDER])
+    window = int(s[KALMAN_AR_WINDOW])
+    predict = s[KALMAN_AR_ON] != 0.0 and window >= 3 * order
+    rates = np.zeros((n_t if predict else 1, 3))
+    if predict:
+        prev = -1
+        for t in range(first, n_t):
+            if not received[t]:
+                continue
+            for a in range(3):
+                rates[t, a] = gyr[t, a] - smooth_b[t, a]
+            if prev >= 0:
+                for k in range(prev + 1, t):
+                    u = (k - prev) / (t - prev)
+                    for a in range(3):
+                        rates[k, a] = (1.0 - u) * rates[prev, a] + u * rates[t, a]
+            prev = t
+        for k in range(max(prev, first) + 1, n_t):  # after the last received: hold
+            for a in range(3):
+                rates[k, a] = rates[prev, a] if prev >= 0 else 0.0
     last_received = -1
     for t in range(first, n_t):
         if not (received[t] or t == first):
@@ -154,7 +268,10 @@ def _smooth_stream(gyr, acc, mag, has_mag, received, q_init, start, init_only, s
                 w0 = w1
             q_a = (out_q[s0, 0], out_q[s0, 1], out_q[s0, 2], out_q[s0, 3])
             q_b = (out_q[s1, 0], out_q[s1, 1], out_q[s1, 2], out_q[s1, 3])
-            _hermite_gap(out_q, s0, s1, q_a, q_b, w0, w1, dt)
+            if predict and received[s0] and s0 - window + 1 >= first and s1 + window <= n_t:
+                _predicted_gap(out_q, rates, s0, s1, q_a, q_b, order, window, dt)
+            else:
+                _hermite_gap(out_q, s0, s1, q_a, q_b, w0, w1, dt)
         last_received = t
 
 
@@ -167,7 +284,7 @@ def _smooth_batch(gyr, acc, mag, has_mag, received, index, q_init, start, init_o
 
 def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, settings=None, q0=None,
                        interpolate_gaps: bool = True) -> np.ndarray:
-    """Offline orientation: forward Kalman filter, backward RTS pass, Hermite curves across gaps.
+    """Offline orientation: forward Kalman filter, backward RTS pass, curves across gaps.
 
     Uses every received sample, also those after a sample (module docstring).  For recorded
     sessions; the output at sample ``t`` depends on later samples, so it cannot stream.
@@ -176,16 +293,20 @@ def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, settings
     ----------
     gyr, acc, mag, fs, received, q0, settings
         As in :func:`wsnlib.orientation.kalman.kalman_orientation` (same filter);
-        ``settings=None`` gives :data:`SMOOTHER_SETTINGS` (tuned for the smoother).
+        ``settings=None`` gives :data:`SMOOTHER_SETTINGS` (tuned for the smoother).  The
+        forward pass never replays gaps (``settings.gap_replay`` is ignored: the RTS pass needs
+        the filter's own predictions, and the Hermite curve uses both ends of each gap).
     interpolate_gaps : bool
-        Replace the smoothed estimate across each gap by the cubic Hermite curve (default);
-        ``False`` keeps the RTS estimate there (for comparison).
+        Replace the smoothed estimate across each gap by the curve of the module docstring
+        (both sides' linear prediction, or the cubic Hermite curve) (default); ``False`` keeps
+        the RTS estimate there (for comparison).
 
     Returns
     -------
     numpy.ndarray, shape (..., T, 4)
         ENU unit quaternions (body → earth), ``...`` the broadcast leading dimensions.  At the
-        last sample equal to the output of the filter with the same settings.
+        last sample equal to the output of the filter with the same settings and
+        ``gap_replay=False``.
 
     Raises
     ------
@@ -193,11 +314,12 @@ def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, settings
         As :func:`~wsnlib.orientation.kalman.kalman_orientation`.
     """
     s = settings_vector(SMOOTHER_SETTINGS if settings is None else settings, fs)
+    s[KALMAN_GAP_REPLAY] = 0.0  # the RTS pass needs the filter's own predictions (KalmanSettings.gap_replay)
     inputs = prepare_inputs(gyr, acc, mag, received, q0)
     if not isinstance(interpolate_gaps, bool):
         raise ValueError(f"interpolate_gaps must be True or False, got {interpolate_gaps!r}")
-    # Output, plus each thread's scratch: filtered and predicted q, b, v, P and F per sample.
-    B.check_memory(8 * inputs.n_t * (4 * inputs.index.shape[0] + 2 * (20 + 3 * NX * NX)),
+    # Output, plus each thread's scratch: filtered and predicted q, b, v, P and F, rates per sample.
+    B.check_memory(8 * inputs.n_t * (4 * inputs.index.shape[0] + 2 * (23 + 3 * NX * NX)),
                    f"smooth_orientation's output for batch {inputs.batch}, T = {inputs.n_t}")
     out_q = np.empty((inputs.index.shape[0], inputs.n_t, 4))
     _smooth_batch(inputs.gyr, inputs.acc, inputs.mag, inputs.has_mag, inputs.received, inputs.index, inputs.q_init,
