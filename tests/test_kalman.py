@@ -13,7 +13,7 @@ from scipy.spatial.transform import Rotation
 from wsnlib import frames
 from wsnlib import quaternion as Q
 from wsnlib.orientation import estimate_orientation, madgwick
-from wsnlib.orientation._kalman_kernels import AR_RIDGE, gap_rate_end_weights, gap_rate_fit, gap_rate_predict
+from wsnlib.orientation._gap_rate_kernels import AR_RIDGE, gap_rate_end_weights, gap_rate_fit, gap_rate_predict
 from wsnlib.orientation.kalman import KalmanSettings, kalman_orientation
 from wsnlib.sim.arm import arm_kinematics, movement_set
 from wsnlib.sim.imu import ideal_imu

@@ -26,7 +26,7 @@ more than 180° through a gap is not unwound the short way.
 With ``settings.gap_rate_prediction`` (default) and a full window
 (``gap_rate_prediction_window_s``) of samples on *both* sides of the gap, the curve is
 instead built from the rates the filter's linear predictor gives from each side
-(:func:`wsnlib.orientation._kalman_kernels.gap_rate_fit`: fitted on the window before the gap
+(:func:`wsnlib.orientation._gap_rate_kernels.gap_rate_fit`: fitted on the window before the gap
 and run forward, and on the window after it read backward in time and run backward; lost
 samples inside a window are linear between their received neighbours, or, for earlier gaps,
 the rates of their curve), blended
@@ -47,16 +47,15 @@ import numpy as np
 from numba import njit, prange
 
 from wsnlib.orientation import _batch as B
-from wsnlib.orientation._kalman_kernels import (
+from wsnlib.orientation._gap_rate_kernels import gap_rate_fit, gap_rate_predict
+from wsnlib.orientation._kalman_kernels import kalman_stream
+from wsnlib.orientation._kalman_layout import (
     KALMAN_AR_ON,
     KALMAN_AR_ORDER,
     KALMAN_AR_WINDOW,
     KALMAN_DT,
     KALMAN_GAP_REPLAY,
     NX,
-    gap_rate_fit,
-    gap_rate_predict,
-    kalman_stream,
 )
 from wsnlib.orientation._kernels import (
     COMPILE,

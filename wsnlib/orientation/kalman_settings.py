@@ -1,0 +1,251 @@
+"""Settings of the gap-aware Kalman filter: :class:`KalmanSettings`, its documented defaults and checks.
+
+Used by :func:`wsnlib.orientation.kalman.kalman_orientation` (equations and gates in that
+module's docstring) and :func:`wsnlib.orientation.smooth_orientation`; the kernels read them
+as one vector (:func:`wsnlib.orientation._kalman_layout.kalman_settings_vector`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+# ==========================================================================================
+# Settings
+# ==========================================================================================
+
+
+@dataclass(frozen=True)
+class KalmanSettings:
+    """Noise levels and gates of :func:`~wsnlib.orientation.kalman.kalman_orientation` (and
+    :func:`~wsnlib.orientation.smoothing.smooth_orientation`).
+
+    Defaults: ``gap_replay``, ``acc_disturbance_factor``, ``gap_rate_prediction_order`` and
+    ``gap_rate_prediction_window_s`` are the values chosen most often by leave-one-trial-out
+    tuning (8 settings, as every peer: gap_replay ∈ {True, False} × acc_disturbance_factor ∈
+    {4, 16} × (order, window) ∈ {(24, 3 s), (48, 6 s)}) on the 17 shared BROAD trials at 50 Hz
+    under Gilbert–Elliott loss (10 %, mean burst 3 packets of 6 samples), see
+    ``benchmarks/eval_loss_tolerance.py``; ``gap_rate_prediction`` (on) and
+    ``acc_disturbance_factor`` > 0 were chosen by every fold in earlier runs of that script
+    against the decaying rate (``gap_rate_prediction=False``) and 0, as were
+    ``mag_hard_iron_min_bias``, ``gap_rate_relative_noise``, ``mag_noise``,
+    ``mag_norm_gate``, ``gap_rate_decay_s``, ``velocity_noise``, ``acc_noise`` and
+    ``gap_rate_noise`` (most often, with other grids); the other numbers are as documented
+    per field.
+
+    Attributes
+    ----------
+    gyro_noise : float
+        Angular-rate white noise density σ_g (rad/s/√Hz): attitude variance grows by
+        ``σ_g² Δt`` per sample.  Far above a MEMS datasheet (≈ 1e-4): at 50 Hz the
+        first-order integration of real, fast motion dominates the error.  Default 0.002
+        (best of 0.01 and 0.002 on the shared BROAD trials, lossless).
+    bias_noise : float
+        Gyroscope bias random walk σ_b (rad/s/√s).  Default 1e-4 (slow thermal drift).
+    initial_bias_sigma : float
+        Prior std of the bias (rad/s).  Default 0.5 °/s, VQF's ``biasSigmaInit``.
+    bias_limit : float
+        Each bias component is clipped to ±this (rad/s).  Default 2 °/s, VQF's ``biasClip``.
+    initial_tilt_sigma, initial_heading_sigma : float
+        Prior std (rad) of the initial estimate's inclination and heading.  Defaults 5° and
+        20°: TRIAD on one sample is exact at rest, but its heading is off by tens of degrees
+        near a disturbance or under acceleration (BROAD, notebook 05).
+    acc_noise : float
+        Std of the measured tilt error (rad) of an accepted accelerometer sample.  Default 0.4,
+        chosen most often by LOTO from {0.05, 0.1, 0.2, 0.4} (eval_loss_tolerance.py, before
+        the leaky velocity was added).
+    mag_noise : float
+        Std of the measured heading error (rad) of an accepted magnetometer sample.
+        Default 0.2 rad, chosen most often by LOTO from {0.2, 0.5}.
+    gap_rate_noise : float
+        Std of the error of the extrapolated angular rate during a gap (rad/s).  Default 0.3,
+        chosen most often by LOTO from {0.3, 1.0} (eval_loss_tolerance.py, before the leaky
+        velocity was added).
+    gap_rate_relative_noise : float
+        Added to ``gap_rate_noise`` times the last received rate's norm (dimensionless): the
+        faster the motion, the less the rate at the start of a gap says about the rest of it.
+        Default 0.1, chosen most often by LOTO from {0.5, 0.1} (a larger value lets the first
+        samples after a gap in fast motion over-correct).
+    gap_rate_decay_s : float
+        Time constant (s) with which the extrapolated rate decays to 0 during a gap; ``inf``
+        keeps it constant.  Default 0.2 s, chosen most often by LOTO from {inf, 0.2}.
+    gravity : float
+        Norm of gravity (m/s²); default standard gravity.
+    acc_norm_gate : float
+        Accelerometer used only if ``|‖a‖ − g| ≤`` this (m/s²).  Default 0.2 g ≈ 1.96 m/s².
+    acc_rate_gate : float
+        Accelerometer used only if the bias-corrected rate is at most this (rad/s): fast
+        rotation adds centripetal and tangential acceleration.  Default 10 rad/s.
+    mag_norm_gate : float
+        Relative norm tolerance.  Default 0.1 (VQF's ``magNormTh``), chosen most often by LOTO
+        from {0.1, 0.05}.
+    mag_dip_gate : float
+        Dip angle tolerance (rad), VQF's ``magDipTh`` = 10°.
+    mag_reference_tau_s : float
+        Time constant (s) of the reference norm/dip low-pass, VQF's ``magRefTau`` = 20 s.
+    mag_new_time_s : float
+        Consistent time (s) after which a new field becomes the reference, VQF's
+        ``magNewTime`` = 20 s.
+    mag_new_min_rate : float
+        Only time spent turning faster than this (rad/s) counts for ``mag_new_time_s``, VQF's
+        ``magNewMinGyr`` = 20 °/s.
+    mag_max_rejection_s : float
+        After this long rejected (s) the field is used again, with inflated noise; VQF's
+        ``magMaxRejectionTime`` = 60 s.
+    mag_rejection_factor : float
+        Noise std multiplier for fields used after ``mag_max_rejection_s``; VQF's
+        ``magRejectionFactor`` = 2.
+    velocity_tau_s : float
+        Time constant τ_v (s) of the leaky velocity (module docstring).  Default 3 s, VQF's
+        ``tauAcc``.
+    velocity_noise : float
+        Std σ_v (m/s) of the pseudo-measurement ``v_x = v_y = v_z = 0``.  Default 1.0, chosen
+        most often by LOTO from {0.5, 1.0} (eval_loss_tolerance.py).
+    acc_sensor_noise : float
+        Accelerometer noise σ_s (m/s² per sample) in the leaky velocity's process noise.
+        Default 0.05 (MEMS datasheet order at 50 Hz).
+    gap_acc_noise : float
+        Std (m/s²) of the unknown linear acceleration during a gap (velocity variance grows
+        like ``(σ kΔt)²`` after ``k`` lost samples).  Default 5 m/s² (about half a g).
+    mag_dip_tilt_sigmas : float
+        The dip gate widens by this many tilt standard deviations.  Default 3.
+    mag_hard_iron_tau_s : float
+        Forgetting time constant (s) of the online hard-iron estimate (a magnet or iron fixed
+        to the sensor: a constant body-frame offset of the field, estimated from the gyroscope
+        and the field's rate of change, see
+        :func:`wsnlib.orientation._kalman_update_kernels.kalman_hard_iron`).  Default 3 s: about 150
+        samples of rotation at 50 Hz average the differentiated field's noise down to ~1 µT,
+        and a removed magnet is forgotten within seconds.
+    mag_hard_iron_min_bias : float
+        The estimate is subtracted only when its norm is at least this times the reference
+        field norm (and the corrected norm is closer to the reference than the raw one);
+        ``inf`` switches the correction off.  Default 0.1, the size ``mag_norm_gate`` would
+        reject; chosen most often by LOTO from {0.1, inf}.
+    gap_replay : bool
+        When the first sample after a gap arrives, re-integrate the state over the gap from
+        the last received state with the angular rate interpolated linearly between the rates
+        before and after the gap (paper 001's gyroscope interpolation applied to the state;
+        causal: the lost samples were already output as the extrapolation, only the state
+        from the gap's end on changes).  Default True.  :func:`~wsnlib.orientation.smooth_orientation` always
+        runs its forward pass without it (its Hermite curve uses both ends instead, and the
+        RTS pass needs the recorded predictions to be the filter's own).  Chosen most often
+        by LOTO from {True, False}.
+    gap_rate_prediction : bool
+        Over a gap, predict the angular rate by linear prediction (an autoregressive model per
+        axis, :func:`wsnlib.orientation._gap_rate_kernels.gap_rate_fit`) fitted at the gap's start
+        on the rates of the last ``gap_rate_prediction_window_s``, instead of the last received
+        rate decaying with ``gap_rate_decay_s``; with ``gap_replay`` the replay then uses these
+        rates plus a linear ramp that brings the prediction at the first received sample onto
+        the measured rate.  An arm's swing is a damped oscillation, which a short linear
+        predictor follows for a fraction of a period, while a held or decaying rate overshoots
+        it.  The predicted rate's norm is capped at the window's largest.  Falls back to the
+        decay when fewer than a window of rates precede the gap, or when the window holds
+        fewer than ``3 × gap_rate_prediction_order`` samples at this ``fs``.  Default True
+        (see the class's defaults; on gaps of 18 samples cut into the 17 shared BROAD trials,
+        starting from the true orientation, order 8 on 1 s gives a mean error at the gap's end
+        of 34° against 47° for the rate decaying with 0.2 s).
+    gap_rate_prediction_order : int
+        Order of the linear predictor (rates of the last this many samples), 1 to 64.
+        Default 48 (LOTO, see the class's defaults).
+    gap_rate_prediction_window_s : float
+        Length (s) of the rate history the predictor is fitted on.  Default 6 s (LOTO, see
+        the class's defaults): a long window averages the fit over many swings.
+    acc_disturbance_factor : float
+        Adaptive accelerometer noise: the tilt variance of an accepted sample is
+        ``σ_a² + ((‖a‖ − g)² + acc_disturbance_factor · ℓ²)/g²`` with ``ℓ²`` the low-pass
+        (time constant ``acc_disturbance_tau_s``) of ``(‖a‖ − g)²`` over received samples: a
+        linear acceleration perpendicular to gravity hardly changes the norm but tilts the
+        direction, and it comes in phases of motion, so the recent level says how far a
+        sample that passes the norm gate may still be off.  ``0``: off.  Default 4 (LOTO, see
+        the class's defaults).
+    acc_disturbance_tau_s : float
+        Time constant (s) of that low-pass.  Default 0.5 s (about one swing of the arm).
+    acc_innovation_gate : float
+        Beyond this normalised innovation ``d² = φᵀ S⁻¹ φ`` (2 degrees of freedom) the
+        accelerometer's variance is enlarged so that its pull stays bounded (Huber-type
+        robust update); default 13.8, the χ²₂ 99.9 % quantile.  ``inf``: off.
+    """
+
+    gyro_noise: float = 0.002
+    bias_noise: float = 1e-4
+    initial_bias_sigma: float = math.radians(0.5)
+    bias_limit: float = math.radians(2.0)
+    initial_tilt_sigma: float = math.radians(5.0)
+    initial_heading_sigma: float = math.radians(20.0)
+    acc_noise: float = 0.4
+    mag_noise: float = 0.2
+    gap_rate_noise: float = 0.3
+    gap_rate_relative_noise: float = 0.1
+    gap_rate_decay_s: float = 0.2
+    gravity: float = 9.80665
+    acc_norm_gate: float = 0.2 * 9.80665
+    acc_rate_gate: float = 10.0
+    mag_norm_gate: float = 0.1
+    mag_dip_gate: float = math.radians(10.0)
+    mag_reference_tau_s: float = 20.0
+    mag_new_time_s: float = 20.0
+    mag_new_min_rate: float = math.radians(20.0)
+    mag_max_rejection_s: float = 60.0
+    mag_rejection_factor: float = 2.0
+    acc_innovation_gate: float = 13.8
+    velocity_tau_s: float = 3.0
+    velocity_noise: float = 1.0
+    acc_sensor_noise: float = 0.05
+    gap_acc_noise: float = 5.0
+    mag_dip_tilt_sigmas: float = 3.0
+    mag_hard_iron_tau_s: float = 3.0
+    mag_hard_iron_min_bias: float = 0.1
+    gap_replay: bool = True
+    gap_rate_prediction: bool = True
+    gap_rate_prediction_order: int = 48
+    gap_rate_prediction_window_s: float = 6.0
+    acc_disturbance_factor: float = 4.0
+    acc_disturbance_tau_s: float = 0.5
+
+    def __post_init__(self):
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if f.name in _BOOLEAN_SETTINGS:
+                if not isinstance(value, (bool, np.bool_)):
+                    raise ValueError(f"KalmanSettings.{f.name} must be True or False, got {value!r}")
+                object.__setattr__(self, f.name, bool(value))
+                continue
+            try:
+                number = float(value)
+            except (TypeError, ValueError) as exc:
+                raise ValueError(f"KalmanSettings.{f.name} must be a number, got {value!r}") from exc
+            if number == 0.0 and f.name in _MAY_BE_ZERO:
+                object.__setattr__(self, f.name, number)
+                continue
+            if math.isnan(number) or number <= 0.0:
+                raise ValueError(f"KalmanSettings.{f.name} must be > 0, got {value!r}")
+            if math.isinf(number) and f.name not in _MAY_BE_INFINITE:
+                raise ValueError(f"KalmanSettings.{f.name} must be finite, got {value!r}")
+            if number > _LARGEST_SETTING and not math.isinf(number):
+                raise ValueError(f"KalmanSettings.{f.name} = {value!r} is too large (> {_LARGEST_SETTING:g})")
+            if f.name in _INTEGER_SETTINGS:
+                if number != round(number) or number > _LARGEST_ORDER:
+                    raise ValueError(f"KalmanSettings.{f.name} must be a whole number in [1, {_LARGEST_ORDER}], "
+                                     f"got {value!r}")
+                number = int(number)
+            object.__setattr__(self, f.name, number)
+
+
+#: Settings that are switches (True/False).
+_BOOLEAN_SETTINGS = frozenset({"gap_replay", "gap_rate_prediction"})
+#: Settings that may be 0 (switches the feature off).
+_MAY_BE_ZERO = frozenset({"acc_disturbance_factor"})
+#: Settings that are whole numbers, and their largest value.
+_INTEGER_SETTINGS = frozenset({"gap_rate_prediction_order"})
+_LARGEST_ORDER = 64
+#: Settings that may be ``inf`` (switches the feature off).
+_MAY_BE_INFINITE = frozenset({"gap_rate_decay_s", "acc_innovation_gate", "acc_norm_gate", "acc_rate_gate",
+                              "mag_norm_gate", "mag_dip_gate", "mag_reference_tau_s", "mag_new_time_s",
+                              "mag_max_rejection_s", "velocity_tau_s", "mag_hard_iron_tau_s",
+                              "mag_hard_iron_min_bias",
+                              "bias_limit"})
+#: Finite settings above this would overflow when squared.
+_LARGEST_SETTING = 1e100
