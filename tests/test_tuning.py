@@ -100,3 +100,75 @@ def test_candidate_table_and_recommendation_follow_the_costs(small_trials):
     assert (recommendation["schedule"], recommendation["rho"], recommendation["beta"]) == (
         row["schedule"], row["rho"], 0.041)
     assert recommendation["rho_tau_ci_low"] <= recommendation["rho_tau_ci_high"]
+
+
+def _toy_candidates():
+    """Four candidates: jerk and error trade off; the gap-end step prefers another setting."""
+    import pandas as pd
+
+    return pd.DataFrame({"schedule": ["hold", "hold", "decay", "decay"], "blend": ["output"] * 2 + ["feedback"] * 2,
+                         "rho": [1.0, 4.0, 1.0, 4.0], "tau": [6.0, 6.0, 6.0, 6.0],
+                         "mean max error (°)": [1.0, 3.0, 2.0, 4.0], "mean jerk (°/s³)": [9.0, 1.0, 2.0, 0.5],
+                         "mean gap-end step (°)": [0.1, 5.0, 5.0, 5.0], "mean jitter (°/s³)": [9.0, 1.0, 2.0, 0.5],
+                         "mean time above (s)": [0.1, 0.2, 0.3, 0.4]})
+
+
+def _toy_references(df_error, sf_error, df_jerk=1.0):
+    def foms(error, jerk):
+        values = {"mean max error (°)": error, "mean jerk (°/s³)": jerk, "mean gap-end step (°)": 0.0,
+                  "mean jitter (°/s³)": 0.0, "mean time above (s)": 1.0}
+        return {tuning.CANDIDATE_COLUMNS[column]: np.array([value, value]) for column, value in values.items()}
+    return {"data fusion": foms(df_error, df_jerk), "single frame": foms(sf_error, 50.0)}
+
+
+def _toy_recommendation(candidates, knee):
+    row = candidates.iloc[knee]
+    return {"schedule": row["schedule"], "blend": row["blend"], "rho": row["rho"], "tau": row["tau"],
+            "rho_tau": row["rho"] * row["tau"], "rho_tau_ci_low": 6.0, "rho_tau_ci_high": 24.0,
+            "share_of_bootstrap_same_configuration": 0.75}
+
+
+def test_knee_settings_and_agreement_sentence():
+    candidates = _toy_candidates()
+    knees = tuning.knee_settings(candidates)
+    assert list(knees.index) == [label for label, *_ in tuning.SMOOTHNESS_CRITERIA.values()]
+    jerk_knee = tuning.knee_point(candidates["mean max error (°)"], candidates["mean jerk (°/s³)"])
+    assert knees.iloc[0]["rho_tau"] == candidates.iloc[jerk_knee]["rho"] * 6.0
+    assert knees.loc["mean step at gap ends (°)", "schedule"] == "hold"  # row 0 beats all on error and step
+    sentence = tuning.knee_agreement_sentence(knees, _toy_recommendation(candidates, jerk_knee))
+    assert "— a different setting." in sentence and "keeps the jerk criterion" in sentence
+    same = knees.copy()
+    same.iloc[1:] = same.iloc[0].to_numpy()
+    agreeing = tuning.knee_agreement_sentence(same, _toy_recommendation(candidates, jerk_knee))
+    assert agreeing.endswith("The split figures agree with the recommendation.")
+    with pytest.raises(ValueError, match="column"):
+        tuning.knee_settings(candidates.drop(columns="mean jitter (°/s³)"))
+
+
+def test_configuration_and_recommendation_comparisons():
+    candidates = _toy_candidates()
+    references = _toy_references(df_error=5.0, sf_error=0.5)
+    table = tuning.configuration_comparison(candidates, references, [("hold", "output"), ("decay", "feedback")])
+    assert list(table.index) == ["hybrid, hold, output", "hybrid, decay, feedback", "data fusion", "single frame"]
+    own = candidates[candidates["schedule"] == "decay"]
+    knee = own.iloc[tuning.knee_point(own["mean max error (°)"], own["mean jerk (°/s³)"])]
+    assert table.loc["hybrid, decay, feedback", "rho"] == knee["rho"]
+    assert table.loc["data fusion", "mean max error (°)"] == 5.0 and np.isnan(table.loc["single frame", "tau"])
+    with pytest.raises(ValueError, match="schedule"):
+        tuning.configuration_comparison(candidates, references, [("decay", "output")])
+    clean = (_toy_recommendation(candidates, 2), candidates, 2, references)
+    realistic = (_toy_recommendation(candidates, 3), candidates, 3, _toy_references(df_error=3.0, sf_error=20.0,
+                                                                                     df_jerk=0.1))
+    both = tuning.recommendation_comparison({"clean": clean, "realistic": realistic})
+    assert list(both.columns) == ["clean simulator", "realistic simulator"]
+    assert both.loc["ρτ (samples)", "realistic simulator"] == 24.0
+    assert both.loc["single frame: mean max error (°)", "realistic simulator"] == 20.0
+    assert both.loc["knee: mean jerk (°/s³)", "clean simulator"] == 2.0
+    sentence = tuning.realistic_shift_sentence(clean, realistic, largest_product=24.0)
+    assert "grows from 0.5° on the clean trials to 20.0°" in sentence
+    assert "to decay/feedback with ρτ = 24" in sentence and "largest product on the grid (24)" in sentence
+    assert "does not beat data fusion's; the lowest of any candidate is 1.0°" in sentence
+    assert "Data fusion alone beats every hybrid candidate" not in sentence  # row 0 has a lower error
+    assert sentence.endswith("its correction after a gap gains.")
+    unmoved = tuning.realistic_shift_sentence(clean, clean, largest_product=96.0)
+    assert "The knee does not move." in unmoved and "beats data fusion's" in unmoved

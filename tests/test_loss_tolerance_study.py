@@ -1,0 +1,432 @@
+"""The loss-tolerance study (issue 11): registry, loss profiles, leave-one-trial-out tuning, summaries."""
+
+import dataclasses
+import types
+
+import numpy as np
+import pandas as pd
+import pytest
+from _recordings import turning_recording
+
+from wsnlib import loss, loto, plotting, stats
+from wsnlib.studies import loss_tolerance as lt
+from wsnlib.studies import loss_tolerance_summary as lts
+
+
+def _recording(seed, n=600):
+    gyr, acc, mag, quat = turning_recording(n=n, seed=seed, noise=0.01)
+    ref = quat.copy()
+    ref[100:110] = np.nan  # optical markers lost for a moment
+    movement = np.ones(n, bool)
+    movement[:25] = False
+    return types.SimpleNamespace(gyr=gyr, acc=acc, mag=mag, quat_ref=ref, movement=movement, n_samples=n)
+
+
+def _small_methods():
+    methods = lt.default_methods()
+    keep = {"hold_last": 1, "constant_rate": 1, "Kalman": 2, "smoother": 1, "VQF (defaults)": 1}
+    return {name: dataclasses.replace(methods[name], grid=methods[name].grid[:n]) for name, n in keep.items()}
+
+
+@pytest.fixture(scope="module")
+def small_study():
+    recordings = {f"trial{i}": _recording(i) for i in range(3)}
+    result = lt.evaluate(recordings, rng=np.random.default_rng(7), methods=_small_methods(), progress=False)
+    return recordings, result
+
+
+def test_registry_grids_kinds_and_colours():
+    methods = lt.default_methods()
+    assert {"hold_last", "constant_rate", "gyro_interpolation", "Kalman", "smoother", "Fusion", "VQF"} <= set(methods)
+    for name, method in methods.items():
+        assert 1 <= len(method.grid) <= lt.MAX_SETTINGS
+        assert method.kind in lt.KINDS and method.latency in lt.LATENCY_RULES
+        plotting.method_style(name)  # every method has a colour and marker
+    assert methods["gyro_interpolation"].latency == "gap" and methods["smoother"].kind == "offline"
+    assert all(len(m.grid) <= 2 for m in lt.quick_methods(n_settings=2).values())
+    with pytest.raises(ValueError, match="grid"):
+        lt.Method("x", "causal", tuple({"beta": b} for b in range(9)), print)
+    with pytest.raises(ValueError, match="kind"):
+        lt.Method("x", "ours", ({},), print)
+
+
+def test_settings_grid_and_grid_overrides():
+    grid = lt.settings_grid({"mag_norm_gate": 0.05}, gap_replay=(True, False), acc_innovation_gate=(13.8, 6.0))
+    assert grid == ({"mag_norm_gate": 0.05, "gap_replay": True, "acc_innovation_gate": 13.8},
+                    {"mag_norm_gate": 0.05, "gap_replay": True, "acc_innovation_gate": 6.0},
+                    {"mag_norm_gate": 0.05, "gap_replay": False, "acc_innovation_gate": 13.8},
+                    {"mag_norm_gate": 0.05, "gap_replay": False, "acc_innovation_gate": 6.0})
+    with pytest.raises(ValueError, match="gap_replay"):
+        lt.settings_grid(gap_replay=())
+    methods = lt.default_methods(grids={"Kalman": lt.settings_grid(gap_replay=(False,))})
+    assert methods["Kalman"].grid == ({"gap_replay": False},)
+    assert methods["smoother"].grid == lt.SMOOTHER_GRID
+    with pytest.raises(ValueError, match="unknown method"):
+        lt.default_methods(grids={"Kalmann": lt.KALMAN_GRID})
+    with pytest.raises(ValueError, match="grid"):
+        lt.default_methods(grids={"Kalman": lt.settings_grid(beta=range(9))})
+
+
+def test_registry_options_and_side_question_pairs():
+    methods = lt.default_methods()
+    # Every Kalman/smoother setting is a valid KalmanSettings (a typo would raise here, not mid-study).
+    for name in ("Kalman", "smoother"):
+        assert len(methods[name].grid) == lt.MAX_SETTINGS
+        for setting in methods[name].grid:
+            lt.KalmanSettings(**setting)
+    assert all(s["mag_norm_gate"] == 0.05 for s in lt.SMOOTHER_GRID)
+    for without, with_ in lt.GATING_PAIRS + lt.GAP_PREDICTION_PAIRS:
+        assert methods[without].kind == methods[with_].kind and methods[without].grid == methods[with_].grid
+
+
+def test_gap_prediction_and_gate_change_nothing_without_loss_but_act_under_loss():
+    rec = _recording(0, n=400)
+    masks = np.stack([np.ones(400, bool), lt.PROFILES[1].mask(400, lt.FS, None)])
+    methods = lt.default_methods()
+    for without, with_ in lt.GAP_PREDICTION_PAIRS:
+        setting = methods[without].grid[2]
+        hold, predict = methods[without].run(rec, setting, masks), methods[with_].run(rec, setting, masks)
+        np.testing.assert_allclose(hold[0], predict[0], atol=1e-12)  # no gap: the same filter
+        lost = ~masks[1]
+        assert np.abs(hold[1][lost] - predict[1][lost]).max() > 1e-3  # in a gap: predicting moves on
+    setting = methods["hybrid (feedback)"].grid[3]
+    plain = methods["hybrid (feedback)"].run(rec, setting, masks)
+    gated = methods["gated hybrid (feedback)"].run(rec, setting, masks)
+    assert plain.shape == gated.shape == (2, 400, 4) and np.isfinite(gated).all()
+
+
+def test_single_frame_trust_falls_under_acceleration():
+    calm = _recording(1)
+    shaken = types.SimpleNamespace(**vars(calm))
+    shaken.acc = calm.acc.copy()
+    shaken.acc[300:] += np.array([15.0, 0.0, 0.0])  # 1.5 g of linear acceleration on the second half
+    trust = lt.single_frame_trust({"calm": calm, "shaken": shaken})
+    assert list(trust.index) == ["calm", "shaken"] and trust["trusted_share"].between(0, 1).all()
+    assert trust.loc["shaken", "trusted_share"] < trust.loc["calm", "trusted_share"] - 0.4
+    still = types.SimpleNamespace(**vars(calm))
+    still.movement = np.zeros(calm.n_samples, bool)
+    with pytest.raises(ValueError, match="movement"):
+        lt.single_frame_trust({"still": still})
+
+
+def test_paired_comparisons_verdicts_and_sentences():
+    rows = []
+    for j, (base, better, worse, mixed) in enumerate([(10, 8, 12, 9), (12, 9, 15, 13), (11, 9, 14, 10),
+                                                       (13, 10, 16, 14), (9, 7, 11, np.nan)]):
+        for method, value in (("base", base), ("better", better), ("worse", worse), ("mixed", mixed)):
+            rows.append({"trial": f"t{j}", "method": method, "profile": lt.HEADLINE, "rmse_total": value})
+    per_trial = pd.DataFrame(rows)
+    table = lts.paired_comparisons(per_trial, [("base", "better"), ("base", "worse"), ("base", "mixed")],
+                                   rng=np.random.default_rng(0), question="q", n_boot=500)
+    assert list(table.columns) == list(lts.COMPARISON_COLUMNS)
+    assert list(table["verdict"]) == ["helps", "hurts", "tie"]
+    assert table.loc[0, "difference"] == pytest.approx(-2.4) and table.loc[0, "n_better"] == 5
+    assert table.loc[2, "n_trials"] == 4 and table.loc[2, "n_better"] == 2  # the NaN trial left out
+    assert table["difference"].between(table["ci_low"], table["ci_high"]).all()
+    sentences = lts.comparison_sentences(table)
+    assert "**better**" in sentences[0] and "**worse**" in sentences[1] and "**a tie**" in sentences[2]
+    assert "lower on 5 of 5 trials" in sentences[0]
+    with pytest.raises(ValueError, match="nobody"):
+        lts.paired_comparisons(per_trial, [("base", "nobody")], rng=np.random.default_rng(0))
+
+
+def test_profiles_masks():
+    n, fs = 3000, lt.FS
+    by_name = {p.name: p for p in lt.PROFILES}
+    assert by_name["lossless"].mask(n, fs, np.random.default_rng(0)).all()
+    burst = by_name["paper burst"].mask(n, fs, None)
+    runs = loss.burst_lengths(burst)
+    assert runs.size == 7 and (runs == 24).all()  # one 4-packet burst every 8 s from 4 s on
+    ge = by_name[lt.HEADLINE]
+    a, b = ge.mask(n, fs, np.random.default_rng(3)), ge.mask(n, fs, np.random.default_rng(3))
+    np.testing.assert_array_equal(a, b)
+    long = ge.mask(200_000, fs, np.random.default_rng(4))
+    assert abs(1 - long.mean() - 0.10) < 0.01
+    twelve = by_name["GE 10 %, 12-sample packets"].mask(n, fs, np.random.default_rng(5))
+    assert (loss.burst_lengths(twelve[:2988]) % 12 == 0).all()
+
+
+def test_evaluate_tables_and_tuning_never_on_the_scored_trial(small_study):
+    recordings, result = small_study
+    table = result.per_trial
+    assert len(table) == 5 * len(lt.PROFILES) * 3
+    for method, rows in result.tuning.groupby("method", sort=False):
+        scores = rows.pivot(index="setting_index", columns="trial", values="rmse_total")[list(recordings)]
+        chosen = result.choices[result.choices["method"] == method].set_index("trial")["setting_index"]
+        np.testing.assert_array_equal(chosen[list(recordings)].to_numpy(), loto.leave_one_out_choice(scores))
+    # Every profile uses the setting chosen at the headline profile for that trial.
+    assert (table.groupby(["method", "trial"])["setting"].nunique() == 1).all()
+    lossless = table[table["profile"] == "lossless"]
+    assert (lossless["n_lost"] == 0).all() and lossless["rms_lost"].isna().all()
+    assert lossless["peak_increase_deg"].isna().all() and (lossless["n_gaps_scored"] == 0).all()
+    lossy = table[table["profile"] != "lossless"]
+    assert np.isfinite(lossy[["rmse_total", "rms_lost"]].to_numpy()).all()
+    scored = lossy["n_gaps_scored"] > 0  # a gap whose response window runs past the end is not scored
+    assert scored.mean() > 0.5
+    assert np.isfinite(lossy.loc[scored, ["peak_increase_deg", "recovery_s", "recovered_share"]].to_numpy()).all()
+    assert lossy.loc[~scored, "peak_increase_deg"].isna().all()
+    assert (lossy["n_lost"] > 0).all()
+    # Without loss, holding and predicting the output in a gap are the same filter (same β, 0.01).
+    same = lossless.pivot(index="trial", columns="method", values="rmse_total")
+    np.testing.assert_allclose(same["hold_last"], same["constant_rate"])
+    headline = table[table["profile"] == lt.HEADLINE].pivot(index="trial", columns="method", values="rmse_total")
+    assert (headline["constant_rate"] != headline["hold_last"]).all()
+    latency = table.set_index("method")["latency_s"]
+    assert (latency.loc["Kalman"] == 0).all() and (latency.loc["smoother"] == 600 / lt.FS).all()
+    assert set(result.traces) == set(recordings) and set(result.traces["trial0"]["error"]) == set(result.methods)
+
+
+def test_evaluate_is_reproducible_and_checks_its_inputs(small_study):
+    recordings, result = small_study
+    again = lt.evaluate(recordings, rng=np.random.default_rng(7), methods=_small_methods(), progress=False)
+    pd.testing.assert_frame_equal(result.per_trial, again.per_trial)
+    with pytest.raises(ValueError, match="at least 2 trials"):
+        lt.evaluate({"one": recordings["trial0"]}, rng=np.random.default_rng(0), progress=False)
+    with pytest.raises(ValueError, match="headline"):
+        lt.evaluate(recordings, rng=np.random.default_rng(0), headline="GE 50 %", methods=_small_methods(),
+                    progress=False)
+    with pytest.raises(ValueError, match="rng"):
+        lt.evaluate(recordings, rng=0, progress=False)
+
+
+def test_the_filter_and_smoother_beat_holding_under_loss(small_study):
+    _, result = small_study
+    headline = result.per_trial[result.per_trial["profile"] == lt.HEADLINE].groupby("method")["rmse_total"].mean()
+    assert headline["smoother"] < headline["Kalman"] < headline["hold_last"]
+
+
+def _synthetic_per_trial(causal, peer, offline, lossless_causal, lossless_vqf):
+    rows = []
+    for j in range(len(causal)):
+        for profile, values in ((lt.HEADLINE, (causal[j], peer[j], offline[j], peer[j] + 5)),
+                                ("lossless", (lossless_causal[j], 1.0, 1.0, lossless_vqf[j]))):
+            for (method, kind, latency), value in zip(
+                    [("Kalman", "causal", "none"), ("Fusion", "peer", "none"), ("smoother", "offline", "offline"),
+                     ("VQF (defaults)", "peer", "none")], values, strict=True):
+                rows.append({"trial": f"t{j}", "method": method, "kind": kind, "latency_rule": latency,
+                             "profile": profile, "rmse_total": value,
+                             "n_lost": 10, "n_after_gap": 30, "n_steady": 60,
+                             "rms_lost": 3.0 * value, "rms_after_gap": value, "rms_steady": 0.5 * value})
+    return pd.DataFrame(rows)
+
+
+def test_targets_table_ratios_verdicts_and_sentences():
+    per_trial = _synthetic_per_trial(causal=[4.0, 6.0, 5.0, 5.0], peer=[10.0, 10.0, 10.0, 10.0],
+                                     offline=[3.0, 3.0, 3.0, 3.0], lossless_causal=[2.0, 2.5, 3.0, 2.5],
+                                     lossless_vqf=[2.0, 2.0, 2.0, 2.0])
+    targets = lts.targets_table(per_trial, rng=np.random.default_rng(0), n_boot=500)
+    first, second, third = targets.index
+    assert targets.loc[first, "measured"] == pytest.approx(0.5) and targets.loc[first, "verdict"] == "PASS"
+    assert targets.loc[second, "measured"] == pytest.approx(0.3) and targets.loc[second, "verdict"] == "MISS"
+    assert targets.loc[second, "margin"] == pytest.approx(0.05)
+    assert targets.loc[third, "measured"] == pytest.approx(0.5) and targets.loc[third, "verdict"] == "PASS"
+    assert (targets["ci_low"] <= targets["measured"]).all() and (targets["measured"] <= targets["ci_high"]).all()
+    sentences = lts.target_sentences(targets)
+    assert "MISS, by 0.05 (20 % of the target)" in sentences[1] and "PASS" in sentences[0]
+    assert "PASS" in lts.format_targets(targets)
+
+
+def test_error_budget_shares():
+    per_trial = _synthetic_per_trial([4.0, 6.0], [10.0, 10.0], [3.0, 3.0], [2.0, 2.0], [2.0, 2.0])
+    budget = lts.error_budget(per_trial, "Kalman")
+    shares = budget[["share_lost", "share_after_gap", "share_steady"]]
+    assert shares.sum() == pytest.approx(1.0)
+    # 10 samples at 3x, 30 at 1x, 60 at 0.5x: squared weights 90, 30, 15.
+    assert budget["share_lost"] == pytest.approx(90 / 135)
+    assert "Kalman" in lts.diagnosis_sentence(per_trial, "Kalman")
+    with pytest.raises(ValueError, match="no rows"):
+        lts.error_budget(per_trial, "nobody")
+
+
+def test_summary_and_ranking(small_study):
+    _, result = small_study
+    summary = lts.summary_table(result.per_trial, rng=np.random.default_rng(0), n_boot=200,
+                                metrics=("rmse_total", "rms_lost"))
+    assert (summary["ci_low"] <= summary["mean"]).all() and (summary["mean"] <= summary["ci_high"]).all()
+    assert summary[(summary["metric"] == "rms_lost") & (summary["profile"] == "lossless")].empty
+    ranking = lts.ranking(result.per_trial, rng=np.random.default_rng(0), n_boot=200)
+    assert ranking.index[0] == "smoother" and set(ranking.index) == set(result.methods)
+
+
+def test_ratio_of_means_ci():
+    a, b = np.array([1.0, 2.0, 3.0, 4.0]), np.array([2.0, 4.0, 5.0, 9.0])
+    ci = stats.ratio_of_means_ci(a, b, rng=np.random.default_rng(0), n_boot=1000)
+    assert float(ci.estimate) == pytest.approx(0.5) and ci.low <= 0.5 <= ci.high and ci.method == "percentile"
+    with pytest.raises(ValueError, match="b must be > 0"):
+        stats.ratio_of_means_ci(a, -b, rng=np.random.default_rng(0))
+    with pytest.raises(ValueError, match="same shape"):
+        stats.ratio_of_means_ci(a, b[:3], rng=np.random.default_rng(0))
+
+
+def test_on_real_broad_trials():
+    from wsnlib.io.broad import broad_trials
+
+    names = broad_trials(present_only=True)[:2]
+    if len(names) < 2:
+        pytest.skip("needs two BROAD trials in $WSNLIB_BROAD_DIR")
+    recordings = lt.load_recordings(names, progress=False)
+    methods = lt.quick_methods({m: lt.default_methods()[m] for m in ("hold_last", "Kalman", "smoother",
+                                                                     "VQF (defaults)")}, 1)
+    profiles = [p for p in lt.PROFILES if p.name in ("lossless", lt.HEADLINE)]
+    result = lt.evaluate(recordings, rng=np.random.default_rng(0), methods=methods, profiles=profiles,
+                         progress=False)
+    headline = result.per_trial[result.per_trial["profile"] == lt.HEADLINE].set_index(["method", "trial"])
+    # On real motion with GE 10 % loss, holding the output is far worse than our filter on every trial.
+    assert (headline.loc["hold_last", "rmse_total"] > 2 * headline.loc["Kalman", "rmse_total"]).all()
+    lossless = result.per_trial[result.per_trial["profile"] == "lossless"]
+    assert (lossless["rmse_total"] < 10).all()
+
+
+def test_gain_after_gap_exercise_checker():
+    from wsnlib import exercises
+
+    def right(p, s, n, fs, r):
+        grown = p + (s * n / fs) ** 2
+        return grown / (grown + r)
+
+    assert exercises.check_gain_after_gap(right, rng=np.random.default_rng(0), n_cases=50).n_cases == 50
+    with pytest.raises(AssertionError, match="expected"):  # the variance grown linearly, as a random walk
+        exercises.check_gain_after_gap(lambda p, s, n, fs, r: (p + s**2 * n / fs) / (p + s**2 * n / fs + r),
+                                       rng=np.random.default_rng(0))
+    with pytest.raises(ValueError, match="rng"):
+        exercises.check_gain_after_gap(right, rng=1)
+
+
+# --- tables, selections and sentences of notebook 10 (wsnlib.studies.loss_tolerance_tables) ---------------------
+
+def test_weight_vs_gap_reads_the_kalman_settings():
+    from wsnlib.orientation import KalmanSettings
+    from wsnlib.studies import loss_tolerance_tables as ltt
+
+    weights = ltt.weight_vs_gap([0, 6, 24, 96], fs=50.0, prior_std_deg=1.0, rho=1.0, tau=6.0)
+    paper = weights["paper: μ(λ), ρ = 1, τ = 6"].to_numpy()
+    kalman = weights[ltt.KALMAN_WEIGHT_COLUMN].to_numpy()
+    np.testing.assert_allclose(paper, 6.0 / (np.array([0, 6, 24, 96]) + 6.0))
+    np.testing.assert_allclose(weights["gap (s)"], [0, 0.12, 0.48, 1.92])
+    settings = KalmanSettings()
+    prior = np.radians(1.0) ** 2
+    grown = prior + (settings.gap_rate_noise * 24 / 50.0) ** 2
+    assert kalman[2] == pytest.approx(settings.mag_noise ** 2 / (grown + settings.mag_noise ** 2))
+    assert np.all(np.diff(kalman) < 0) and paper[0] == 1.0
+    # Noisier prediction in a gap: the first measurement after it is trusted more.
+    noisy = ltt.weight_vs_gap([24], settings=dataclasses.replace(settings, gap_rate_noise=1.0))
+    assert noisy[ltt.KALMAN_WEIGHT_COLUMN].iloc[0] < kalman[2]
+    with pytest.raises(ValueError, match="lost_samples"):
+        ltt.weight_vs_gap([-1, 6])
+    with pytest.raises(ValueError, match="fs"):
+        ltt.weight_vs_gap([6], fs=0.0)
+
+
+def test_method_and_profile_tables_and_figure_inputs():
+    from wsnlib.studies import loss_tolerance_tables as ltt
+
+    methods = _small_methods()
+    table = ltt.method_table(methods)
+    assert list(table.index) == list(methods) and table.loc["Kalman", "settings"] == 2
+    assert table.loc["hold_last", "grid"] == ", ".join(f"{k}={v}" for k, v in methods["hold_last"].grid[0].items())
+    profiles = ltt.profile_table(lt.PROFILES)
+    assert len(profiles) == len(lt.PROFILES)
+    assert np.isnan(profiles.loc["paper burst", "mean burst (packets)"])
+    assert profiles.loc[lt.HEADLINE, "mean burst (packets)"] == 3.0
+    means = pd.DataFrame({"profile": ["lossless", lt.HEADLINE], "method": ["Kalman", "Kalman"], "mean": [1.0, 2.0]})
+    rates, bands, groups = ltt.error_vs_loss_rate_inputs(lt.PROFILES, means, ["Kalman", "VQF"])
+    assert rates == {"lossless": 0.0, "GE 5 %": 0.05, lt.HEADLINE: 0.10, "GE 20 %": 0.20}
+    assert bands.loc[(lt.HEADLINE, "Kalman"), "mean"] == 2.0
+    assert groups["ours: hybrid, Kalman, smoother"] == ["Kalman"] and groups["peers"] == ["VQF"]
+
+
+def test_slow_and_fast_trials_prefer_undisturbed():
+    from wsnlib.studies import loss_tolerance_tables as ltt
+
+    rates = pd.Series({"a_undisturbed": 30.0, "b_undisturbed": 90.0, "c_disturbed": 5.0, "d_disturbed": 200.0})
+    assert ltt.slow_and_fast_trials(rates) == {"slowest": "a_undisturbed", "fastest": "b_undisturbed"}
+    assert ltt.slow_and_fast_trials(rates.drop("b_undisturbed")) == {"slowest": "c_disturbed",
+                                                                     "fastest": "d_disturbed"}
+    rec = types.SimpleNamespace(gyr=np.tile(np.radians([[0.0, 0.0, 10.0]]), (5, 1)),
+                                movement=np.array([True, True, True, False, False]))
+    rec.gyr[3:] = 1.0  # not movement: ignored
+    assert ltt.median_rate_deg_s({"x": rec})["x"] == pytest.approx(10.0)
+
+
+def test_worst_burst_end_and_window():
+    from wsnlib.studies import loss_tolerance_tables as ltt
+
+    n, fs = 400, 50.0
+    received = np.ones(n, bool)
+    received[100:124] = False
+    received[300:324] = False
+    lossless = np.full(n, 1.0)
+    error = lossless.copy()
+    error[124:140] += 3.0   # the first burst adds 3°
+    error[324:330] += 8.0   # the second 8°
+    error[330] = np.nan     # NaN counts as no increase
+    trace = {"time_s": np.arange(n) / fs, "received": received, "burst_ends": np.array([124, 324]),
+             "error": {"m": error}, "lossless": {"m": lossless}}
+    assert ltt.worst_burst_end(trace, "m", fs=fs) == 324
+    window = ltt.burst_window(trace, 324, before_s=1.5, after_s=4.0, fs=fs)
+    assert (window.start, window.stop) == (300 - 75, n)  # clipped at the record's end
+    assert ltt.burst_window(trace, 124, before_s=4.0, after_s=1.0, fs=fs) == slice(0, 174)
+    with pytest.raises(ValueError, match="burst"):
+        ltt.worst_burst_end({**trace, "burst_ends": np.array([], int)}, "m")
+
+
+def test_headline_tables_from_the_study(small_study):
+    from wsnlib.studies import loss_tolerance_tables as ltt
+
+    _, result = small_study
+    per_trial = result.per_trial
+    methods = list(result.methods)
+    values = ltt.headline_values(per_trial, methods)
+    assert list(values.columns) == methods and len(values) == 3
+    kalman_rows = per_trial[(per_trial["profile"] == lt.HEADLINE) & (per_trial["method"] == "Kalman")]
+    assert values["Kalman"].mean() == pytest.approx(kalman_rows["rmse_total"].mean())
+    phases = ltt.phase_table(per_trial)
+    assert list(phases.columns) == list(ltt.PHASE_COLUMNS.values()) and list(phases.index) == methods
+    assert phases.loc["Kalman", "lost samples (°)"] == pytest.approx(kalman_rows["rms_lost"].mean())
+    budgets = ltt.error_budgets(per_trial, methods)
+    np.testing.assert_allclose(budgets[["share_lost", "share_after_gap", "share_steady"]].sum(axis=1), 1.0)
+    best = {"causal": "Kalman", "offline": "smoother"}
+    sentence = ltt.why_missed_sentence(per_trial, best, values)
+    assert f"`{values['Kalman'].idxmax()}`" in sentence and f"{values['Kalman'].max():.1f}°" in sentence
+    with pytest.raises(ValueError, match="profile"):
+        ltt.phase_table(per_trial, profile="nope")
+
+
+def test_paper_vs_ours_and_sentences():
+    from wsnlib import paper_values
+    from wsnlib.studies import loss_tolerance_tables as ltt
+
+    shown = ["hold_last", "hybrid (feedback)", "Kalman", "smoother", "VQF"]
+    rows = [{"profile": "paper burst", "metric": metric, "method": m, "mean": 10.0 * (i + 1) + k,
+             "ci_low": 10.0 * (i + 1) + k - 1, "ci_high": 10.0 * (i + 1) + k + 1}
+            for i, m in enumerate(shown) for k, metric in enumerate(("peak_increase_deg", "recovery_s"))]
+    table = ltt.paper_vs_ours(pd.DataFrame(rows), "VQF")
+    assert list(table.index) == shown
+    assert table.loc["Kalman", "ours: peak increase (°)"] == 30.0 and table.loc["Kalman", "recovery high"] == 32.0
+    assert table.loc["VQF", "paper (Sec. IV, simulated arm)"] == "—"
+    assert table.loc["hybrid (feedback)", "paper (Sec. IV, simulated arm)"] == \
+        paper_values.PAPER001_SECTION4_AFTER_LOSS["hybrid"]["words"]
+    sentence = ltt.paper_vs_ours_sentence(table)
+    assert "20.0° [19.0, 21.0]" in sentence and "31.00 s" in sentence
+    trust = pd.DataFrame({"trusted_share": [0.2, 0.5, 0.9]}, index=pd.Index(["a", "b", "c"], name="trial"))
+    assert "50 %" in ltt.trust_sentence(trust) and "20 % on `a`" in ltt.trust_sentence(trust)
+
+
+def test_summary_bullets(small_study):
+    from wsnlib.studies import loss_tolerance_tables as ltt
+
+    _, result = small_study
+    per_trial = result.per_trial
+    targets = pd.DataFrame({"verdict": ["PASS", "MISS"]}, index=["first target", "second target"])
+    comparison = pd.DataFrame([{"question": "q", "without": "hold_last", "with": "constant_rate", "metric": metric,
+                                "profile": lt.HEADLINE, "mean_without": 10.0, "mean_with": 8.0, "difference": -2.0,
+                                "ci_low": -3.0, "ci_high": -1.0, "verdict": "helps", "n_better": 3, "n_trials": 3}
+                               for metric in ("rmse_total", "rms_lost")])
+    bullets = ltt.summary_bullets(per_trial, ranking_sentence="R.", targets=targets,
+                                  best={"causal": "Kalman", "offline": "smoother"},
+                                  comparisons={"Does it help?": comparison})
+    assert bullets[0] == f"* **Ranking at {lt.HEADLINE}.** R."
+    assert bullets[1] == "* **Targets.** first target: PASS; second target: MISS."
+    assert bullets[2].endswith(lts.diagnosis_sentence(per_trial, "Kalman"))
+    assert bullets[3] == "* **Does it help?** " + " ".join(lts.comparison_sentences(comparison.iloc[:1]))
+    assert len(bullets) == 4

@@ -1,0 +1,267 @@
+"""Summaries of the loss-tolerance study: means with bootstrap intervals, rankings, the issue's targets.
+
+Inputs are the tidy ``per_trial`` table of :func:`wsnlib.studies.loss_tolerance.evaluate`.
+Every interval is a bootstrap over trials from :mod:`wsnlib.stats` (paired: all methods are
+resampled with the same trials), and every sentence is generated from the numbers.
+
+Targets (issue 11, at the headline profile, GE 10 %)
+----------------------------------------------------
+1. best causal estimator's mean total RMSE ≤ 0.5 × the best peer's;
+2. offline smoother's ≤ 0.25 × the best peer's;
+3. lossless: the best causal estimator's mean total RMSE ≤ VQF's (its authors' defaults) + 1°.
+
+"Best" is the lowest mean total RMSE at the headline profile among the causal methods without
+latency (kind ``"causal"``, latency ``"none"``), among the peers, and among the offline methods.
+A target PASSes when the point estimate meets it; the interval says how sure that is.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from wsnlib import stats
+from wsnlib.studies.loss_tolerance import AFTER_GAP_S, HEADLINE
+
+#: Metrics summarised by :func:`summary_table` by default.
+SUMMARY_METRICS = ("rmse_total", "rmse_heading", "rmse_inclination", "rms_lost", "rms_after_gap", "rms_steady",
+                   "peak_increase_deg", "recovery_s")
+
+#: The issue's targets: name → (kind of comparison, target value).
+TARGETS = {"best causal / best peer (GE 10 %)": ("ratio", 0.5),
+           "smoother / best peer (GE 10 %)": ("ratio", 0.25),
+           "lossless: best causal − VQF (defaults), °": ("difference", 1.0)}
+
+#: The peer whose authors' defaults are the lossless reference.
+LOSSLESS_REFERENCE = "VQF (defaults)"
+
+
+def _table(per_trial: pd.DataFrame, profile: str, metric: str) -> pd.DataFrame:
+    """Trials × methods of ``metric`` at ``profile`` (methods in the table's order)."""
+    rows = per_trial[per_trial["profile"] == profile]
+    if rows.empty:
+        raise ValueError(f"profile {profile!r} is not in per_trial")
+    order = list(dict.fromkeys(rows["method"]))
+    return rows.pivot(index="trial", columns="method", values=metric)[order]
+
+
+def summary_table(per_trial: pd.DataFrame, *, rng: np.random.Generator, metrics=SUMMARY_METRICS,
+                  n_boot: int = 2000) -> pd.DataFrame:
+    """Mean over trials with a 95 % bootstrap interval, per metric, profile and method.
+
+    Undefined values (NaN) are handled explicitly: a trial on which the metric is undefined for
+    every method (e.g. no gap whose response could be scored) is left out, then a method still
+    undefined on some trial is left out of that profile and metric (e.g. error on lost samples
+    without loss); a profile left with fewer than 2 trials has no row.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns metric, profile, method, kind, mean, ci_low, ci_high, n_trials (units of the
+        metric: ° or s).
+    """
+    kinds = per_trial.drop_duplicates("method").set_index("method")["kind"]
+    rows = []
+    for metric in metrics:
+        for profile in dict.fromkeys(per_trial["profile"]):
+            table = _table(per_trial, profile, metric).dropna(axis=0, how="all").dropna(axis=1)
+            if table.shape[0] < 2 or table.shape[1] == 0:
+                continue
+            ci = stats.bootstrap_ci(table.to_numpy(), rng=rng, n_boot=n_boot)
+            for k, method in enumerate(table.columns):
+                rows.append({"metric": metric, "profile": profile, "method": method, "kind": kinds[method],
+                             "mean": float(ci.estimate[k]), "ci_low": float(ci.low[k]), "ci_high": float(ci.high[k]),
+                             "n_trials": table.shape[0]})
+    return pd.DataFrame(rows)
+
+
+def ranking(per_trial: pd.DataFrame, *, rng: np.random.Generator, profile: str = HEADLINE,
+            metric: str = "rmse_total", n_boot: int = 2000) -> pd.DataFrame:
+    """Methods ranked by mean ``metric`` at ``profile``; a tie where the paired difference's interval holds 0."""
+    return stats.rank_with_ties(_table(per_trial, profile, metric), rng=rng, n_boot=n_boot)
+
+
+def best_methods(per_trial: pd.DataFrame, profile: str = HEADLINE) -> dict[str, str]:
+    """Best (lowest mean total RMSE at ``profile``) causal-without-latency method, peer and offline method."""
+    rows = per_trial[per_trial["profile"] == profile]
+    means = rows.groupby("method")["rmse_total"].mean()
+    info = rows.drop_duplicates("method").set_index("method")
+    pools = {"causal": info.index[(info["kind"] == "causal") & (info["latency_rule"] == "none")],
+             "peer": info.index[info["kind"] == "peer"], "offline": info.index[info["kind"] == "offline"]}
+    missing = [kind for kind, pool in pools.items() if len(pool) == 0]
+    if missing:
+        raise ValueError(f"per_trial has no method of kind {missing} at profile {profile!r}")
+    return {kind: str(means[pool].idxmin()) for kind, pool in pools.items()}
+
+
+def targets_table(per_trial: pd.DataFrame, *, rng: np.random.Generator, n_boot: int = 2000) -> pd.DataFrame:
+    """The issue's three targets: measured value with a 95 % paired bootstrap interval, PASS/MISS, margin.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Index target; columns compares (which methods), measured, ci_low, ci_high, target,
+        verdict (PASS when ``measured <= target``), margin (``measured − target``; negative =
+        met with room), ci_meets (the whole interval meets the target).
+    """
+    best = best_methods(per_trial)
+    headline = _table(per_trial, HEADLINE, "rmse_total")
+    lossless = _table(per_trial, "lossless", "rmse_total")
+    if LOSSLESS_REFERENCE not in lossless:
+        raise ValueError(f"per_trial lacks the lossless reference method {LOSSLESS_REFERENCE!r}")
+    pairs = [(headline[best["causal"]], headline[best["peer"]], f"{best['causal']} / {best['peer']}"),
+             (headline[best["offline"]], headline[best["peer"]], f"{best['offline']} / {best['peer']}"),
+             (lossless[best["causal"]], lossless[LOSSLESS_REFERENCE], f"{best['causal']} − {LOSSLESS_REFERENCE}")]
+    rows = {}
+    for (name, (comparison, target)), (a, b, compares) in zip(TARGETS.items(), pairs, strict=True):
+        if comparison == "ratio":
+            ci = stats.ratio_of_means_ci(a.to_numpy(), b.to_numpy(), rng=rng, n_boot=n_boot)
+        else:
+            ci = stats.paired_difference_ci(a.to_numpy(), b.to_numpy(), rng=rng, n_boot=n_boot)
+        measured = float(ci.estimate)
+        rows[name] = {"compares": compares, "measured": measured, "ci_low": float(ci.low),
+                      "ci_high": float(ci.high), "target": target,
+                      "verdict": "PASS" if measured <= target else "MISS", "margin": measured - target,
+                      "ci_meets": bool(ci.high <= target)}
+    return pd.DataFrame.from_dict(rows, orient="index").rename_axis("target")
+
+
+def target_sentences(targets: pd.DataFrame) -> list[str]:
+    """One sentence per target, e.g. "… 0.55 [0.53, 0.56] against ≤ 0.50: MISS, by 0.05 (10 % of the target)."."""
+    out = []
+    for name, row in targets.iterrows():
+        value = f"{row['measured']:.2f} [{row['ci_low']:.2f}, {row['ci_high']:.2f}]"
+        head = f"**{name}** ({row['compares']}): {value} against ≤ {row['target']:.2f}"
+        if row["verdict"] == "PASS":
+            sure = "the whole interval meets it" if row["ci_meets"] else "but the interval reaches above it"
+            out.append(f"{head}: PASS with {-row['margin']:.2f} to spare ({sure}).")
+        else:
+            out.append(f"{head}: MISS, by {row['margin']:.2f} ({100 * row['margin'] / row['target']:.0f} % of the "
+                       f"target).")
+    return out
+
+
+def error_budget(per_trial: pd.DataFrame, method: str, profile: str = HEADLINE) -> pd.Series:
+    """Share of the squared total error (movement samples, all trials pooled) per phase, and the phases' RMS.
+
+    Returns
+    -------
+    pandas.Series
+        ``share_<phase>`` (fraction of Σ error², sums to 1), ``rms_<phase>`` (° pooled over
+        trials) and ``samples_<phase>`` (fraction of samples) for the phases lost, after_gap,
+        steady.
+    """
+    rows = per_trial[(per_trial["profile"] == profile) & (per_trial["method"] == method)]
+    if rows.empty:
+        raise ValueError(f"no rows for method {method!r} at profile {profile!r}")
+    phases = ("lost", "after_gap", "steady")
+    counts = {ph: rows[f"n_{ph}"].to_numpy(float) for ph in phases}
+    squares = {ph: np.nansum(counts[ph] * rows[f"rms_{ph}"].to_numpy(float) ** 2) for ph in phases}
+    total_sq, total_n = sum(squares.values()), sum(c.sum() for c in counts.values())
+    out = {}
+    for ph in phases:
+        n = counts[ph].sum()
+        out[f"share_{ph}"] = squares[ph] / total_sq
+        out[f"rms_{ph}"] = float(np.sqrt(squares[ph] / n)) if n else float("nan")
+        out[f"samples_{ph}"] = n / total_n
+    return pd.Series(out, name=method)
+
+
+def diagnosis_sentence(per_trial: pd.DataFrame, method: str, profile: str = HEADLINE) -> str:
+    """Where ``method``'s error is at ``profile``: a sentence from :func:`error_budget`."""
+    b = error_budget(per_trial, method, profile)
+    return (f"Where the error of {method} is ({profile}, all trials pooled): lost samples are "
+            f"{100 * b['samples_lost']:.0f} % of the samples and hold {100 * b['share_lost']:.0f} % of the squared "
+            f"error (RMS {b['rms_lost']:.1f}°); the {AFTER_GAP_S:g} s after each gap "
+            f"{100 * b['samples_after_gap']:.0f} % and "
+            f"{100 * b['share_after_gap']:.0f} % (RMS {b['rms_after_gap']:.1f}°); the rest "
+            f"{100 * b['samples_steady']:.0f} % and {100 * b['share_steady']:.0f} % (RMS {b['rms_steady']:.1f}°).")
+
+
+def format_targets(targets: pd.DataFrame) -> str:
+    """Plain-text lines for the CLI: one per target with PASS/MISS and margin."""
+    lines = []
+    for name, row in targets.iterrows():
+        lines.append(f"  {name:44s} {row['measured']:7.3f}  [{row['ci_low']:7.3f}, {row['ci_high']:7.3f}]  "
+                     f"target <= {row['target']:.2f}: {row['verdict']}  (margin {row['margin']:+.3f})  "
+                     f"[{row['compares']}]")
+    return "\n".join(lines)
+
+
+#: Columns of :func:`paired_comparisons`.
+COMPARISON_COLUMNS = ("question", "without", "with", "metric", "profile", "mean_without", "mean_with", "difference",
+                      "ci_low", "ci_high", "verdict", "n_better", "n_trials")
+
+
+def paired_comparisons(per_trial: pd.DataFrame, pairs, *, rng: np.random.Generator, question: str = "",
+                       profile: str = HEADLINE, metrics=("rmse_total",), n_boot: int = 2000) -> pd.DataFrame:
+    """Does an option help? Paired difference (with − without) over trials, 95 % bootstrap interval.
+
+    Parameters
+    ----------
+    per_trial : pandas.DataFrame
+        From :func:`wsnlib.studies.loss_tolerance.evaluate`.
+    pairs : sequence of (str, str)
+        ``(without, with)`` method names, e.g.
+        :data:`wsnlib.studies.loss_tolerance.GATING_PAIRS`.
+    rng : numpy.random.Generator
+    question : str
+        Label copied to every row (e.g. ``"gating"``).
+    profile : str
+    metrics : sequence of str
+        Columns of ``per_trial`` (lower is better).  Trials where either method's value is
+        undefined (NaN) are left out of that comparison (``n_trials`` says how many remain).
+    n_boot : int
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns :data:`COMPARISON_COLUMNS`: the means of both (unit of the metric), the mean
+        paired difference ``with − without`` and its interval (:func:`wsnlib.stats.
+        paired_difference_ci`), verdict ``"helps"`` (interval below 0), ``"hurts"`` (above 0)
+        or ``"tie"`` (holds 0), and on how many trials ``with`` was lower.
+    """
+    rows = []
+    for without, with_ in pairs:
+        for metric in metrics:
+            table = _table(per_trial, profile, metric)
+            missing = [m for m in (without, with_) if m not in table]
+            if missing:
+                raise ValueError(f"pairs name methods not in per_trial at {profile!r}: {missing}")
+            both = table[[without, with_]].dropna()
+            if len(both) < 2:
+                raise ValueError(f"{metric} of {without!r} and {with_!r} at {profile!r} is defined on fewer than "
+                                 f"2 trials ({len(both)})")
+            a, b = both[with_].to_numpy(), both[without].to_numpy()
+            ci = stats.paired_difference_ci(a, b, rng=rng, n_boot=n_boot)
+            verdict = "helps" if ci.high < 0 else "hurts" if ci.low > 0 else "tie"
+            rows.append({"question": question, "without": without, "with": with_, "metric": metric,
+                         "profile": profile, "mean_without": float(b.mean()), "mean_with": float(a.mean()),
+                         "difference": float(ci.estimate), "ci_low": float(ci.low), "ci_high": float(ci.high),
+                         "verdict": verdict, "n_better": int(np.sum(a < b)), "n_trials": len(both)})
+    return pd.DataFrame(rows, columns=list(COMPARISON_COLUMNS))
+
+
+#: How :func:`comparison_sentences` names the metrics.
+METRIC_WORDS = {"rmse_total": "mean total RMSE", "rms_lost": "mean RMS error on lost samples",
+                "rms_after_gap": f"mean RMS error in the {AFTER_GAP_S:g} s after a gap",
+                "rms_steady": "mean RMS error on the other samples"}
+
+
+def comparison_sentences(comparisons: pd.DataFrame, unit: str = "°") -> list[str]:
+    """One sentence per row of :func:`paired_comparisons`, its verdict taken from the interval.
+
+    E.g. "gated hybrid (feedback) against hybrid (feedback), mean total RMSE at GE 10 %: 50.7°
+    vs 36.9°, difference +13.8° [+8.0, +20.1]: **worse** (the interval excludes 0), lower on 2 of
+    17 trials."
+    """
+    words = {"helps": "**better** (the interval lies below 0)", "hurts": "**worse** (the interval lies above 0)",
+             "tie": "**a tie** (the interval holds 0)"}
+    out = []
+    for _, row in comparisons.iterrows():
+        what = METRIC_WORDS.get(row["metric"], row["metric"])
+        out.append(f"{row['with']} against {row['without']}, {what} at {row['profile']}: "
+                   f"{row['mean_with']:.1f}{unit} vs {row['mean_without']:.1f}{unit}, difference "
+                   f"{row['difference']:+.1f}{unit} [{row['ci_low']:+.1f}, {row['ci_high']:+.1f}]: "
+                   f"{words[row['verdict']]}, lower on {row['n_better']} of {row['n_trials']} trials.")
+    return out
