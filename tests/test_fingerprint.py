@@ -213,6 +213,15 @@ def test_k1_is_the_map_position_and_k_weights_are_posteriors(rng):
     np.testing.assert_allclose(est3.predict(online), expected, rtol=1e-9)
 
 
+def test_log_posteriors_agree_bit_for_bit_with_the_neighbour_ranking(rng):
+    """predict_log_proba sums a subset's anchors in the same fixed order as kneighbors (no BLAS)."""
+    X, y, _, _ = _training(rng, spread=6.0)
+    online = np.round(rng.uniform(-90.0, -40.0, size=(30, 7)))
+    est = ProbabilisticKNN(n_neighbors=3, anchors=(0, 1, 2, 4, 5, 6)).fit(X, y)
+    logpost, idx = est.kneighbors(online)
+    np.testing.assert_array_equal(np.take_along_axis(est.predict_log_proba(online), idx, axis=1), logpost)
+
+
 def test_histogram_pmf_is_the_normalised_histogram():
     X = np.array([[-60.0], [-60.0], [-61.0], [-63.4], [-59.6]])  # rounded: -60, -60, -61, -63, -60
     y = np.zeros((5, 3))

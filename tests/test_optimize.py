@@ -735,3 +735,69 @@ def test_coupled_regret_takes_target2_elbow_from_the_selection_half(rng):
         users1, users2, grid=SMALL, approaches="deterministic", splits="repetition"))
     mov_units = units[(units["target"] == 2) & (units["selection"] == "per_movement")]
     assert len(mov_units) == 2 * 2
+
+
+# --- results that must not depend on the BLAS kernel the CPU selects ---------------------------
+
+_KERNEL_SCRIPT = """
+import hashlib, sys
+import numpy as np
+sys.path.insert(0, {tests!r})
+from test_optimize import make_user
+from wsnlib.optimize import paper_tables, search
+rng = np.random.default_rng(7)
+t1 = [make_user(rng, samples=(23, 17, 31, 9)) for _ in range(3)]
+t2 = [make_user(rng, samples=(23, 17, 31, 9), segment=1) for _ in range(3)]
+digest = hashlib.sha256()
+for chunk in (1, 5_000, 1 << 18):
+    digest.update(search(t1, chunk_elements=chunk)["pe_cm"].to_numpy().tobytes())
+tables = paper_tables(t1, t2)
+digest.update(tables.table2.to_csv().encode())
+digest.update(tables.table3.to_csv().encode())
+print(digest.hexdigest())
+"""
+
+#: OpenBLAS kernel families and the CPU flags each needs (x86-64, Linux).
+_BLAS_KERNELS = {"Prescott": {"sse3"}, "Haswell": {"avx2", "fma"}, "Zen": {"avx2", "fma"},
+                 "SkylakeX": {"avx512f", "avx512cd", "avx512bw", "avx512dq", "avx512vl"}}
+
+
+def _cpu_flags() -> set[str]:
+    try:
+        with open("/proc/cpuinfo", encoding="ascii", errors="replace") as f:
+            line = next(line for line in f if line.startswith("flags"))
+    except (OSError, StopIteration):
+        return set()
+    flags = set(line.split(":", 1)[1].split())
+    return flags | ({"sse3"} if "pni" in flags else set())  # Linux calls SSE3 "pni"
+
+
+def test_search_and_tables_do_not_depend_on_the_blas_kernel():
+    """The same bits, and the same Tables 2–3, with every OpenBLAS kernel this CPU can run.
+
+    A matrix product is blocked differently per kernel and per shape; the search's sums have
+    a fixed order of additions instead (subset sums in anchor order, per-movement means in
+    contiguous blocks), so the kernel cannot change a bit.  Each kernel needs its own process
+    (OpenBLAS reads OPENBLAS_CORETYPE when it loads).
+    """
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    flags = _cpu_flags()
+    kernels = [name for name, needs in _BLAS_KERNELS.items() if needs <= flags]
+    if len(kernels) < 2:
+        pytest.skip(f"fewer than two OpenBLAS kernels to compare on this CPU (runs: {kernels})")
+    script = _KERNEL_SCRIPT.format(tests=str(Path(__file__).parent))
+    digests, cores = {}, set()
+    for name in kernels:
+        env = {**os.environ, "OPENBLAS_CORETYPE": name, "OPENBLAS_VERBOSE": "2"}
+        run = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=300)
+        assert run.returncode == 0, run.stderr[-2000:]
+        core = [line for line in run.stderr.splitlines() if line.startswith("Core:")]  # what OpenBLAS loaded
+        cores.update(core)
+        digests[f"{name} ({', '.join(core) or 'core not reported'})"] = run.stdout.strip().splitlines()[-1]
+    if len(cores) == 1:
+        pytest.skip(f"OpenBLAS loaded one kernel for every request here: {cores}")
+    assert len(set(digests.values())) == 1, digests

@@ -127,10 +127,8 @@ class _Context:
         self.true = data.true_positions
         self.run_start = _run_starts(data.movement)
         self.movements, inverse = np.unique(data.movement, return_inverse=True)
-        counts = np.bincount(inverse)
-        self.weights = np.zeros((data.movement.size, self.movements.size))
-        self.weights[np.arange(data.movement.size), inverse] = 1.0 / counts[inverse]  # mean per movement
-        self.counts = counts
+        self.rows = [np.flatnonzero(inverse == m) for m in range(self.movements.size)]
+        self.counts = np.bincount(inverse)
         self.proximals = proximals                                          # (V, n, 3)
         offset = data.device_offset_m
         self.b = offset * np.cos(data.pitch)                                # horizontal reach d′ cos θ
@@ -151,7 +149,7 @@ class _Context:
                 err *= err
                 pe += err
             np.sqrt(pe, out=pe)
-            return (pe @ self.weights)[None]
+            return self._movement_mean(pe)[None]
         out = np.empty((self.n_variants, radio.shape[1], self.movements.size))
         for v in range(self.n_variants):
             ux, uy = _unit_heading(radio[0], radio[1], self.proximals[v], self.run_start)
@@ -166,7 +164,20 @@ class _Context:
             ex += ey
             ex += self.az2[v]
             np.sqrt(ex, out=ex)                                            # eq. (11) per sample
-            out[v] = ex @ self.weights
+            out[v] = self._movement_mean(ex)
+        return out
+
+    def _movement_mean(self, pe: np.ndarray) -> np.ndarray:
+        """Mean over each movement's rows of ``pe`` (c, n): ``(c, M)``, in a fixed order of additions.
+
+        Each movement's values are gathered into a contiguous block and summed along it, so
+        the order of additions (numpy's pairwise tree over that block) depends only on the
+        movement's number of rows: not on how many settings a chunk holds, nor on the BLAS
+        kernel a matrix product would pick for the chunk's shape and the CPU.
+        """
+        out = np.empty((pe.shape[0], self.movements.size))
+        for m, rows in enumerate(self.rows):
+            out[:, m] = np.ascontiguousarray(pe[:, rows]).sum(axis=-1) / rows.size
         return out
 
 

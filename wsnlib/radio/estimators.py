@@ -29,7 +29,7 @@ from wsnlib.radio._checks import (
     _group_positions,
     _resolve_anchors,
 )
-from wsnlib.radio.grid import _knn_batch, _pknn_batch
+from wsnlib.radio.grid import _knn_batch, _pknn_batch, _subset_sums
 
 # --------------------------------------------------------------------------------------
 # Shared estimator machinery
@@ -396,10 +396,9 @@ class ProbabilisticKNN(_FingerprintEstimator):
     def predict_log_proba(self, X) -> np.ndarray:
         """Log posterior ``log P(s_l | r)`` (eq. (4), uniform prior), shape (n, L), over the selected anchors."""
         X = self._check_online(X)
-        weights = self.anchor_mask_.astype(float)
         out = np.empty((X.shape[0], self.positions_.shape[0]))
         for chunk in self._query_chunks(X.shape[0]):
-            loglik = self._loglik(X[chunk]) @ weights
+            loglik = _subset_sums(self.anchor_mask_[None, :], self._loglik(X[chunk]))[0]  # as kneighbors sums
             out[chunk] = loglik - logsumexp(loglik, axis=-1, keepdims=True)
         return out
 
