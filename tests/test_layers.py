@@ -24,7 +24,7 @@ ROOT = Path(wsnlib.__file__).parent
 #: Layers from the bottom up, and the top-level modules / packages of each.
 LAYERS = {
     "core": ("__init__", "quaternion", "frames", "testbed", "arm_model", "loss", "metrics", "paths", "_files",
-             "_validation", "paper_values", "cache"),
+             "_validation", "paper_values", "cache", "fixed_order"),
     "io": ("io",),
     "algorithms": ("orientation", "radio", "posture", "optimize", "tuning", "loto", "stats"),
     "sim": ("sim",),

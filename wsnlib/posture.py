@@ -47,7 +47,7 @@ import math
 
 import numpy as np
 
-from wsnlib import frames
+from wsnlib import fixed_order, frames
 from wsnlib._validation import as_float_array, check_nonnegative, check_nonzero_norm, check_positive
 from wsnlib.arm_model import ArmGeometry
 from wsnlib.metrics import SEGMENT_AXIS
@@ -190,7 +190,7 @@ def pitch_from_acc(
 
 def _pitch(acc: np.ndarray, axis: np.ndarray) -> np.ndarray:
     """Eq. (6)/(7): ``arcsin(a·u / |a|)``."""
-    ratio = (acc @ axis) / np.linalg.norm(acc, axis=-1)
+    ratio = fixed_order.dot(acc, axis) / np.linalg.norm(acc, axis=-1)
     return np.arcsin(np.clip(ratio, -1.0, 1.0))
 
 

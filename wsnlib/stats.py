@@ -134,7 +134,10 @@ def _resampled(values: np.ndarray, statistic: str, rng: np.random.Generator, n_b
     if statistic == "mean":
         counts = np.zeros((n_boot, n))
         np.add.at(counts, (np.repeat(np.arange(n_boot), n), index.ravel()), 1.0)
-        out = counts @ flat / n
+        out = counts[:, 0, None] * flat[0]  # units added in order (a matrix product's order is the BLAS kernel's)
+        for i in range(1, n):
+            out += counts[:, i, None] * flat[i]
+        out /= n
     else:
         out = np.median(flat[index], axis=1)
     return out.reshape((n_boot,) + values.shape[1:])

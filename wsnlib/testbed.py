@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from wsnlib import fixed_order
+
 #: Posture names (paper 002, Table 1), in training order.
 POSTURES: tuple[str, ...] = ("P1", "P2", "P3", "P4", "P5")
 
@@ -51,7 +53,7 @@ def _p5_direction() -> np.ndarray:
     d = np.array(PAPER_TARGET_DISTANCES_M)
     pts = np.array(TABLE1_POSITIONS_CM["P5"]) / 100.0
     u = d[0] * pts[0] + d[1] * pts[1]  # least squares: minimise Σ |d_i u − p_i|², |u| = 1
-    return u / np.linalg.norm(u)
+    return u / fixed_order.norm(u)
 
 
 #: Unit arm direction of each posture in the shoulder frame (module docstring).

@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wsnlib import fixed_order
+
 
 @dataclass(frozen=True)
 class ExerciseReport:
@@ -80,7 +82,7 @@ def _compare(got: np.ndarray, expected: np.ndarray, atol: float, exercise: str, 
 
 def _random_unit_quaternion(rng: np.random.Generator) -> np.ndarray:
     q = rng.normal(size=4)
-    q /= np.linalg.norm(q)
+    q /= fixed_order.norm(q)
     return q if q[0] >= 0 else -q
 
 

@@ -22,7 +22,7 @@ import math
 import numpy as np
 from numba import njit
 
-from wsnlib import frames
+from wsnlib import fixed_order, frames
 
 #: numba options of every kernel: machine code cached on disk; float division by zero gives
 #: inf/NaN as in numpy (no exception check on every division), caught by the callers' status.
@@ -298,7 +298,7 @@ def _reference_triad():
     r1 = frames.gravity_specific_force_enu() / frames.STANDARD_GRAVITY
     field = frames.magnetic_field_enu() / frames.MAGNETIC_INTENSITY_UT
     r2 = np.cross(r1, field)
-    r2 /= np.linalg.norm(r2)
+    r2 /= fixed_order.norm(r2)
     return np.stack([r1, r2, np.cross(r1, r2)], axis=-1)
 
 

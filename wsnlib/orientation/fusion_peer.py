@@ -8,6 +8,7 @@ from __future__ import annotations
 import imufusion
 import numpy as np
 
+from wsnlib import fixed_order
 from wsnlib._validation import check_nonnegative
 from wsnlib.orientation._peer_common import (
     _feedback_inputs,
@@ -81,12 +82,12 @@ def _fusion_one(settings, dt=None, gap_factor=None):
                 ahrs.update(gyr_deg[t], acc_g[t], mag[t])
             if feedback is not None and blend_at[t]:
                 q = ahrs.get_quaternion().astype(float)
-                q = _slerp(q_s[t], q / np.linalg.norm(q), mu[t])
+                q = _slerp(q_s[t], q / fixed_order.norm(q), mu[t])
                 ahrs.set_quaternion(q)
                 out[t] = q
             else:
                 out[t] = ahrs.get_quaternion()
-            out[t] /= np.linalg.norm(out[t])  # Fusion computes in float32
+            out[t] /= fixed_order.norm(out[t])  # Fusion computes in float32
         if gap_factor is not None and 0 <= prev < n_t - 1:  # a gap at the end
             out[prev + 1:] = _predict_gap(out[prev], gyr[prev], n_t - 1 - prev, dt, gap_factor)
         return out

@@ -35,7 +35,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from wsnlib import frames
+from wsnlib import fixed_order, frames
 from wsnlib._validation import as_float_array, check_nonzero_norm, check_positive
 from wsnlib.quaternion import canonical, conjugate, from_scipy, multiply
 
@@ -58,7 +58,7 @@ def _observations(acc, mag, weights):
     w = (check_positive(weights[0], "weights[0]"), check_positive(weights[1], "weights[1]"))
     r_acc = np.array([0.0, 0.0, 1.0])
     field = frames.magnetic_field_enu()
-    r_mag = field / np.linalg.norm(field)
+    r_mag = field / fixed_order.norm(field)
     return np.broadcast_to(b_acc, shape), np.broadcast_to(b_mag, shape), r_acc, r_mag, w, shape
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 import vqf
 
+from wsnlib import fixed_order
 from wsnlib import quaternion as Q
 from wsnlib.orientation._peer_common import (
     _feedback_inputs,
@@ -57,7 +58,7 @@ def _vqf_set_quat9d(filt, q_f: np.ndarray, use_mag: bool = True) -> None:
     half = -0.5 * state["delta"] if use_mag else 0.0
     undo_delta = np.array([np.cos(half), 0.0, 0.0, np.sin(half)])
     gyr_quat = Q.multiply(Q.conjugate(np.asarray(state["accQuat"])), Q.multiply(undo_delta, q_f))
-    state["gyrQuat"] = gyr_quat / np.linalg.norm(gyr_quat)
+    state["gyrQuat"] = gyr_quat / fixed_order.norm(gyr_quat)
     filt.state = state
 
 

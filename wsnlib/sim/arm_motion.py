@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wsnlib import fixed_order
 from wsnlib import quaternion as Q
 from wsnlib._validation import as_float_array, check_nonnegative, check_positive
 from wsnlib.arm_model import Q_REFERENCE, ArmGeometry, ArmKinematics
@@ -26,7 +27,7 @@ def _unit(v, name: str) -> np.ndarray:
     v = as_float_array(v, name)
     if v.shape != (3,):
         raise ValueError(f"{name} must be a 3-vector, got shape {v.shape}")
-    norm = np.linalg.norm(v)
+    norm = float(fixed_order.norm(v))
     if norm == 0.0:
         raise ValueError(f"{name} must not be the zero vector")
     return v / norm
@@ -292,14 +293,14 @@ def arc(
     duration = check_positive(duration_s, "duration_s")
     angles, axes = [], []
     for a, b in zip(points[:-1], points[1:], strict=True):
-        angle = float(np.arccos(np.clip(a @ b, -1.0, 1.0)))
+        angle = float(np.arccos(np.clip(fixed_order.dot(a, b), -1.0, 1.0)))
         cross = np.cross(a, b)
         if angle > np.pi - 1e-3:
             raise ValueError("start and end of an arc piece are opposite: give a via direction")
         if angle < 1e-9:
             raise ValueError("an arc piece has zero length (equal directions); use hold()")
         angles.append(angle)
-        axes.append(cross / np.linalg.norm(cross))
+        axes.append(cross / fixed_order.norm(cross))
     speed = sum(angles) / duration
     q = (
         direction_orientation(points[0])
@@ -355,7 +356,7 @@ def rotate_to(q_start, q_end, duration_s: float, *, label: str = TRANSITION_LABE
     q0 = Q.normalize(as_float_array(q_start, "q_start", last_dim=4))
     q1 = Q.normalize(as_float_array(q_end, "q_end", last_dim=4))
     rel = Q.canonical(Q.multiply(q1, Q.conjugate(q0)))
-    vec_norm = float(np.linalg.norm(rel[1:]))
+    vec_norm = float(fixed_order.norm(rel[1:]))
     angle = 2.0 * float(np.arctan2(vec_norm, rel[0]))
     duration = check_positive(duration_s, "duration_s")
     if angle < 1e-9:

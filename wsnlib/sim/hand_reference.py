@@ -29,6 +29,7 @@ import math
 
 import numpy as np
 
+from wsnlib import fixed_order
 from wsnlib._validation import as_float_array, check_nonnegative
 
 #: Default standard deviation (°, per axis) of the posture rotation of the hand-derived reference.
@@ -100,7 +101,7 @@ def hand_derived_reference(true_positions, movement, time_s, *, rng: np.random.G
             query = np.clip(t + shift, t[0], t[-1])
             shifted = np.stack([np.stack([np.interp(query, t, flat[rows, j, d]) for d in range(3)], axis=-1)
                                 for j in range(flat.shape[1])], axis=1)
-        angle = float(np.linalg.norm(rotvec))
+        angle = float(fixed_order.norm(rotvec))
         if angle > 0.0:
             axis = rotvec / angle
             # Rodrigues' rotation of every point about the shoulder (the origin).

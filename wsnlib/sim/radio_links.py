@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wsnlib import fixed_order
 from wsnlib import quaternion as Q
 from wsnlib.arm_model import ArmKinematics
 from wsnlib.sim.body_solids import body_solids, chord_length
@@ -111,7 +112,7 @@ def _shadow_field(
             g = np.random.default_rng(list(key))
             omega = g.normal(0.0, 1.0 / channel.shadow_length_m, (m, 6))
             phase = g.uniform(0.0, 2.0 * np.pi, m)
-            out[:, a] += weight * np.sqrt(2.0 / m) * np.cos(x[:, a] @ omega.T + phase).sum(axis=-1)
+            out[:, a] += weight * np.sqrt(2.0 / m) * np.cos(fixed_order.matmul(x[:, a], omega.T) + phase).sum(axis=-1)
     return out
 
 
