@@ -23,7 +23,7 @@ sys.path.insert(0, {tests!r})
 from test_optimize import make_user
 from wsnlib import stats
 from wsnlib.optimize import paper_tables, search
-from wsnlib.orientation import fusion_ahrs, vqf_orientation
+from wsnlib.orientation import fusion_orientation, vqf_orientation
 from wsnlib.posture import pitch_from_acc
 from wsnlib.sim import arm_extension, arm_kinematics, simulate_imu
 from wsnlib.sim.campaign import simulate_dynamic_campaign
@@ -47,7 +47,7 @@ campaign = simulate_dynamic_campaign(1, rng=np.random.default_rng(3), hold_s=2.0
 add("campaign rss", campaign.training_rss.to_csv())
 imu = simulate_imu(arm_kinematics(arm_extension(fs=50.0, duration_s=4.0)), rng=np.random.default_rng(5))
 add("pitch", pitch_from_acc(imu.acc[0], method="lowpass", fs=50.0))
-add("fusion", fusion_ahrs(imu.gyr[0], imu.acc[0], imu.mag[0], fs=50.0))
+add("fusion", fusion_orientation(imu.gyr[0], imu.acc[0], imu.mag[0], fs=50.0))
 add("vqf", vqf_orientation(imu.gyr[0], imu.acc[0], imu.mag[0], fs=50.0))
 print(digest.hexdigest())
 """

@@ -9,10 +9,11 @@ import pytest
 
 from wsnlib import datasets, frames, paths
 from wsnlib import quaternion as Q
+from wsnlib.loss import LossProfile
 from wsnlib.sim import disturbance as D
 from wsnlib.sim.arm import arm_kinematics, movement_set
 from wsnlib.sim.imu import ImuSpec, simulate_imu
-from wsnlib.sim.trials import LossProfile, arm_loss_trials
+from wsnlib.sim.trials import arm_loss_trials
 
 BROAD_DIR = Path(os.environ.get(datasets.BROAD_DIR_ENV_VAR) or paths.ROOT.parent / "shared" / "data" / "broad")
 
@@ -33,7 +34,7 @@ def test_off_is_bit_identical_to_no_disturbance(truth):
 
 def test_trials_without_disturbance_unchanged():
     movements = movement_set()
-    profiles = [LossProfile.burst(80, 4), LossProfile.gilbert_elliott(0.1)]
+    profiles = [LossProfile.burst(80 / 50.0, 4), LossProfile.gilbert_elliott(0.1)]
     plain = arm_loss_trials(movements, profiles, 2, rng=np.random.default_rng(7))
     off = arm_loss_trials(movements, profiles, 2, rng=np.random.default_rng(7), disturbance=None)
     for name in ("gyr", "acc", "mag", "received"):

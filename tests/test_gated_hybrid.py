@@ -1,5 +1,5 @@
 """Tests for the gated hybrid (:class:`wsnlib.orientation.SingleFrameGate`) and the peers' gap
-prediction (``gap="constant_rate"`` of :func:`fusion_ahrs` and :func:`vqf_orientation`).
+prediction (``gap="constant_rate"`` of :func:`fusion_orientation` and :func:`vqf_orientation`).
 
 References: a plain-Python restatement of the four checks (:func:`reference_trusted`),
 the ungated hybrid and the plain data fusion (what the gate must reduce to when it is open /
@@ -16,13 +16,14 @@ from wsnlib import quaternion as Q
 from wsnlib.loss import gilbert_elliott, packets_to_samples
 from wsnlib.orientation import (
     SingleFrameGate,
-    blend_with_single_frame,
     estimate_orientation,
-    fusion_ahrs,
+    fusion_orientation,
+    kalman_orientation,
     madgwick,
     single_frame_trusted,
     vqf_orientation,
 )
+from wsnlib.orientation.hybrid_blend import blend_with_single_frame
 from wsnlib.orientation.peers import _predict_gap
 
 FS = 50.0
@@ -30,7 +31,7 @@ G_ENU = frames.gravity_specific_force_enu()
 M_ENU = frames.magnetic_field_enu()
 N = 400
 BLENDS = ["output", "feedback"]
-WRAPPERS = [fusion_ahrs, vqf_orientation]
+WRAPPERS = [fusion_orientation, vqf_orientation]
 
 
 def rotation(rate=0.5, n=N, axis=(1.0, 2.0, -0.5)):
@@ -129,11 +130,11 @@ def test_closed_gate_gives_the_data_fusion(masks, blend):
     _, gyr, acc, mag = rotation()
     acc = acc * 1.5  # Madgwick and TRIAD use the direction only; the gate sees 1.5 g
     kwargs = dict(fs=FS, beta=0.1, received=masks)
-    gated = estimate_orientation(gyr, acc, mag, method="hybrid", blend=blend, rho=1.0, tau=0.5,
+    gated = estimate_orientation(gyr, acc, mag, blend=blend, rho=1.0, tau=0.5,
                                  single_frame_gate=SingleFrameGate(), **kwargs)
-    plain = estimate_orientation(gyr, acc, mag, method="hold_last", **kwargs)
+    plain = estimate_orientation(gyr, acc, mag, **kwargs)
     np.testing.assert_array_equal(gated, plain)
-    ungated = estimate_orientation(gyr, acc, mag, method="hybrid", blend=blend, rho=1.0, tau=0.5, **kwargs)
+    ungated = estimate_orientation(gyr, acc, mag, blend=blend, rho=1.0, tau=0.5, **kwargs)
     assert np.abs(ungated - plain).max() > 1e-6, "the test needs samples where the plain hybrid blends"
 
 
@@ -142,17 +143,17 @@ def test_open_gate_equals_the_ungated_hybrid(masks, blend):
     """Clean, slow motion: every sample trusted, so the gated hybrid is the hybrid."""
     _, gyr, acc, mag = rotation()
     assert single_frame_trusted(gyr, acc, mag, masks, fs=FS).sum() == masks.sum()
-    kwargs = dict(fs=FS, beta=0.02, received=masks, method="hybrid", blend=blend, rho=1.0, tau=2.0)
+    kwargs = dict(fs=FS, beta=0.02, received=masks, blend=blend, rho=1.0, tau=2.0)
     np.testing.assert_array_equal(estimate_orientation(gyr, acc, mag, single_frame_gate=True, **kwargs),
                                   estimate_orientation(gyr, acc, mag, **kwargs))
 
 
 def test_output_blend_skips_exactly_the_untrusted_samples(masks):
     gyr, acc, mag = disturbed()
-    kwargs = dict(fs=FS, beta=0.05, received=masks, method="hybrid", blend="output", rho=1.0, tau=200.0)
+    kwargs = dict(fs=FS, beta=0.05, received=masks, blend="output", rho=1.0, tau=200.0)
     gated = estimate_orientation(gyr, acc, mag, single_frame_gate=True, **kwargs)
     ungated = estimate_orientation(gyr, acc, mag, **kwargs)
-    q_d = estimate_orientation(gyr, acc, mag, fs=FS, beta=0.05, received=masks, method="hold_last")
+    q_d = estimate_orientation(gyr, acc, mag, fs=FS, beta=0.05, received=masks)
     trusted = single_frame_trusted(gyr, acc, mag, masks, fs=FS)
     untrusted_rx = masks & ~trusted
     assert untrusted_rx.sum() > 20
@@ -166,7 +167,7 @@ def test_kernel_gate_equals_blend_with_single_frame_gate(masks, leading):
     gyr, acc, mag = disturbed()
     q0 = None if not leading else Q.normalize([0.9, 0.1, -0.3, 0.2])
     kwargs = dict(fs=FS, received=masks, q0=q0)
-    inside = estimate_orientation(gyr, acc, mag, beta=0.05, method="hybrid", blend="output", rho=1.0, tau=6.0,
+    inside = estimate_orientation(gyr, acc, mag, beta=0.05, blend="output", rho=1.0, tau=6.0,
                                   single_frame_gate=True, **kwargs)
     stage = blend_with_single_frame(madgwick(gyr, acc, mag, beta=0.05, **kwargs), acc, mag, masks, rho=1.0,
                                     tau=6.0, leading_gap=leading, single_frame_gate=True, gyr=gyr, fs=FS)
@@ -174,21 +175,21 @@ def test_kernel_gate_equals_blend_with_single_frame_gate(masks, leading):
 
 
 @pytest.mark.parametrize("wrapper", WRAPPERS)
-@pytest.mark.parametrize("hybrid", BLENDS)
-def test_peers_closed_gate_gives_the_plain_peer(masks, wrapper, hybrid):
+@pytest.mark.parametrize("blend", BLENDS)
+def test_peers_closed_gate_gives_the_plain_peer(masks, wrapper, blend):
     _, gyr, acc, mag = rotation()
     acc = acc * 1.5
     plain = wrapper(gyr, acc, mag, fs=FS, received=masks[:1])
-    gated = wrapper(gyr, acc, mag, fs=FS, received=masks[:1], hybrid=hybrid, rho=1.0, tau=0.5,
+    gated = wrapper(gyr, acc, mag, fs=FS, received=masks[:1], blend=blend, rho=1.0, tau=0.5,
                     single_frame_gate=SingleFrameGate())
     np.testing.assert_allclose(gated, plain, atol=1e-12, rtol=0)
 
 
 @pytest.mark.parametrize("wrapper", WRAPPERS)
-@pytest.mark.parametrize("hybrid", BLENDS)
-def test_peers_open_gate_equals_the_ungated_hybrid(masks, wrapper, hybrid):
+@pytest.mark.parametrize("blend", BLENDS)
+def test_peers_open_gate_equals_the_ungated_hybrid(masks, wrapper, blend):
     _, gyr, acc, mag = rotation()
-    kwargs = dict(fs=FS, received=masks[:1], hybrid=hybrid, rho=1.0, tau=2.0)
+    kwargs = dict(fs=FS, received=masks[:1], blend=blend, rho=1.0, tau=2.0)
     np.testing.assert_allclose(wrapper(gyr, acc, mag, single_frame_gate=True, **kwargs),
                                wrapper(gyr, acc, mag, **kwargs), atol=1e-12, rtol=0)
 
@@ -210,20 +211,24 @@ def test_gate_settings_errors(kwargs, name):
 
 def test_gate_argument_errors():
     _, gyr, acc, mag = rotation(n=20)
+    with pytest.raises(ValueError, match="single_frame_gate is not used by estimate_orientation without blend"):
+        estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, single_frame_gate=True)
+    with pytest.raises(TypeError, match="single_frame_gate"):  # the Kalman filter has no hybrid
+        kalman_orientation(gyr, acc, mag, fs=FS, single_frame_gate=True)
     with pytest.raises(ValueError, match="single_frame_gate"):
-        estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, method="hold_last", single_frame_gate=True)
-    with pytest.raises(ValueError, match="single_frame_gate"):
-        estimate_orientation(gyr, acc, mag, fs=FS, method="kalman", single_frame_gate=True)
-    with pytest.raises(ValueError, match="single_frame_gate"):
-        estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, single_frame_gate="yes")
+        estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, blend="output", single_frame_gate="yes")
     with pytest.raises(ValueError, match="return_weight"):
-        estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, single_frame_gate=True, return_weight=True)
+        estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, blend="output", single_frame_gate=True,
+                             return_weight=True)
     with pytest.raises(ValueError, match="gyr"):
         blend_with_single_frame(Q.identity((20,)), acc, mag, single_frame_gate=True)
     with pytest.raises(ValueError, match="single_frame_gate"):
         blend_with_single_frame(Q.identity((20,)), acc, mag, gyr=gyr, fs=FS)
-    with pytest.raises(ValueError, match="single_frame_gate"):
-        fusion_ahrs(gyr, acc, mag, fs=FS, single_frame_gate=True)
+    for wrapper in WRAPPERS:
+        with pytest.raises(ValueError, match=f"single_frame_gate is not used by {wrapper.__name__} without blend"):
+            wrapper(gyr, acc, mag, fs=FS, single_frame_gate=True)
+        with pytest.raises(ValueError, match="single_frame_gate"):
+            wrapper(gyr, acc, mag, fs=FS, blend="output", single_frame_gate="yes")
     with pytest.raises(ValueError, match="mag"):
         single_frame_trusted(gyr, acc, None, fs=FS)
     with pytest.raises(ValueError, match="fs"):
@@ -283,9 +288,9 @@ def test_gap_time_constant_decays_the_extrapolated_rate(wrapper):
 @pytest.mark.parametrize("wrapper", WRAPPERS)
 def test_gap_prediction_with_the_feedback_hybrid_and_batches(wrapper, masks):
     _, gyr, acc, mag = rotation()
-    batch = wrapper(gyr, acc, mag, fs=FS, received=masks, gap="constant_rate", hybrid="feedback", tau=6.0)
+    batch = wrapper(gyr, acc, mag, fs=FS, received=masks, gap="constant_rate", blend="feedback", tau=6.0)
     for row in range(masks.shape[0]):
-        one = wrapper(gyr, acc, mag, fs=FS, received=masks[row], gap="constant_rate", hybrid="feedback", tau=6.0)
+        one = wrapper(gyr, acc, mag, fs=FS, received=masks[row], gap="constant_rate", blend="feedback", tau=6.0)
         np.testing.assert_array_equal(batch[row], one)
     assert np.all(np.isfinite(batch))
 
@@ -295,7 +300,9 @@ def test_gap_argument_errors(wrapper):
     _, gyr, acc, mag = rotation(n=20)
     with pytest.raises(ValueError, match="gap"):
         wrapper(gyr, acc, mag, fs=FS, gap="linear")
-    with pytest.raises(ValueError, match="gap_time_constant"):
+    with pytest.raises(ValueError, match="gap='ar' is not available for " + wrapper.__name__):
+        wrapper(gyr, acc, mag, fs=FS, gap="ar")
+    with pytest.raises(ValueError, match="gap_time_constant.*gap='hold'"):
         wrapper(gyr, acc, mag, fs=FS, gap_time_constant=0.2)
     with pytest.raises(ValueError, match="gap_time_constant"):
         wrapper(gyr, acc, mag, fs=FS, gap="constant_rate", gap_time_constant=-1.0)

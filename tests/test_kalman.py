@@ -12,9 +12,9 @@ from scipy.spatial.transform import Rotation
 
 from wsnlib import frames
 from wsnlib import quaternion as Q
-from wsnlib.orientation import estimate_orientation, madgwick
+from wsnlib.orientation import madgwick
 from wsnlib.orientation._gap_rate_kernels import AR_RIDGE, gap_rate_end_weights, gap_rate_fit, gap_rate_predict
-from wsnlib.orientation.kalman import KalmanSettings, kalman_orientation
+from wsnlib.orientation.kalman import KALMAN_GAP_TIME_CONSTANT_S, KalmanSettings, kalman_orientation
 from wsnlib.sim.arm import arm_kinematics, movement_set
 from wsnlib.sim.imu import ideal_imu
 
@@ -30,9 +30,13 @@ def _rotvec_quat(v):
     return Q.from_rotation_vector(np.asarray(v, dtype=float))
 
 
-def _reference_filter(gyr, acc, mag, received, fs, st: KalmanSettings):
-    """The module docstring's equations with numpy matrices (joint 2-D accelerometer update)."""
+def _reference_filter(gyr, acc, mag, received, fs, st: KalmanSettings, *, replay=True, gap="constant_rate",
+                      gap_time_constant=0.2):
+    """The module docstring's equations with numpy matrices (joint 2-D accelerometer update).
+
+    ``gap``: "constant_rate" (the held rate decays with ``gap_time_constant``) or "hold" (rate 0)."""
     dt = 1.0 / fs
+    gap_decay = 0.0 if gap == "hold" else math.exp(-dt / gap_time_constant)
     n = len(gyr)
     first = int(np.argmax(received))
     from wsnlib.orientation.triad import triad
@@ -52,7 +56,7 @@ def _reference_filter(gyr, acc, mag, received, fs, st: KalmanSettings):
     last_rx, q_last, rate_last = first, q, gyr[first].copy()  # for the gap replay
     lin_var, lin_gain = 0.0, -math.expm1(-dt / st.acc_disturbance_tau_s)  # adaptive accelerometer noise
     for t in range(first + 1, n):
-        if received[t] and st.gap_replay and t - last_rx > 1:
+        if received[t] and replay and t - last_rx > 1:
             # gap replay: re-integrate the gap from the last received state, rate interpolated
             n_lost = t - last_rx - 1
             q = q_last
@@ -63,7 +67,7 @@ def _reference_filter(gyr, acc, mag, received, fs, st: KalmanSettings):
             held = gyr[t] - b
             lost_run = 0
         else:
-            held = held * math.exp(-dt / st.gap_rate_decay_s)
+            held = held * gap_decay
             lost_run += 1
         q = Q.normalize(Q.multiply(q, _rotvec_quat(held * dt)))
         R = Rotation.from_quat(q[[1, 2, 3, 0]]).as_matrix()
@@ -156,20 +160,31 @@ def test_kernel_matches_numpy_reference_to_1e12():
     gyr = gyr + 0.01
     received = np.ones(40, bool)
     received[[0, 9, 10, 11, 25]] = False
-    for replay, disturbance in ((True, 0.0), (False, 0.0), (True, 16.0)):
-        # (the gaps start before a window of rates exists: the decaying rate, as in the reference)
-        st = KalmanSettings(gap_rate_decay_s=0.2, gap_replay=replay, acc_disturbance_factor=disturbance)
-        got = kalman_orientation(gyr, acc, mag, fs=FS, received=received, settings=st, full_output=True)
-        want, want_P = _reference_filter(gyr, acc, mag, received, FS, st)
+    cases = [  # (replay, acc_disturbance_factor, gap options, the reference's gap options)
+        # gap="ar" (default): the gaps start before a window of rates exists, so it falls back to
+        # the rate decaying with gap_time_constant (default 0.2 s), as in the reference
+        (True, 0.0, {}, {}),
+        (False, 0.0, {}, {}),
+        (True, 16.0, {}, {}),
+        (True, 0.0, {"gap": "constant_rate", "gap_time_constant": 0.3},
+         {"gap": "constant_rate", "gap_time_constant": 0.3}),
+        (True, 0.0, {"gap": "hold"}, {"gap": "hold"}),
+        (False, 0.0, {"gap": "hold"}, {"gap": "hold"}),
+    ]
+    for replay, disturbance, options, ref_options in cases:
+        st = KalmanSettings(acc_disturbance_factor=disturbance)
+        got = kalman_orientation(gyr, acc, mag, fs=FS, received=received, settings=st, replay=replay,
+                                 full_output=True, **options)
+        want, want_P = _reference_filter(gyr, acc, mag, received, FS, st, replay=replay, **ref_options)
         np.testing.assert_allclose(Q.canonical(got.quat), Q.canonical(want), atol=1e-12)
         np.testing.assert_allclose(got.covariance[-1], want_P, atol=1e-12, rtol=1e-10)
         # the hard-iron correction never applies on these clean data (the reference omits it)
         no_hard_iron = dataclasses.replace(st, mag_hard_iron_min_bias=math.inf)
         np.testing.assert_array_equal(got.quat, kalman_orientation(gyr, acc, mag, fs=FS, received=received,
-                                                                   settings=no_hard_iron))
+                                                                   settings=no_hard_iron, replay=replay, **options))
     replayed = kalman_orientation(gyr, acc, mag, fs=FS, received=received)
     assert np.abs(replayed[12:] - kalman_orientation(gyr, acc, mag, fs=FS, received=received,
-                                                     settings=KalmanSettings(gap_replay=False))[12:]).max() > 1e-6
+                                                     replay=False)[12:]).max() > 1e-6
 
 
 def test_gap_replay_recovers_a_rate_that_changed_in_the_gap():
@@ -190,8 +205,7 @@ def test_gap_replay_recovers_a_rate_that_changed_in_the_gap():
     received = np.ones(n, bool)
     received[60:80] = False  # 0.4 s in which the rate goes from 1.3 to 2.9 rad/s
     on = kalman_orientation(gyr, acc, mag, fs=FS, received=received, q0=q_true[0])
-    off = kalman_orientation(gyr, acc, mag, fs=FS, received=received, q0=q_true[0],
-                             settings=KalmanSettings(gap_replay=False))
+    off = kalman_orientation(gyr, acc, mag, fs=FS, received=received, q0=q_true[0], replay=False)
     np.testing.assert_array_equal(on[:80], off[:80])
     err_on, err_off = error_deg(on, q_true), error_deg(off, q_true)
     assert err_off[80] > 5.0
@@ -284,10 +298,10 @@ def test_linear_prediction_follows_a_swing_through_a_gap_and_replay_lands_on_it(
     received = np.ones(len(gyr), bool)
     received[300:318] = False  # 0.36 s, half a period of the 1.5 Hz swing
     base = KalmanSettings(acc_rate_gate=math.inf)
-    out = {name: kalman_orientation(gyr, acc, mag, fs=FS, received=received, q0=truth[0],
-                                    settings=dataclasses.replace(base, gap_rate_prediction=p, gap_replay=r))
-           for name, p, r in (("decay", False, False), ("decay+replay", False, True),
-                              ("predicted", True, False), ("predicted+replay", True, True))}
+    out = {name: kalman_orientation(gyr, acc, mag, fs=FS, received=received, q0=truth[0], settings=base, gap=gap,
+                                    replay=r)
+           for name, gap, r in (("decay", "constant_rate", False), ("decay+replay", "constant_rate", True),
+                                ("predicted", "ar", False), ("predicted+replay", "ar", True))}
     lost = slice(300, 318)
     err = {name: error_deg(q, truth) for name, q in out.items()}
     # on lost samples the output is the prediction: far closer to the swing than the decaying rate
@@ -342,14 +356,14 @@ def test_prediction_continues_through_a_gap_instead_of_freezing():
     gyr, acc, mag, truth = turning_recording()
     received = np.ones(len(gyr), bool)
     received[200:218] = False  # 3 packets of 6 samples, 0.36 s
-    constant = kalman_orientation(gyr, acc, mag, fs=FS, received=received,
-                                  settings=KalmanSettings(gap_rate_decay_s=math.inf, gap_rate_prediction=False))
-    decaying = kalman_orientation(gyr, acc, mag, fs=FS, received=received,
-                                  settings=KalmanSettings(gap_rate_prediction=False))  # τ = 0.2 s
+    constant = kalman_orientation(gyr, acc, mag, fs=FS, received=received, gap="constant_rate",
+                                  gap_time_constant=math.inf)
+    decaying = kalman_orientation(gyr, acc, mag, fs=FS, received=received, gap="constant_rate")  # τ = 0.2 s
     predicted = kalman_orientation(gyr, acc, mag, fs=FS, received=received,  # a window of 1 s before the gap
                                    settings=KalmanSettings(gap_rate_prediction_order=8,
                                                            gap_rate_prediction_window_s=1.0))
     held = madgwick(gyr, acc, mag, fs=FS, beta=0.041, received=received)
+    kalman_held = kalman_orientation(gyr, acc, mag, fs=FS, received=received, gap="hold")
     # exact gyroscope: constant-rate extrapolation is far better than holding, the decaying
     # rate in between; the linear prediction follows the sines of the rate better still
     err_held = error_deg(held, truth)[200:218].mean()
@@ -357,6 +371,16 @@ def test_prediction_continues_through_a_gap_instead_of_freezing():
     assert error_deg(constant, truth)[200:218].mean() < error_deg(decaying, truth)[200:218].mean() < err_held
     assert error_deg(predicted, truth)[200:218].mean() < 0.5 * error_deg(constant, truth)[200:218].mean()
     assert not np.allclose(decaying[201], decaying[200])  # the estimate moves on lost samples
+    # gap="hold": the state stays where it was, as Madgwick's receiver does
+    np.testing.assert_array_equal(kalman_held[200:218], np.broadcast_to(kalman_held[199], (18, 4)))
+    assert error_deg(kalman_held, truth)[200:218].mean() > error_deg(decaying, truth)[200:218].mean()
+    # ... unlike output_on_lost="hold" (the same output in the gap), whose state turned: without
+    # the replay, the held state starts the next sample from where the gap began
+    shown_held = kalman_orientation(gyr, acc, mag, fs=FS, received=received, output_on_lost="hold", replay=False,
+                                    gap="constant_rate", gap_time_constant=math.inf)
+    state_held = kalman_orientation(gyr, acc, mag, fs=FS, received=received, gap="hold", replay=False)
+    np.testing.assert_array_equal(shown_held[200:218], np.broadcast_to(shown_held[199], (18, 4)))
+    assert error_deg(state_held, truth)[218] > 3.0 * error_deg(shown_held, truth)[218]
 
 
 def test_covariance_grows_over_a_gap_and_shrinks_after():
@@ -477,17 +501,19 @@ def test_rejects_nan_in_received_sample_and_bad_settings():
         KalmanSettings(acc_noise=-1.0)
     with pytest.raises(ValueError, match="gyro_noise"):
         KalmanSettings(gyro_noise=math.inf)
-    with pytest.raises(ValueError, match="gap_replay"):
-        KalmanSettings(gap_replay=1.0)
+    with pytest.raises(ValueError, match="replay"):
+        kalman_orientation(gyr, acc, mag, fs=FS, replay=1.0)
     with pytest.raises(ValueError, match="mag_hard_iron_tau_s"):
         KalmanSettings(mag_hard_iron_tau_s=0.0)
-    assert KalmanSettings(gap_replay=np.bool_(False)).gap_replay is False
+    np.testing.assert_array_equal(kalman_orientation(gyr[:9], acc[:9], mag[:9], fs=FS, replay=np.bool_(False)),
+                                  kalman_orientation(gyr[:9], acc[:9], mag[:9], fs=FS, replay=False))
     with pytest.raises(ValueError, match="gap_rate_prediction_order"):
         KalmanSettings(gap_rate_prediction_order=2.5)
     with pytest.raises(ValueError, match="gap_rate_prediction_order"):
         KalmanSettings(gap_rate_prediction_order=0)
-    with pytest.raises(ValueError, match="gap_rate_prediction"):
-        KalmanSettings(gap_rate_prediction="yes")
+    for gone in ("gap_replay", "gap_rate_prediction", "gap_rate_decay_s"):  # now kalman_orientation's keywords
+        with pytest.raises(TypeError, match=gone):
+            KalmanSettings(**{gone: True})
     with pytest.raises(ValueError, match="acc_disturbance_factor"):
         KalmanSettings(acc_disturbance_factor=-1.0)
     assert KalmanSettings(acc_disturbance_factor=0).acc_disturbance_factor == 0.0
@@ -495,53 +521,58 @@ def test_rejects_nan_in_received_sample_and_bad_settings():
 
 
 # ------------------------------------------------------------------------------------------
-# estimate_orientation(..., method="kalman") and the gap option
+# The loss vocabulary's keywords (gap, replay, output_on_lost, gap_time_constant)
 # ------------------------------------------------------------------------------------------
 
 
-def test_estimate_orientation_kalman_is_kalman_orientation():
+def test_gap_time_constant_defaults_to_the_kalman_constant_and_decays_the_rate():
     gyr, acc, mag, _ = turning_recording(n=200)
     rng = np.random.default_rng(6)
     masks = rng.random((2, 200)) > 0.2
-    got = estimate_orientation(gyr, acc, mag, fs=FS, received=masks, method="kalman")
-    np.testing.assert_array_equal(got, kalman_orientation(gyr, acc, mag, fs=FS, received=masks))
-    st = KalmanSettings(acc_noise=0.1)
-    np.testing.assert_array_equal(
-        estimate_orientation(gyr, acc, None, fs=FS, received=masks, method="kalman", kalman_settings=st, gap="hold"),
-        kalman_orientation(gyr, acc, None, fs=FS, received=masks, settings=st, gap="hold"))
-    # gap_time_constant is the settings' gap_rate_decay_s
-    np.testing.assert_array_equal(
-        estimate_orientation(gyr, acc, mag, fs=FS, received=masks, method="kalman", gap_time_constant=0.3),
-        kalman_orientation(gyr, acc, mag, fs=FS, received=masks, settings=KalmanSettings(gap_rate_decay_s=0.3)))
+    default = kalman_orientation(gyr, acc, mag, fs=FS, received=masks, gap="constant_rate")
+    assert KALMAN_GAP_TIME_CONSTANT_S == 0.2
+    np.testing.assert_array_equal(default, kalman_orientation(gyr, acc, mag, fs=FS, received=masks,
+                                                              gap="constant_rate", gap_time_constant=0.2))
+    slower = kalman_orientation(gyr, acc, mag, fs=FS, received=masks, gap="constant_rate", gap_time_constant=0.3)
+    assert np.abs(slower - default).max() > 1e-6
+    # without a window of rates before the gaps, "ar" is the decaying rate, with the same time constant
+    np.testing.assert_array_equal(kalman_orientation(gyr, acc, mag, fs=FS, received=masks), default)
+    imu = kalman_orientation(gyr, acc, None, fs=FS, received=masks, settings=KalmanSettings(acc_noise=0.1),
+                             gap="constant_rate", gap_time_constant=0.3)
+    assert imu.shape == (2, 200, 4) and np.all(np.isfinite(imu))
 
 
-def test_gap_hold_holds_the_output_and_changes_nothing_else():
+def test_output_on_lost_hold_holds_the_output_and_changes_nothing_else():
     gyr, acc, mag, _ = turning_recording(n=200)
     received = np.ones(200, bool)
     received[[0, 1]] = False  # leading gap (q0 None: the output there is the initial estimate)
     received[50:70] = False
     received[199] = False  # a gap at the end
     predicted = kalman_orientation(gyr, acc, mag, fs=FS, received=received, full_output=True)
-    held = kalman_orientation(gyr, acc, mag, fs=FS, received=received, gap="hold", full_output=True)
+    held = kalman_orientation(gyr, acc, mag, fs=FS, received=received, output_on_lost="hold", full_output=True)
     np.testing.assert_array_equal(held.quat[received], predicted.quat[received])
     np.testing.assert_array_equal(held.quat[50:70], np.broadcast_to(predicted.quat[49], (20, 4)))
     np.testing.assert_array_equal(held.quat[199], predicted.quat[198])
+    np.testing.assert_array_equal(held.quat[:2], predicted.quat[:2])
     np.testing.assert_array_equal(held.covariance, predicted.covariance)  # the state still predicts
+    np.testing.assert_array_equal(held.gyro_bias, predicted.gyro_bias)
     assert not np.allclose(predicted.quat[60], predicted.quat[49])
 
 
 @pytest.mark.parametrize(
     "kwargs, match",
     [
-        ({"method": "kalman", "return_weight": True}, "return_weight"),
-        ({"method": "kalman", "kalman_settings": {"acc_noise": 1}}, "kalman_settings"),
-        ({"method": "kalman", "gap": "freeze"}, "gap"),
-        ({"method": "kalman", "gap": "hold", "gap_time_constant": 1.0}, "gap_time_constant"),
-        ({"method": "hold_last", "beta": 0.1, "kalman_settings": KalmanSettings()}, "kalman_settings"),
-        ({"method": "hybrid"}, "beta"),
+        ({"gap": "freeze"}, "gap.*'hold'.*'constant_rate'.*'ar'"),
+        ({"gap": None}, "gap"),
+        ({"gap": "hold", "gap_time_constant": 1.0}, "gap_time_constant.*gap='hold'"),
+        ({"gap_time_constant": 0.0}, "gap_time_constant"),
+        ({"gap": "constant_rate", "gap_time_constant": -1.0}, "gap_time_constant"),
+        ({"replay": "yes"}, "replay"),
+        ({"output_on_lost": "previous"}, "output_on_lost.*'estimate'.*'hold'"),
+        ({"settings": {"acc_noise": 1}}, "settings"),
     ],
 )
-def test_estimate_orientation_rejects_parameters_of_the_other_family(kwargs, match):
+def test_kalman_orientation_rejects_bad_loss_options(kwargs, match):
     gyr, acc, mag, _ = turning_recording(n=50)
     with pytest.raises(ValueError, match=match):
-        estimate_orientation(gyr, acc, mag, fs=FS, **kwargs)
+        kalman_orientation(gyr, acc, mag, fs=FS, **kwargs)

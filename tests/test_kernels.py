@@ -1,6 +1,6 @@
 """The compiled kernels: extreme parameters, memory, the on-disk cache, one stream vs batch.
 
-The per-sample references of every method (test_loss_handling.py) and the agreement with
+The per-sample references of every option (test_loss_handling.py) and the agreement with
 ``ahrs`` (test_orientation.py) test the kernels' arithmetic; this file tests what the
 compiled form adds.
 """
@@ -13,10 +13,24 @@ import numpy as np
 import pytest
 
 from wsnlib import quaternion as Q
-from wsnlib.orientation import _kernels, blend_with_single_frame, estimate_orientation, madgwick, madgwick_step
-from wsnlib.orientation.loss_handling import METHODS
+from wsnlib.orientation import _kernels, estimate_orientation, madgwick, madgwick_step
+from wsnlib.orientation.hybrid_blend import blend_with_single_frame
 
 FS = 50.0
+#: Option sets of estimate_orientation that take each branch of the compiled loop.
+OPTIONS = [
+    {},
+    {"method": "dt_extension"},
+    {"replay": True},
+    {"method": "adaptive_beta"},
+    {"blend": "feedback"},
+    {"method": "adaptive_beta", "blend": "output", "gap": "constant_rate", "replay": True},
+    {"gap": "constant_rate", "gap_time_constant": 0.3, "output_on_lost": "hold"},
+]
+
+
+def _ids(options):
+    return "-".join(f"{k}={v}" for k, v in options.items()) or "defaults"
 
 
 @pytest.fixture
@@ -73,17 +87,17 @@ def test_an_output_that_does_not_fit_fails_at_once_with_its_size(data):
     gyr, acc, mag, _ = data
     rho = np.ones((10**7, 1, 1))  # 10 M settings x 400 samples x 4 x 8 bytes = 128 GB
     with pytest.raises(MemoryError, match="GiB"):
-        estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, method="hybrid", rho=rho[..., 0, 0])
+        estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, blend="output", rho=rho[..., 0, 0])
     with pytest.raises(MemoryError, match="GiB"):
         blend_with_single_frame(Q.identity((gyr.shape[0],)), acc, mag, rho=np.ones(10**7))
 
 
-@pytest.mark.parametrize("method", METHODS)
-def test_one_stream_equals_the_same_stream_in_a_batch(data, method):
+@pytest.mark.parametrize("options", OPTIONS, ids=_ids)
+def test_one_stream_equals_the_same_stream_in_a_batch(data, options):
     # One stream runs the loop directly, a batch through the parallel driver: same numbers.
     gyr, acc, mag, received = data
     masks = np.stack([received, np.roll(received, 7), received])
-    kwargs = {"fs": FS, "beta": 0.1, "method": method, "blend": "feedback"}
+    kwargs = {"fs": FS, "beta": 0.1} | options
     batch = estimate_orientation(gyr, acc, mag, received=masks, **kwargs)
     for i in range(3):
         np.testing.assert_array_equal(batch[i], estimate_orientation(gyr, acc, mag, received=masks[i], **kwargs))
@@ -92,9 +106,9 @@ def test_one_stream_equals_the_same_stream_in_a_batch(data, method):
 def test_lost_samples_are_never_read(data):
     gyr, acc, mag, received = data
     poisoned = [np.where(received[:, None], x, np.nan) for x in (gyr, acc, mag)]
-    for method in METHODS:
-        clean = estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, received=received, method=method)
-        dirty = estimate_orientation(*poisoned, fs=FS, beta=0.1, received=received, method=method)
+    for options in OPTIONS:
+        clean = estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, received=received, **options)
+        dirty = estimate_orientation(*poisoned, fs=FS, beta=0.1, received=received, **options)
         np.testing.assert_array_equal(clean, dirty)
 
 
@@ -126,19 +140,22 @@ def test_compiled_code_is_cached_on_disk(tmp_path):
     assert {"madgwick_update", "triad"} <= scalar, scalar
 
 
-@pytest.mark.parametrize(("method", "blend"), [("hold_last", "output"), ("hybrid", "output"), ("hybrid", "feedback"),
-                                               ("gyro_interpolation", "output")])
-def test_scratch_memory_is_a_small_fraction_of_the_output(data, method, blend):
+@pytest.mark.parametrize("options", [{}, {"blend": "output"}, {"blend": "feedback"}, {"replay": True},
+                                     {"gap": "constant_rate", "output_on_lost": "hold"}], ids=_ids)
+def test_scratch_memory_is_a_small_fraction_of_the_output(data, options):
     # numpy reports its allocations to tracemalloc: the peak during a call is the output plus
     # what the call needs besides (index arrays, per-element parameters).
     import tracemalloc
 
     gyr, acc, mag, received = data
     masks = np.stack([np.roll(received, k) for k in range(64)])
-    rho = np.linspace(1.0, 8.0, 8)[:, None]  # a (ρ) grid over 64 masks: batch (8, 64)
-    estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, received=masks, method=method, blend=blend, rho=rho)
+    if "blend" in options:
+        options = options | {"rho": np.linspace(1.0, 8.0, 8)[:, None]}  # a (ρ) grid over 64 masks: batch (8, 64)
+    else:  # (ρ is refused without the hybrid: the same batch as 8 × 64 masks)
+        masks = np.stack([masks] * 8)
+    estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, received=masks, **options)
     tracemalloc.start()  # (after a first call: compiling or loading the kernels allocates too)
-    out = estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, received=masks, method=method, blend=blend, rho=rho)
+    out = estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, received=masks, **options)
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     assert peak < 1.1 * out.nbytes, (peak, out.nbytes)
@@ -162,7 +179,7 @@ def test_constant_rate_prediction_follows_a_constant_turn_through_a_gap():
     received[100:160] = False
     q0 = q_true[0]
     held = madgwick(gyr, acc, mag, fs=FS, beta=0.05, q0=q0, received=received)
-    predicted = madgwick(gyr, acc, mag, fs=FS, beta=0.05, q0=q0, received=received, gap="constant_rate")
+    predicted = estimate_orientation(gyr, acc, mag, fs=FS, beta=0.05, q0=q0, received=received, gap="constant_rate")
     err_held = np.degrees(Q.angle_between(held[100:160], q_true[100:160]))
     err_pred = np.degrees(Q.angle_between(predicted[100:160], q_true[100:160]))
     before = np.degrees(Q.angle_between(held[99], q_true[99]))  # the filter's own steady error
@@ -171,8 +188,8 @@ def test_constant_rate_prediction_follows_a_constant_turn_through_a_gap():
     # Received samples before the gap are untouched; the same call without loss agrees.
     np.testing.assert_array_equal(held[:100], predicted[:100])
     # A decaying rate lies between the two.
-    decayed = madgwick(gyr, acc, mag, fs=FS, beta=0.05, q0=q0, received=received, gap="constant_rate",
-                       gap_time_constant=0.3)
+    decayed = estimate_orientation(gyr, acc, mag, fs=FS, beta=0.05, q0=q0, received=received, gap="constant_rate",
+                                   gap_time_constant=0.3)
     err_decay = np.degrees(Q.angle_between(decayed[159], q_true[159]))
     assert err_pred[-1] < err_decay < err_held[-1]
 
@@ -180,14 +197,16 @@ def test_constant_rate_prediction_follows_a_constant_turn_through_a_gap():
 def test_gap_prediction_arguments_are_checked(data):
     gyr, acc, mag, received = data
     with pytest.raises(ValueError, match="gap"):
-        madgwick(gyr, acc, mag, fs=FS, beta=0.1, gap="extrapolate")
+        estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, gap="extrapolate")
     with pytest.raises(ValueError, match="gap_time_constant"):
-        madgwick(gyr, acc, mag, fs=FS, beta=0.1, gap_time_constant=0.5)
-    with pytest.raises(ValueError, match="gyro_interpolation"):
-        estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, method="gyro_interpolation", gap="constant_rate")
-    for method in ("hold_last", "hybrid", "adaptive_beta"):
-        out = estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, received=received, method=method,
-                                   gap="constant_rate", blend="feedback")
+        estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, gap_time_constant=0.5)
+    with pytest.raises(ValueError, match="dt_extension"):
+        estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, method="dt_extension", gap="constant_rate")
+    with pytest.raises(TypeError, match="gap"):  # madgwick is the receiver only: options are estimate_orientation's
+        madgwick(gyr, acc, mag, fs=FS, beta=0.1, gap="constant_rate")
+    for options in ({}, {"replay": True}, {"method": "adaptive_beta"}):
+        out = estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, received=received, gap="constant_rate",
+                                   blend="feedback", **options)
         assert np.all(np.isfinite(out))
 
 

@@ -257,3 +257,24 @@ def test_burst_train_places_whole_packet_bursts_periodically():
     assert all(received[e] and not received[e - 1] for e in ends)
     with np.testing.assert_raises(ValueError):
         loss.burst_train(300, 10, 12, 2)
+
+
+# --- LossProfile: one type for the Monte Carlo trials and the loss study ------------------------
+
+
+def test_loss_profile_masks_are_the_loss_models():
+    fs, n = 50.0, 700
+    assert loss.LossProfile.none().mask(n, fs, None, shape=(2, 3)).all()
+    single = loss.LossProfile.burst(80 / fs, 4)
+    np.testing.assert_array_equal(single.mask(n, fs, None), loss.burst_mask(n, 80, 4))
+    assert single.name == "burst 4 packets" and single.mask(n, fs, None, shape=(2,)).shape == (2, n)
+    train = loss.LossProfile.burst(4.0, 4, period_s=8.0, name="paper burst")
+    np.testing.assert_array_equal(train.mask(n, fs, None), loss.burst_train(n, 200, 400, 4)[0])
+    ge = loss.LossProfile.gilbert_elliott(0.1, samples_per_packet=12)
+    assert ge.name == "GE 10 %"
+    expected = loss.packets_to_samples(loss.gilbert_elliott(loss.n_packets_for(n, 12), 0.1, 3.0,
+                                                            rng=np.random.default_rng(4), shape=(3,)), 12, n)
+    np.testing.assert_array_equal(ge.mask(n, fs, np.random.default_rng(4), shape=(3,)), expected)
+    assert loss.LossProfile.gilbert_elliott(0.0).model == "none"
+    with pytest.raises(ValueError, match="model"):
+        loss.LossProfile("x", "bernoulli")

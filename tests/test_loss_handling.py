@@ -1,9 +1,10 @@
-"""Tests for wsnlib.orientation.loss_handling: eq. (3), the λ schedules and every method.
+"""Tests for wsnlib.orientation.loss_handling: eq. (3), the λ schedules and every option of
+estimate_orientation (method, gap, replay, output_on_lost, blend).
 
 References: :func:`wsnlib.orientation.madgwick` (the baseline), and a slow per-sample
-restatement of each method's documented rule built from :func:`madgwick_step`,
+restatement of each option's documented rule built from :func:`madgwick_step`,
 :func:`triad` and :func:`wsnlib.quaternion.slerp`, which replays gyroscope gaps literally at
-their end.
+their end.  The vocabulary across filters: test_loss_vocabulary.py.
 """
 
 import numpy as np
@@ -23,7 +24,8 @@ from wsnlib.orientation import (
     slerp_weight,
     triad,
 )
-from wsnlib.orientation.loss_handling import BLENDS, METHODS, SCHEDULES
+from wsnlib.orientation._batch import BLENDS
+from wsnlib.orientation.lost_run import SCHEDULES
 from wsnlib.sim import arm_extension, arm_kinematics, simulate_imu
 
 FS = 50.0
@@ -241,25 +243,52 @@ def test_compiled_slerp_matches_quaternion_slerp(rng):
 
 # ================================================================ estimate_orientation: baselines
 
-ALL_VARIANTS = [
-    (method, blend, schedule)
-    for method in METHODS
-    for blend in (BLENDS if method == "hybrid" else ("output",))
-    for schedule in SCHEDULES
-]
+#: Options of estimate_orientation (the vocabulary of wsnlib.orientation), each a dict of keywords.
+OPTIONS = {
+    "madgwick": {},
+    "dt_extension": {"method": "dt_extension"},
+    "replay": {"replay": True},
+    "adaptive_beta": {"method": "adaptive_beta"},
+    "blend output": {"blend": "output"},
+    "blend feedback": {"blend": "feedback"},
+    "adaptive_beta + blend": {"method": "adaptive_beta", "blend": "feedback"},
+    "constant_rate": {"gap": "constant_rate"},
+    "constant_rate + replay": {"gap": "constant_rate", "replay": True},
+    "constant_rate, output held": {"gap": "constant_rate", "output_on_lost": "hold"},
+    "replay + blend": {"replay": True, "blend": "output"},
+}
 
 
-def variant_kwargs(method, blend, schedule):
-    return {"method": method, "blend": blend, "schedule": schedule} | ({"hold_window": 7} if schedule == "hold" else {})
+def uses_mu(options):
+    """Whether the options use μ of eq. (3) (ρ, τ, schedule, hold_window): the hybrid and adaptive β."""
+    return "blend" in options or options.get("method") == "adaptive_beta"
 
 
-@pytest.mark.parametrize("method, blend, schedule", ALL_VARIANTS)
+def holds_on_lost(options):
+    """Whether the output on a lost sample is the previous output (the state holds, or the output does)."""
+    return options.get("gap", "hold") == "hold" or options.get("output_on_lost") == "hold"
+
+
+ALL_VARIANTS = [(name, schedule) for name, options in OPTIONS.items()
+                for schedule in (SCHEDULES if uses_mu(options) else (None,))]
+
+
+def variant_kwargs(name, schedule):
+    kwargs = dict(OPTIONS[name])
+    if schedule is not None:
+        kwargs["schedule"] = schedule
+        if schedule == "hold":
+            kwargs["hold_window"] = 7
+    return kwargs
+
+
+@pytest.mark.parametrize("name, schedule", ALL_VARIANTS)
 @pytest.mark.parametrize("with_q0", [False, True])
-def test_no_loss_every_method_equals_madgwick(arm, method, blend, schedule, with_q0):
+def test_no_loss_every_option_equals_madgwick(arm, name, schedule, with_q0):
     _, gyr, acc, mag = arm
     q0 = Q.normalize([0.3, -0.1, 0.8, 0.2]) if with_q0 else None
     ref = madgwick(gyr, acc, mag, fs=FS, beta=0.1, q0=q0)
-    kwargs = variant_kwargs(method, blend, schedule)
+    kwargs = variant_kwargs(name, schedule)
     for received in (None, np.ones(300, bool)):
         out, mu = estimate_orientation(
             gyr, acc, mag, fs=FS, beta=0.1, q0=q0, received=received, return_weight=True, **kwargs
@@ -270,23 +299,25 @@ def test_no_loss_every_method_equals_madgwick(arm, method, blend, schedule, with
 
 @pytest.mark.parametrize("with_q0", [False, True])
 @pytest.mark.parametrize("form", ["MARG", "IMU"])
-def test_hold_last_equals_madgwick_with_the_mask(arm, masks, with_q0, form):
+def test_the_defaults_are_madgwick_with_the_mask(arm, masks, with_q0, form):
+    """Every option at its default is the paper's receiver ("hold last"): madgwick itself."""
     _, gyr, acc, mag = arm
     mag = mag if form == "MARG" else None
     q0 = Q.normalize([0.3, -0.1, 0.8, 0.2]) if with_q0 else None
     ref = madgwick(gyr, acc, mag, fs=FS, beta=0.1, received=masks, q0=q0)
-    out = estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, received=masks, q0=q0, method="hold_last")
+    out = estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, received=masks, q0=q0)
     np.testing.assert_allclose(out, ref, atol=1e-12, rtol=0)
+    spelled = estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, received=masks, q0=q0, method="madgwick",
+                                   gap="hold", replay=False, output_on_lost="estimate", blend=None)
+    np.testing.assert_array_equal(spelled, out)
 
 
-@pytest.mark.parametrize("method, blend, schedule", ALL_VARIANTS)
-def test_lost_samples_hold_the_previous_output(arm, masks, method, blend, schedule):
+@pytest.mark.parametrize("name, schedule", [v for v in ALL_VARIANTS if holds_on_lost(OPTIONS[v[0]])])
+def test_lost_samples_hold_the_previous_output(arm, masks, name, schedule):
     _, gyr, acc, mag = arm
     gyr, acc, mag = gyr.copy(), acc.copy(), mag.copy()
     gyr[~masks], acc[~masks] = np.nan, 0.0  # lost samples are never read
-    out = estimate_orientation(
-        gyr, acc, mag, fs=FS, beta=0.1, received=masks, **variant_kwargs(method, blend, schedule)
-    )
+    out = estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, received=masks, **variant_kwargs(name, schedule))
     assert np.all(np.isfinite(out))
     np.testing.assert_allclose(np.linalg.norm(out, axis=-1), 1.0, atol=1e-12)
     b, t = np.nonzero(~masks[:, 1:])
@@ -294,6 +325,16 @@ def test_lost_samples_hold_the_previous_output(arm, masks, method, blend, schedu
     # Row 0 starts with a gap: it holds the initial estimate, TRIAD of the first received sample.
     first = np.argmax(masks[0])
     np.testing.assert_allclose(np.abs(np.sum(out[0, :first] * triad(acc[0, first], mag[0, first]), -1)), 1.0)
+
+
+def test_constant_rate_moves_on_lost_samples_and_never_reads_them(arm, masks):
+    _, gyr, acc, mag = arm
+    poisoned = [np.where(masks[..., None], x, np.nan) for x in (gyr, acc, mag)]
+    out = estimate_orientation(*poisoned, fs=FS, beta=0.1, received=masks, gap="constant_rate")
+    np.testing.assert_array_equal(out, estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, received=masks,
+                                                            gap="constant_rate"))
+    b, t = np.nonzero(~masks[:, 1:] & masks[:, :-1])  # first lost sample of each gap after a received one
+    assert np.min(angle_deg(out[b, t + 1], out[b, t])) > 1e-6
 
 
 # ================================================================ slow reference
@@ -305,8 +346,12 @@ def reference(
     mag,
     mask,
     *,
-    method,
-    blend="output",
+    method="madgwick",
+    replay=False,
+    gap="hold",
+    gap_time_constant=None,
+    output_on_lost="estimate",
+    blend=None,
     schedule="decay",
     hold_window=None,
     fs=FS,
@@ -316,60 +361,75 @@ def reference(
     beta_max=None,
     q0=None,
 ):
-    """One recording, sample by sample, following each method's documented rule literally."""
+    """One recording, sample by sample, following each option's documented rule literally."""
     dt = 1.0 / fs
     n = len(mask)
     first = int(np.argmax(mask))
     gap_mask = mask | (np.arange(n) < first) if q0 is None else mask
     mu = slerp_weight(effective_lost_run(gap_mask, schedule, hold_window), rho, tau)
     beta_max = 10 * beta if beta_max is None else beta_max
+    factor = 1.0 if gap_time_constant is None else np.exp(-dt / gap_time_constant)
     q = triad(acc[first], mag[first]) if q0 is None else q0
-    shown, gap, last, out = q, 0, None, []
+    shown, run, last, out = q, 0, None, []
+    q_last, w_gap = q, np.zeros(3)  # the state at the last received sample, the rate a predicted gap turns at
     for t in range(n):
         if q0 is None and t <= first:
             out.append(q)
             last = t
             continue
         if not mask[t]:
-            gap += 1
-            out.append(shown)
+            run += 1
+            if gap == "constant_rate" and last is not None:  # dead reckoning, gyroscope only
+                w_gap = w_gap * factor
+                q = madgwick_step(q, w_gap, [0.0, 0.0, 1.0], None, dt, 0.0)
+                shown = q
+            out.append(out[-1] if output_on_lost == "hold" and out else shown)
             continue
-        if method == "gyro_interpolation":  # replay the gap now, gyro only
-            for s in range(t - gap, t):
+        if replay and run > 0:  # re-run the gap now from the state at its start, gyro only
+            q = q_last
+            for s in range(t - run, t):
                 w = gyr[t] if last is None else gyr[last] + (gyr[t] - gyr[last]) * (s - last) / (t - last)
                 q = madgwick_step(q, w, [0.0, 0.0, 1.0], None, dt, 0.0)
-        # dt_extension: the gyroscope term over (1 + gap)Δt, the correction over Δt.
-        w = gyr[t] * (1 + gap) if method == "dt_extension" else gyr[t]
+        # dt_extension: the gyroscope term over (1 + run)Δt, the correction over Δt.
+        w = gyr[t] * (1 + run) if method == "dt_extension" else gyr[t]
         b = beta + (beta_max - beta) * (1 - mu[t]) if method == "adaptive_beta" else beta
         q = madgwick_step(q, w, acc[t], None if mag is None else mag[t], dt, b)
         shown = q
-        if method == "hybrid" and mu[t] < 1:
+        if blend is not None and mu[t] < 1:
             q_f = Q.slerp(triad(acc[t], mag[t]), q, mu[t])
             shown = q_f
             if blend == "feedback":
                 q = q_f
         out.append(shown)
-        gap, last = 0, t
+        run, last, q_last, w_gap = 0, t, q, gyr[t]
     return np.array(out)
 
 
 REFERENCE_CASES = [
-    {"method": "hold_last"},
+    {},
     {"method": "dt_extension"},
-    {"method": "gyro_interpolation"},
+    {"replay": True},
     {"method": "adaptive_beta"},
     {"method": "adaptive_beta", "schedule": "hold", "hold_window": 10, "beta_max": 0.5},
-    {"method": "hybrid", "blend": "output"},
-    {"method": "hybrid", "blend": "feedback"},
-    {"method": "hybrid", "blend": "output", "schedule": "hold", "hold_window": 20, "rho": 1.0, "tau": 3.0},
-    {"method": "hybrid", "blend": "feedback", "schedule": "hold", "hold_window": 20},
+    {"blend": "output"},
+    {"blend": "feedback"},
+    {"blend": "output", "schedule": "hold", "hold_window": 20, "rho": 1.0, "tau": 3.0},
+    {"blend": "feedback", "schedule": "hold", "hold_window": 20},
+    {"gap": "constant_rate"},
+    {"gap": "constant_rate", "gap_time_constant": 0.1},
+    {"gap": "constant_rate", "replay": True},
+    {"gap": "constant_rate", "output_on_lost": "hold"},
+    {"output_on_lost": "hold", "replay": True, "blend": "feedback"},
+    {"replay": True, "blend": "output", "gap": "constant_rate"},
+    {"method": "adaptive_beta", "blend": "output"},
+    {"method": "adaptive_beta", "blend": "feedback", "gap": "constant_rate", "replay": True},
 ]
 
 
-@pytest.mark.parametrize("case", REFERENCE_CASES, ids=lambda c: "-".join(str(v) for v in c.values()))
+@pytest.mark.parametrize("case", REFERENCE_CASES, ids=lambda c: "-".join(str(v) for v in c.values()) or "defaults")
 @pytest.mark.parametrize("with_q0", [False, True])
 def test_batch_filter_equals_slow_reference(arm, masks, case, with_q0):
-    """Includes the equivalence of the one-pass gyro interpolation with a replay at the gap's end."""
+    """Includes the equivalence of the one-pass compiled replay with a replay at the gap's end."""
     _, gyr, acc, mag = arm
     n = 150
     q0 = Q.normalize([0.3, -0.1, 0.8, 0.2]) if with_q0 else None
@@ -381,27 +441,29 @@ def test_batch_filter_equals_slow_reference(arm, masks, case, with_q0):
         assert np.max(angle_deg(out[i], ref)) < 1e-9
 
 
-@pytest.mark.parametrize("method", ["dt_extension", "gyro_interpolation", "adaptive_beta"])
-def test_imu_form_equals_slow_reference(arm, masks, method):
+@pytest.mark.parametrize("case", [{"method": "dt_extension"}, {"replay": True}, {"method": "adaptive_beta"},
+                                  {"gap": "constant_rate"}, {"gap": "constant_rate", "replay": True}],
+                         ids=lambda c: "-".join(str(v) for v in c.values()))
+def test_imu_form_equals_slow_reference(arm, masks, case):
     _, gyr, acc, _ = arm
     n = 120
     q0 = Q.normalize([0.3, -0.1, 0.8, 0.2])
     out = estimate_orientation(
-        gyr[:, :n], acc[:, :n], None, fs=FS, beta=0.1, received=masks[:, :n], q0=q0, method=method
+        gyr[:, :n], acc[:, :n], None, fs=FS, beta=0.1, received=masks[:, :n], q0=q0, **case
     )
     for i in range(4):
-        ref = reference(gyr[i, :n], acc[i, :n], None, masks[i, :n], method=method, q0=q0)
+        ref = reference(gyr[i, :n], acc[i, :n], None, masks[i, :n], q0=q0, **case)
         assert np.max(angle_deg(out[i], ref)) < 1e-9
 
 
-# ================================================================ the methods do what they promise
+# ================================================================ the options do what they promise
 
 
 def test_dt_extension_recovers_constant_rate_motion():
     q_true, gyr, acc, mag = rotation_at_rate(lambda t: np.full_like(t, 1.0), 200)
     mask = burst_mask(200, 80, 4, align="exact")  # samples 80-103 lost
     kwargs = {"fs": FS, "beta": 0.05, "received": mask}
-    hold = estimate_orientation(gyr, acc, mag, method="hold_last", **kwargs)
+    hold = estimate_orientation(gyr, acc, mag, **kwargs)
     ext = estimate_orientation(gyr, acc, mag, method="dt_extension", **kwargs)
     err_hold, err_ext = angle_deg(hold, q_true)[104], angle_deg(ext, q_true)[104]
     assert err_hold > 20.0  # 24 samples at 1 rad/s ≈ 27°, minus one correction step
@@ -410,27 +472,44 @@ def test_dt_extension_recovers_constant_rate_motion():
 
 
 @pytest.mark.parametrize("rate", [lambda t: np.full_like(t, 1.0), lambda t: 0.2 + 0.6 * t], ids=["constant", "linear"])
-def test_gyro_interpolation_recovers_the_missed_rotation(rate):
+def test_replay_recovers_the_missed_rotation(rate):
+    """Paper 001's gyroscope interpolation (replay=True) recovers what the gap turned."""
     q_true, gyr, acc, mag = rotation_at_rate(rate, 200)
     mask = burst_mask(200, 80, 4, align="exact")
     kwargs = {"fs": FS, "beta": 0.05, "received": mask}
-    hold = estimate_orientation(gyr, acc, mag, method="hold_last", **kwargs)
-    interp = estimate_orientation(gyr, acc, mag, method="gyro_interpolation", **kwargs)
+    hold = estimate_orientation(gyr, acc, mag, **kwargs)
+    interp = estimate_orientation(gyr, acc, mag, replay=True, **kwargs)
     lossless = madgwick(gyr, acc, mag, fs=FS, beta=0.05)
     err_hold, err_interp = angle_deg(hold, q_true)[104], angle_deg(interp, q_true)[104]
     assert err_hold > 15.0
     assert err_interp < 0.05 * err_hold
     # Exact interpolation of ω: as good as never losing anything, up to the skipped corrections.
     assert angle_deg(interp, lossless)[104] < 0.5
-    # Held during the gap, like every method: nothing is known there yet.
+    # Held during the gap (gap="hold"): nothing is known there yet.
     np.testing.assert_array_equal(interp[80:104], np.broadcast_to(interp[79], (24, 4)))
 
 
-def test_adaptive_beta_recovers_faster_than_hold_last(arm):
+def test_constant_rate_recovers_constant_rate_motion_and_replay_ignores_the_prediction():
+    q_true, gyr, acc, mag = rotation_at_rate(lambda t: 0.2 + 0.6 * t, 200)
+    mask = burst_mask(200, 80, 4, align="exact")
+    kwargs = {"fs": FS, "beta": 0.05, "received": mask}
+    hold = estimate_orientation(gyr, acc, mag, **kwargs)
+    predicted = estimate_orientation(gyr, acc, mag, gap="constant_rate", **kwargs)
+    err_hold, err_pred = angle_deg(hold, q_true)[80:104], angle_deg(predicted, q_true)[80:104]
+    assert err_hold[-1] > 15.0 and err_pred[-1] < 0.3 * err_hold[-1]  # the rate rose in the gap: not exact
+    # The replay starts from the state at the gap's start: what the state did in the gap no longer matters.
+    replay_hold = estimate_orientation(gyr, acc, mag, replay=True, **kwargs)
+    replay_pred = estimate_orientation(gyr, acc, mag, gap="constant_rate", replay=True, **kwargs)
+    np.testing.assert_array_equal(replay_pred[80:104], predicted[80:104])  # causal: the gap's output stays
+    np.testing.assert_allclose(replay_pred[104:], replay_hold[104:], atol=1e-12, rtol=0)
+    assert angle_deg(replay_pred, q_true)[104] < angle_deg(predicted, q_true)[104]
+
+
+def test_adaptive_beta_recovers_faster_than_plain_madgwick(arm):
     q_true, gyr, acc, mag = arm
     mask = burst_mask(300, 80, 4)  # samples 84-107 lost, the paper's case
     kwargs = {"fs": FS, "beta": 0.1, "received": mask}
-    hold = angle_deg(estimate_orientation(gyr, acc, mag, method="hold_last", **kwargs), q_true)
+    hold = angle_deg(estimate_orientation(gyr, acc, mag, **kwargs), q_true)
     adapt = angle_deg(estimate_orientation(gyr, acc, mag, method="adaptive_beta", **kwargs), q_true)
     after = slice(113, 160)  # from a few samples after the gap until the arm is up
     assert np.mean(adapt[:, after]) < 0.6 * np.mean(hold[:, after])
@@ -443,7 +522,7 @@ def test_hybrid_with_mu_near_zero_outputs_triad_after_a_gap(arm, blend):
     _, gyr, acc, mag = arm
     mask = burst_mask(300, 80, 4)
     out, mu = estimate_orientation(
-        gyr, acc, mag, fs=FS, beta=0.1, received=mask, method="hybrid", rho=1e-9, blend=blend, return_weight=True
+        gyr, acc, mag, fs=FS, beta=0.1, received=mask, rho=1e-9, blend=blend, return_weight=True
     )
     after = (mu < 1.0) & mask  # received samples with λ_eff > 0: the 24 after the gap (decay)
     assert after.sum() == 4 * 24
@@ -456,7 +535,7 @@ def test_hybrid_with_mu_near_zero_outputs_triad_after_a_gap(arm, blend):
 def test_hybrid_feedback_and_output_differ_only_after_a_gap(arm):
     _, gyr, acc, mag = arm
     mask = burst_mask(300, 80, 4)
-    kwargs = {"fs": FS, "beta": 0.1, "method": "hybrid"}
+    kwargs = {"fs": FS, "beta": 0.1}
     output = estimate_orientation(gyr, acc, mag, received=mask, blend="output", **kwargs)
     feedback = estimate_orientation(gyr, acc, mag, received=mask, blend="feedback", **kwargs)
     np.testing.assert_allclose(output[:, :108], feedback[:, :108], atol=1e-12)  # up to the first blend
@@ -467,27 +546,43 @@ def test_hybrid_feedback_and_output_differ_only_after_a_gap(arm):
     )
 
 
+def test_blend_with_adaptive_beta_blends_the_adaptive_state(arm):
+    """blend="output" on adaptive β: the state is adaptive β's, the output its SLERP towards TRIAD."""
+    _, gyr, acc, mag = arm
+    mask = burst_mask(300, 80, 4)
+    kwargs = {"fs": FS, "beta": 0.1, "received": mask, "method": "adaptive_beta"}
+    adaptive = estimate_orientation(gyr, acc, mag, **kwargs)
+    both, mu = estimate_orientation(gyr, acc, mag, blend="output", return_weight=True, **kwargs)
+    blended = (mu < 1.0) & mask
+    np.testing.assert_array_equal(both[~blended], adaptive[~blended])
+    b, t = np.nonzero(blended)
+    ref = Q.slerp(triad(acc[b, t], mag[b, t]), adaptive[b, t], mu[b, t])
+    assert np.max(angle_deg(both[b, t], ref)) < 1e-9
+    assert np.max(angle_deg(both[b, t], adaptive[b, t])) > 0.5
+
 
 @pytest.mark.parametrize("blend", ["output", "feedback"])
 def test_hybrid_on_one_unbatched_recording_equals_its_row_of_a_batch(arm, blend):
     _, gyr, acc, mag = arm
     mask = burst_mask(300, 80, 4)
-    kwargs = {"fs": FS, "beta": 0.1, "method": "hybrid", "blend": blend, "received": mask}
+    kwargs = {"fs": FS, "beta": 0.1, "blend": blend, "received": mask}
     batched = estimate_orientation(gyr, acc, mag, **kwargs)
     one = estimate_orientation(gyr[1], acc[1], mag[1], **kwargs)  # (T, 3) signals: no batch dimension
     assert one.shape == (300, 4)
     np.testing.assert_allclose(one, batched[1], atol=1e-12)
 
+
 @pytest.mark.parametrize(
     "case",
     [
-        {"method": "hybrid", "blend": "output"},
-        {"method": "hybrid", "blend": "feedback"},
+        {"blend": "output"},
+        {"blend": "feedback"},
         {"method": "adaptive_beta"},
-        {"method": "hybrid", "blend": "feedback", "schedule": "hold", "hold_window": np.array([[[5]], [[30]]])},
-        {"method": "hybrid", "blend": "output", "schedule": "hold", "hold_window": np.array([[[5]], [[30]]])},
+        {"method": "adaptive_beta", "blend": "feedback"},
+        {"blend": "feedback", "schedule": "hold", "hold_window": np.array([[[5]], [[30]]])},
+        {"blend": "output", "schedule": "hold", "hold_window": np.array([[[5]], [[30]]])},
     ],
-    ids=["output", "feedback", "adaptive_beta", "feedback-hold", "output-hold"],
+    ids=["output", "feedback", "adaptive_beta", "adaptive_beta-feedback", "feedback-hold", "output-hold"],
 )
 def test_parameter_grid_in_one_pass_equals_separate_runs(arm, masks, case):
     _, gyr, acc, mag = arm
@@ -510,31 +605,33 @@ def test_parameter_grid_in_one_pass_equals_separate_runs(arm, masks, case):
             np.testing.assert_allclose(out[i, j], ref, atol=1e-12)
 
 
-def test_methods_without_rho_tau_are_not_broadcast_over_them(arm, masks):
+def test_options_without_mu_are_not_broadcast_over_rho(arm, masks):
+    """With return_weight, ρ shapes μ only; the quaternions of an option without μ keep their shape."""
     _, gyr, acc, mag = arm
     rho = np.ones((5, 1))
-    for method in ("hold_last", "dt_extension", "gyro_interpolation"):
+    for options in ({}, {"method": "dt_extension"}, {"replay": True}, {"gap": "constant_rate"}):
         out, mu = estimate_orientation(
-            gyr, acc, mag, fs=FS, beta=0.1, received=masks, method=method, rho=rho, return_weight=True
+            gyr, acc, mag, fs=FS, beta=0.1, received=masks, rho=rho, return_weight=True, **options
         )
         assert out.shape == (4, 300, 4)
         assert mu.shape == (5, 4, 300)
-    out = estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, received=masks, method="hybrid", rho=rho)
+    out = estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, received=masks, blend="output", rho=rho)
     assert out.shape == (5, 4, 300, 4)
 
 
-def test_empty_recording_with_q0():
+@pytest.mark.parametrize("name", list(OPTIONS))
+def test_empty_recording_with_q0(name):
     q0 = [1.0, 0.0, 0.0, 0.0]
     empty = np.zeros((3, 0, 3))
-    for method in METHODS:
-        out, mu = estimate_orientation(empty, empty, empty, fs=FS, beta=0.1, q0=q0, method=method, return_weight=True)
-        assert out.shape == (3, 0, 4)
-        assert mu.shape == (3, 0)
+    out, mu = estimate_orientation(empty, empty, empty, fs=FS, beta=0.1, q0=q0, return_weight=True,
+                                   received=np.zeros((3, 0), bool), **OPTIONS[name])
+    assert out.shape == (3, 0, 4)
+    assert mu.shape == (3, 0)
 
 
 def test_deterministic(arm, masks):
     _, gyr, acc, mag = arm
-    kwargs = {"fs": FS, "beta": 0.1, "received": masks, "method": "hybrid", "blend": "feedback"}
+    kwargs = {"fs": FS, "beta": 0.1, "received": masks, "blend": "feedback", "gap": "constant_rate", "replay": True}
     np.testing.assert_array_equal(
         estimate_orientation(gyr, acc, mag, **kwargs), estimate_orientation(gyr, acc, mag, **kwargs)
     )
@@ -543,30 +640,46 @@ def test_deterministic(arm, masks):
 # ================================================================ errors
 
 
+#: The hybrid, which uses ρ, τ, schedule and hold_window (without it they are refused: test_loss_vocabulary.py).
+H = {"blend": "output"}
+
+
 @pytest.mark.parametrize(
     "change, name",
     [
-        ({"method": "slerp"}, "method.*'hold_last'.*'hybrid'"),
-        ({"schedule": "exp"}, "schedule.*'decay'"),
+        ({"method": "slerp"}, "method.*'madgwick'.*'dt_extension'.*'adaptive_beta'"),
+        ({"method": None}, "method"),
+        ({**H, "schedule": "exp"}, "schedule.*'decay'"),
         ({"blend": "both"}, "blend.*'output'.*'feedback'"),
-        ({"rho": 0.0}, "rho"),
-        ({"rho": -2.0}, "rho"),
-        ({"rho": np.nan}, "rho"),
-        ({"rho": np.inf}, "rho"),
-        ({"tau": 0}, "tau"),
-        ({"tau": np.nan}, "tau"),
-        ({"tau": np.inf}, "tau"),
-        ({"tau": np.ones(3)}, "tau"),
+        ({"gap": "linear"}, "gap.*'hold'.*'constant_rate'"),
+        ({"gap": "ar"}, "gap='ar' is not available for estimate_orientation"),
+        ({"output_on_lost": "previous"}, "output_on_lost.*'estimate'.*'hold'"),
+        ({"replay": 1}, "replay"),
+        ({"replay": "yes"}, "replay"),
+        ({"gap": "constant_rate", "gap_time_constant": 0.0}, "gap_time_constant"),
+        ({"gap": "constant_rate", "gap_time_constant": np.nan}, "gap_time_constant"),
+        ({"method": "dt_extension", "gap": "constant_rate"}, "dt_extension.*constant_rate"),
+        ({"method": "dt_extension", "replay": True}, "dt_extension.*replay"),
+        ({**H, "rho": 0.0}, "rho"),
+        ({**H, "rho": -2.0}, "rho"),
+        ({**H, "rho": np.nan}, "rho"),
+        ({**H, "rho": np.inf}, "rho"),
+        ({**H, "tau": 0}, "tau"),
+        ({**H, "tau": np.nan}, "tau"),
+        ({**H, "tau": np.inf}, "tau"),
+        ({**H, "tau": np.ones(3)}, "tau"),
         ({"beta": -0.1}, "beta"),
         ({"beta": np.nan}, "beta"),
-        ({"beta_max": 0.05}, "beta_max"),
-        ({"beta_max": np.nan}, "beta_max"),
-        ({"beta": [0.1, 0.2], "beta_max": 0.15}, "beta_max"),
-        ({"schedule": "hold", "hold_window": 0}, "hold_window"),
-        ({"schedule": "hold", "hold_window": 2.5}, "hold_window"),
-        ({"schedule": "hold", "hold_window": [3, -1]}, "hold_window"),
-        ({"hold_window": 10}, "hold_window"),
-        ({"mag": None}, "mag"),
+        ({"method": "adaptive_beta", "beta_max": 0.05}, "beta_max"),
+        ({"method": "adaptive_beta", "beta_max": np.nan}, "beta_max"),
+        ({"method": "adaptive_beta", "beta": [0.1, 0.2], "beta_max": 0.15}, "beta_max"),
+        ({**H, "schedule": "hold", "hold_window": 0}, "hold_window"),
+        ({**H, "schedule": "hold", "hold_window": 2.5}, "hold_window"),
+        ({**H, "schedule": "hold", "hold_window": [3, -1]}, "hold_window"),
+        ({**H, "hold_window": 10}, "hold_window"),
+        ({**H, "mag": None}, "mag"),
+        ({**H, "single_frame_gate": True, "return_weight": True}, "return_weight"),
+        ({**H, "single_frame_gate": "yes"}, "single_frame_gate"),
         ({"gyr": np.zeros((2, 100, 4))}, "gyr"),
         ({"acc": np.ones((2, 99, 3))}, "acc"),
         ({"received": np.ones((2, 100))}, "received"),
@@ -586,12 +699,28 @@ def test_estimate_orientation_bad_input(change, name):
         "fs": FS,
         "beta": 0.1,
         "received": np.ones((2, 100), bool),
-        "method": "hybrid",
     }
-    if "beta_max" in change:
-        good["method"] = "adaptive_beta"
     with pytest.raises(ValueError, match=name):
         estimate_orientation(**(good | change))
+
+
+@pytest.mark.parametrize(
+    "old, now",
+    [("hold_last", "the default"), ("gyro_interpolation", "replay=True"), ("hybrid", "blend='output'"),
+     ("kalman", "kalman_orientation")],
+)
+def test_earlier_method_names_are_refused_with_their_new_spelling(arm, old, now):
+    _, gyr, acc, mag = arm
+    with pytest.raises(ValueError, match=f"method={old!r} is now .*{now}"):
+        estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, method=old)
+
+
+def test_beta_is_required_and_earlier_keywords_are_gone(arm):
+    _, gyr, acc, mag = arm
+    with pytest.raises(TypeError, match="beta"):
+        estimate_orientation(gyr, acc, mag, fs=FS)
+    with pytest.raises(TypeError, match="kalman_settings"):
+        estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, kalman_settings=None)
 
 
 def test_received_sample_errors_are_madgwicks(arm):

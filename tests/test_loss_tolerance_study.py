@@ -9,8 +9,9 @@ import pytest
 from _recordings import turning_recording
 
 from wsnlib import loss, loto, plotting, stats
+from wsnlib.orientation import KalmanSettings
 from wsnlib.studies import loss_tolerance as lt
-from wsnlib.studies import loss_tolerance_summary as lts
+from wsnlib.studies.loss_tolerance import summary as lts
 
 
 def _recording(seed, n=600):
@@ -51,15 +52,15 @@ def test_registry_grids_kinds_and_colours():
 
 
 def test_settings_grid_and_grid_overrides():
-    grid = lt.settings_grid({"mag_norm_gate": 0.05}, gap_replay=(True, False), acc_innovation_gate=(13.8, 6.0))
-    assert grid == ({"mag_norm_gate": 0.05, "gap_replay": True, "acc_innovation_gate": 13.8},
-                    {"mag_norm_gate": 0.05, "gap_replay": True, "acc_innovation_gate": 6.0},
-                    {"mag_norm_gate": 0.05, "gap_replay": False, "acc_innovation_gate": 13.8},
-                    {"mag_norm_gate": 0.05, "gap_replay": False, "acc_innovation_gate": 6.0})
-    with pytest.raises(ValueError, match="gap_replay"):
-        lt.settings_grid(gap_replay=())
-    methods = lt.default_methods(grids={"Kalman": lt.settings_grid(gap_replay=(False,))})
-    assert methods["Kalman"].grid == ({"gap_replay": False},)
+    grid = lt.settings_grid({"mag_norm_gate": 0.05}, replay=(True, False), acc_innovation_gate=(13.8, 6.0))
+    assert grid == ({"mag_norm_gate": 0.05, "replay": True, "acc_innovation_gate": 13.8},
+                    {"mag_norm_gate": 0.05, "replay": True, "acc_innovation_gate": 6.0},
+                    {"mag_norm_gate": 0.05, "replay": False, "acc_innovation_gate": 13.8},
+                    {"mag_norm_gate": 0.05, "replay": False, "acc_innovation_gate": 6.0})
+    with pytest.raises(ValueError, match="replay"):
+        lt.settings_grid(replay=())
+    methods = lt.default_methods(grids={"Kalman": lt.settings_grid(replay=(False,))})
+    assert methods["Kalman"].grid == ({"replay": False},)
     assert methods["smoother"].grid == lt.SMOOTHER_GRID
     with pytest.raises(ValueError, match="unknown method"):
         lt.default_methods(grids={"Kalmann": lt.KALMAN_GRID})
@@ -69,11 +70,13 @@ def test_settings_grid_and_grid_overrides():
 
 def test_registry_options_and_side_question_pairs():
     methods = lt.default_methods()
-    # Every Kalman/smoother setting is a valid KalmanSettings (a typo would raise here, not mid-study).
+    # Every Kalman/smoother setting is a valid KalmanSettings (a typo would raise here, not mid-study),
+    # apart from the Kalman filter's replay (a keyword of kalman_orientation; the smoother never replays).
     for name in ("Kalman", "smoother"):
         assert len(methods[name].grid) == lt.MAX_SETTINGS
         for setting in methods[name].grid:
-            lt.KalmanSettings(**setting)
+            KalmanSettings(**{k: v for k, v in setting.items() if k != "replay" or name != "Kalman"})
+    assert {s["replay"] for s in lt.KALMAN_GRID} == {True, False}
     assert all(s["mag_norm_gate"] == 0.05 for s in lt.SMOOTHER_GRID)
     for without, with_ in lt.GATING_PAIRS + lt.GAP_PREDICTION_PAIRS:
         assert methods[without].kind == methods[with_].kind and methods[without].grid == methods[with_].grid
@@ -93,6 +96,35 @@ def test_gap_prediction_and_gate_change_nothing_without_loss_but_act_under_loss(
     plain = methods["hybrid (feedback)"].run(rec, setting, masks)
     gated = methods["gated hybrid (feedback)"].run(rec, setting, masks)
     assert plain.shape == gated.shape == (2, 400, 4) and np.isfinite(gated).all()
+
+
+def test_registry_runs_the_filters_with_the_loss_vocabulary():
+    """The registry's methods are the orientation filters with the keywords of their names."""
+    from wsnlib.orientation import estimate_orientation, fusion_orientation, kalman_orientation, madgwick
+
+    rec = _recording(1, n=300)
+    masks = np.stack([lt.PROFILES[1].mask(300, lt.FS, None), np.arange(300) % 9 != 4])
+    methods = lt.default_methods()
+    args = (rec.gyr, rec.acc, rec.mag)
+    beta = {"beta": 0.041}
+    expected = {"hold_last": madgwick(*args, fs=lt.FS, beta=0.041, received=masks),
+                "constant_rate": estimate_orientation(*args, fs=lt.FS, beta=0.041, received=masks, gap="constant_rate"),
+                "gyro_interpolation": estimate_orientation(*args, fs=lt.FS, beta=0.041, received=masks, replay=True)}
+    for name, quat in expected.items():
+        np.testing.assert_array_equal(methods[name].run(rec, beta, masks), quat)
+    for replay in (True, False):
+        setting = {"replay": replay, "acc_disturbance_factor": 16.0}
+        np.testing.assert_array_equal(
+            methods["Kalman"].run(rec, setting, masks),
+            kalman_orientation(*args, fs=lt.FS, received=masks, settings=KalmanSettings(acc_disturbance_factor=16.0),
+                               replay=replay))
+    assert not np.array_equal(methods["Kalman"].run(rec, {"replay": True}, masks),
+                              methods["Kalman"].run(rec, {"replay": False}, masks))
+    setting = {"gain": 0.5, "rho_tau": 6}
+    signals = [np.broadcast_to(x, masks.shape + (3,)) for x in args]
+    np.testing.assert_array_equal(methods["Fusion + hybrid (feedback)"].run(rec, setting, masks),
+                                  fusion_orientation(*signals, fs=lt.FS, received=masks, gain=0.5, blend="feedback",
+                                                     rho=1.0, tau=6))
 
 
 def test_single_frame_trust_falls_under_acceleration():
@@ -296,7 +328,7 @@ def test_gain_after_gap_exercise_checker():
 
 def test_weight_vs_gap_reads_the_kalman_settings():
     from wsnlib.orientation import KalmanSettings
-    from wsnlib.studies import loss_tolerance_tables as ltt
+    from wsnlib.studies.loss_tolerance import tables as ltt
 
     weights = ltt.weight_vs_gap([0, 6, 24, 96], fs=50.0, prior_std_deg=1.0, rho=1.0, tau=6.0)
     paper = weights["paper: μ(λ), ρ = 1, τ = 6"].to_numpy()
@@ -318,7 +350,7 @@ def test_weight_vs_gap_reads_the_kalman_settings():
 
 
 def test_method_and_profile_tables_and_figure_inputs():
-    from wsnlib.studies import loss_tolerance_tables as ltt
+    from wsnlib.studies.loss_tolerance import tables as ltt
 
     methods = _small_methods()
     table = ltt.method_table(methods)
@@ -336,7 +368,7 @@ def test_method_and_profile_tables_and_figure_inputs():
 
 
 def test_slow_and_fast_trials_prefer_undisturbed():
-    from wsnlib.studies import loss_tolerance_tables as ltt
+    from wsnlib.studies.loss_tolerance import tables as ltt
 
     rates = pd.Series({"a_undisturbed": 30.0, "b_undisturbed": 90.0, "c_disturbed": 5.0, "d_disturbed": 200.0})
     assert ltt.slow_and_fast_trials(rates) == {"slowest": "a_undisturbed", "fastest": "b_undisturbed"}
@@ -349,7 +381,7 @@ def test_slow_and_fast_trials_prefer_undisturbed():
 
 
 def test_worst_burst_end_and_window():
-    from wsnlib.studies import loss_tolerance_tables as ltt
+    from wsnlib.studies.loss_tolerance import tables as ltt
 
     n, fs = 400, 50.0
     received = np.ones(n, bool)
@@ -371,7 +403,7 @@ def test_worst_burst_end_and_window():
 
 
 def test_headline_tables_from_the_study(small_study):
-    from wsnlib.studies import loss_tolerance_tables as ltt
+    from wsnlib.studies.loss_tolerance import tables as ltt
 
     _, result = small_study
     per_trial = result.per_trial
@@ -394,7 +426,7 @@ def test_headline_tables_from_the_study(small_study):
 
 def test_paper_vs_ours_and_sentences():
     from wsnlib import paper_values
-    from wsnlib.studies import loss_tolerance_tables as ltt
+    from wsnlib.studies.loss_tolerance import tables as ltt
 
     shown = ["hold_last", "hybrid (feedback)", "Kalman", "smoother", "VQF"]
     rows = [{"profile": "paper burst", "metric": metric, "method": m, "mean": 10.0 * (i + 1) + k,
@@ -413,7 +445,7 @@ def test_paper_vs_ours_and_sentences():
 
 
 def test_summary_bullets(small_study):
-    from wsnlib.studies import loss_tolerance_tables as ltt
+    from wsnlib.studies.loss_tolerance import tables as ltt
 
     _, result = small_study
     per_trial = result.per_trial
@@ -430,3 +462,102 @@ def test_summary_bullets(small_study):
     assert bullets[2].endswith(lts.diagnosis_sentence(per_trial, "Kalman"))
     assert bullets[3] == "* **Does it help?** " + " ".join(lts.comparison_sentences(comparison.iloc[:1]))
     assert len(bullets) == 4
+
+
+# --- draws, notebook 05's registry and reading, the command line -----------------------------------
+
+
+def test_draws_are_rows_and_summaries_average_them():
+    recordings = {f"trial{i}": _recording(i, n=400) for i in range(3)}
+    methods = {name: m for name, m in _small_methods().items() if name in ("hold_last", "Kalman")}
+    profiles = [lt.PROFILES[0], loss.LossProfile.gilbert_elliott(0.2, name="GE 20 %"), lt.PROFILES[1]]
+    one = lt.evaluate(recordings, rng=np.random.default_rng(3), methods=methods, profiles=profiles,
+                      headline="GE 20 %", progress=False)
+    three = lt.evaluate(recordings, rng=np.random.default_rng(3), methods=methods, profiles=profiles,
+                        headline="GE 20 %", draws=3, progress=False)
+    rows = three.per_trial
+    assert sorted(rows.loc[rows["profile"] == "GE 20 %", "draw"].unique()) == [0, 1, 2]
+    assert (rows.loc[rows["profile"] != "GE 20 %", "draw"] == 0).all()  # deterministic profiles: one mask
+    # The first draw is the single draw's mask (the same generator), later ones differ.
+    first = rows[(rows["profile"] == "GE 20 %") & (rows["draw"] == 0)].reset_index(drop=True)
+    single = one.per_trial[one.per_trial["profile"] == "GE 20 %"].reset_index(drop=True)
+    pd.testing.assert_series_equal(first["lost_share"], single["lost_share"])
+    assert rows.loc[(rows["profile"] == "GE 20 %"), "lost_share"].nunique() > 3
+    # Summaries read the mean over a trial's draws; tuning scores the mean over the headline's draws.
+    table = lts.trial_table(rows, "GE 20 %", "rmse_total")
+    expected = rows[rows["profile"] == "GE 20 %"].groupby(["trial", "method"])["rmse_total"].mean().unstack()
+    pd.testing.assert_frame_equal(table, expected[table.columns], check_names=False)
+    assert {"rmse_heading", "rmse_inclination"} <= set(three.tuning.columns)
+    with pytest.raises(ValueError, match="draws"):
+        lt.evaluate(recordings, rng=np.random.default_rng(3), methods=methods, profiles=profiles,
+                    headline="GE 20 %", draws=0)
+
+
+def test_paper001_registry_and_profiles():
+    from wsnlib.studies.hybrid_tuning import RECOMMENDED_HYBRID
+    from wsnlib.studies.loss_tolerance import paper001
+
+    methods = lt.paper001_methods(RECOMMENDED_HYBRID, [0.01, 0.1], [0.5, 1.0], [1.5, 3.0])
+    assert list(methods)[:6] == [*paper001.OUR_OPTIONS, "single frame"]
+    assert methods["gyro_interpolation"].latency == "gap" and methods["VQF + hybrid (output)"].kind == "peer"
+    for name in methods:
+        plotting.method_style(name)
+    profiles = lt.paper001_profiles((0.1,), burst_packets=4, burst_period_s=8.0)
+    assert [p.name for p in profiles] == ["lossless", paper001.BURST, "GE 10 %"]
+    # Without loss every option of ours is plain Madgwick and the peers' hybrids are the peers.
+    rec = _recording(1, n=300)
+    rx = np.ones((1, 300), bool)
+    plain = methods["hold_last"].run(rec, {"beta": 0.1}, rx)
+    for name in paper001.OUR_OPTIONS:
+        np.testing.assert_array_equal(methods[name].run(rec, {"beta": 0.1}, rx), plain)
+    np.testing.assert_array_equal(methods["Fusion + hybrid (feedback)"].run(rec, {"gain": 0.5}, rx),
+                                  methods["Fusion"].run(rec, {"gain": 0.5}, rx))
+    # Under the paper's burst they differ.
+    burst = profiles[1].mask(300, lt.FS, None, shape=(1,))
+    assert not np.allclose(methods["hybrid"].run(rec, {"beta": 0.1}, burst), plain)
+
+
+def test_paper001_tables_and_findings():
+    from wsnlib.studies.hybrid_tuning import RECOMMENDED_HYBRID
+    from wsnlib.studies.loss_tolerance import paper001
+
+    names = ["02_undisturbed_slow_rotation_B", "07_undisturbed_fast_rotation_B", "30_disturbed_stationary_magnet_C"]
+    recordings = {name: _recording(i, n=500) for i, name in enumerate(names)}
+    methods = lt.paper001_methods(RECOMMENDED_HYBRID, [0.01, 0.1], [0.5, 1.0], [1.5, 3.0])
+    result = lt.evaluate(recordings, rng=np.random.default_rng(5), methods=methods,
+                         profiles=lt.paper001_profiles((0.1,), burst_period_s=4.0), headline="lossless",
+                         progress=False)
+    summary, settings = paper001.tuning_summary(result.tuning, result.choices, methods)
+    assert list(summary.index) == list(paper001.TUNED) and list(settings.index) == names
+    assert np.isnan(summary.loc["Madgwick", "median RMSE, library default (°)"])   # β has no default
+    assert np.isfinite(summary.loc["Fusion", "median RMSE, library default (°)"])  # 0.5 is in the grid
+    bursts = paper001.burst_table(result.per_trial)
+    assert set(bursts["method"]) == set(methods) and (bursts["n_gaps_scored"] > 0).all()
+    assert paper001.trial_groups(names) == {"slow rotation": names[:1], "fast": names[1:2], "magnet": names[2:]}
+    found = paper001.findings(result.per_trial, recordings, {"Fusion": 1.0, "VQF": 2.0, "Fusion default": 1.5},
+                              rng=np.random.default_rng(0), n_boot=200)
+    assert found["closest trial"] in names and (found["triad factor"].index == names).all()
+    assert "What carries over" in found["text"] and "(at its default: 1.5°)" in found["text"]
+
+
+def test_command_line_runs_on_two_broad_trials(tmp_path):
+    """``python -m wsnlib.studies.loss_tolerance --quick``: the tables, a verdict per target, the per-trial CSV."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from wsnlib import paths
+
+    shared = paths.ROOT.parent / "shared" / "data" / "broad"
+    folder = os.environ.get("WSNLIB_BROAD_DIR") or (str(shared) if shared.is_dir() else "")
+    if not folder or len(list(Path(folder).glob("*.mat"))) < 2:
+        pytest.skip("needs two BROAD trials (set WSNLIB_BROAD_DIR; `make test` does on CI)")
+    out = tmp_path / "per_trial.csv"
+    run = subprocess.run([sys.executable, "-m", "wsnlib.studies.loss_tolerance", "--quick", "--out", str(out)],
+                         env={**os.environ, "WSNLIB_BROAD_DIR": folder}, capture_output=True, text=True, timeout=900)
+    assert run.returncode == 0, run.stderr[-3000:]
+    verdicts = [line for line in run.stdout.splitlines() if ": PASS" in line or ": MISS" in line]
+    assert len(verdicts) == 3, run.stdout[-3000:]
+    table = pd.read_csv(out)
+    assert table["trial"].nunique() == 2 and set(table["profile"]) == {p.name for p in lt.PROFILES}

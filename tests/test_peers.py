@@ -1,6 +1,6 @@
 """Tests for wsnlib.orientation.peers (x-io Fusion and VQF under packet loss, with the hybrid)
 and for the output blend they share with Madgwick's hybrid,
-:func:`wsnlib.orientation.loss_handling.blend_with_single_frame`.
+:func:`wsnlib.orientation.hybrid_blend.blend_with_single_frame`.
 
 References: static data at known orientations (pins the frames), the simulated arm's ground
 truth, the libraries called directly (``imufusion.Ahrs``, ``vqf.VQF.updateBatch``) and
@@ -16,21 +16,21 @@ from wsnlib import frames
 from wsnlib import quaternion as Q
 from wsnlib.loss import gilbert_elliott, packets_to_samples
 from wsnlib.orientation import (
-    blend_with_single_frame,
     estimate_orientation,
-    fusion_ahrs,
+    fusion_orientation,
     madgwick,
     triad,
     vqf_orientation,
 )
+from wsnlib.orientation.hybrid_blend import blend_with_single_frame
 from wsnlib.orientation.peers import _vqf_set_quat9d
 from wsnlib.sim import arm_extension, arm_kinematics, simulate_imu
 
 FS = 50.0
 G_ENU = frames.gravity_specific_force_enu()
 M_ENU = frames.magnetic_field_enu()
-WRAPPERS = [fusion_ahrs, vqf_orientation]
-HYBRIDS = [None, "output", "feedback"]
+WRAPPERS = [fusion_orientation, vqf_orientation]
+BLEND_CHOICES = [None, "output", "feedback"]
 
 
 def angle_deg(q_a, q_b):
@@ -118,12 +118,12 @@ def test_all_received_equals_no_mask(arm, wrapper, with_mag):
 
 
 @pytest.mark.parametrize("wrapper", WRAPPERS)
-@pytest.mark.parametrize("hybrid", HYBRIDS)
-def test_lost_samples_hold_the_previous_output(arm, masks, wrapper, hybrid):
+@pytest.mark.parametrize("blend", BLEND_CHOICES)
+def test_lost_samples_hold_the_previous_output(arm, masks, wrapper, blend):
     _, gyr, acc, mag = arm
     gyr, acc, mag = gyr.copy(), acc.copy(), mag.copy()
     gyr[~masks], acc[~masks], mag[~masks] = np.nan, 0.0, np.inf  # lost samples are never read
-    out = wrapper(gyr, acc, mag, fs=FS, received=masks, hybrid=hybrid)
+    out = wrapper(gyr, acc, mag, fs=FS, received=masks, blend=blend)
     assert np.all(np.isfinite(out))
     np.testing.assert_allclose(np.linalg.norm(out, axis=-1), 1.0, atol=1e-12)
     lost_after = np.nonzero(~masks[..., 1:])
@@ -136,12 +136,12 @@ def test_lost_samples_hold_the_previous_output(arm, masks, wrapper, hybrid):
 
 
 @pytest.mark.parametrize("wrapper", WRAPPERS)
-@pytest.mark.parametrize("hybrid", HYBRIDS)
-def test_batch_equals_per_element_calls(arm, masks, wrapper, hybrid):
+@pytest.mark.parametrize("blend", BLEND_CHOICES)
+def test_batch_equals_per_element_calls(arm, masks, wrapper, blend):
     _, gyr, acc, mag = arm
-    out = wrapper(gyr, acc, mag, fs=FS, received=masks, hybrid=hybrid)
+    out = wrapper(gyr, acc, mag, fs=FS, received=masks, blend=blend)
     for idx in np.ndindex(2, 2):
-        one = wrapper(gyr[idx], acc[idx], mag[idx], fs=FS, received=masks[idx], hybrid=hybrid)
+        one = wrapper(gyr[idx], acc[idx], mag[idx], fs=FS, received=masks[idx], blend=blend)
         np.testing.assert_array_equal(out[idx], one)
     # One recording with a batch of masks broadcasts.
     out = wrapper(gyr[0, 0], acc[0, 0], mag[0, 0], fs=FS, received=masks[0])
@@ -188,16 +188,23 @@ def test_fusion_equals_the_library_on_the_received_samples(arm, masks, with_mag)
         ref.append(ahrs.get_quaternion())
     ref = np.array(ref, dtype=float)
     ref /= np.linalg.norm(ref, axis=-1, keepdims=True)
-    out = fusion_ahrs(gyr, acc, mag if with_mag else None, fs=FS, received=mask)
+    out = fusion_orientation(gyr, acc, mag if with_mag else None, fs=FS, received=mask)
     np.testing.assert_array_equal(out[mask], ref)
 
 
-def test_options_reach_the_libraries(arm):
+def test_options_reach_the_libraries(arm, masks):
     _, gyr, acc, mag = arm
     args = (gyr[0, 0], acc[0, 0], mag[0, 0])
-    assert not np.array_equal(fusion_ahrs(*args, fs=FS), fusion_ahrs(*args, fs=FS, gain=0.1))
-    assert not np.array_equal(fusion_ahrs(*args, fs=FS), fusion_ahrs(*args, fs=FS, settings={"gyroscope_range": 20.0}))
+    run = fusion_orientation
+    assert not np.array_equal(run(*args, fs=FS), run(*args, fs=FS, gain=0.1))
+    assert not np.array_equal(run(*args, fs=FS), run(*args, fs=FS, settings={"gyroscope_range": 20.0}))
     assert not np.array_equal(vqf_orientation(*args, fs=FS), vqf_orientation(*args, fs=FS, params={"tauAcc": 1.0}))
+    # ... also inside the hybrids, under loss (the gain and parameters reach the wrapped filter)
+    for blend in ("output", "feedback"):
+        hybrid = {"received": masks[0, 0], "blend": blend, "rho": 3.0, "tau": 6.0}
+        assert not np.allclose(run(*args, fs=FS, **hybrid), run(*args, fs=FS, gain=2.0, **hybrid))
+        assert not np.allclose(vqf_orientation(*args, fs=FS, **hybrid),
+                               vqf_orientation(*args, fs=FS, params={"tauAcc": 0.5}, **hybrid))
 
 
 # --------------------------------------------------------------------------------------------
@@ -209,8 +216,8 @@ def test_options_reach_the_libraries(arm):
 def test_hybrid_without_loss_is_the_plain_filter(arm, wrapper):
     _, gyr, acc, mag = arm
     plain = wrapper(gyr, acc, mag, fs=FS)
-    np.testing.assert_allclose(wrapper(gyr, acc, mag, fs=FS, hybrid="output"), plain, atol=1e-15, rtol=0)
-    np.testing.assert_array_equal(wrapper(gyr, acc, mag, fs=FS, hybrid="feedback"), plain)
+    np.testing.assert_allclose(wrapper(gyr, acc, mag, fs=FS, blend="output"), plain, atol=1e-15, rtol=0)
+    np.testing.assert_array_equal(wrapper(gyr, acc, mag, fs=FS, blend="feedback"), plain)
 
 
 @pytest.fixture(scope="module")
@@ -228,7 +235,7 @@ def test_hybrid_after_a_burst_is_closer_to_triad(burst, wrapper):
     q_true, gyr, acc, mag, mask = burst
     first = 304  # first sample after the gap
     q_s = triad(acc[:, first], mag[:, first])
-    out = {h: wrapper(gyr, acc, mag, fs=FS, received=mask, hybrid=h) for h in HYBRIDS}
+    out = {h: wrapper(gyr, acc, mag, fs=FS, received=mask, blend=h) for h in BLEND_CHOICES}
     to_triad = {h: angle_deg(q[:, first], q_s) for h, q in out.items()}
     assert np.all(to_triad[None] > 20.0)  # the gap left the plain filter far behind
     assert np.all(to_triad["output"] < 0.5 * to_triad[None])
@@ -260,8 +267,7 @@ def test_vqf_state_write_sets_the_9d_output(arm):
 )
 def test_blend_equals_madgwick_hybrid_output(arm, masks, kwargs):
     _, gyr, acc, mag = arm
-    hybrid = {"method": "hybrid", "blend": "output"}
-    ref = estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, received=masks, **hybrid, **kwargs)
+    ref = estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, received=masks, blend="output", **kwargs)
     q_d = madgwick(gyr, acc, mag, fs=FS, beta=0.1, received=masks)
     out = blend_with_single_frame(q_d, acc, mag, masks, **kwargs)
     np.testing.assert_allclose(out, ref, atol=1e-12, rtol=0)
@@ -273,14 +279,27 @@ def test_blend_with_a_leading_gap_and_a_parameter_grid(arm, masks):
     _, gyr, acc, mag = arm
     q0 = Q.normalize([0.3, -0.1, 0.8, 0.2])
     kwargs = {"fs": FS, "beta": 0.1, "received": masks, "q0": q0}
-    ref = estimate_orientation(gyr, acc, mag, method="hybrid", blend="output", **kwargs)
+    ref = estimate_orientation(gyr, acc, mag, blend="output", **kwargs)
     out = blend_with_single_frame(madgwick(gyr, acc, mag, **kwargs), acc, mag, masks, leading_gap=True)
     np.testing.assert_allclose(out, ref, atol=1e-12, rtol=0)
     rho = np.array([1.0, 4.0]).reshape(2, 1, 1)
-    ref = estimate_orientation(gyr, acc, mag, method="hybrid", blend="output", rho=rho, **kwargs)
+    ref = estimate_orientation(gyr, acc, mag, blend="output", rho=rho, **kwargs)
     out = blend_with_single_frame(madgwick(gyr, acc, mag, **kwargs), acc, mag, masks, rho=rho, leading_gap=True)
     assert out.shape == (2, 2, 2, 500, 4)
     np.testing.assert_allclose(out, ref, atol=1e-12, rtol=0)
+
+
+@pytest.mark.parametrize("wrapper", WRAPPERS)
+@pytest.mark.parametrize("kwargs", [{"rho": 3.0, "tau": 6.0}, {"schedule": "hold", "hold_window": 20},
+                                    {"single_frame_gate": True}])
+def test_peers_output_blend_is_blend_with_single_frame_on_the_plain_output(arm, masks, wrapper, kwargs):
+    """blend="output" runs the peer untouched and blends its output: the same as blending it afterwards."""
+    _, gyr, acc, mag = arm
+    plain = wrapper(gyr, acc, mag, fs=FS, received=masks)
+    direct = wrapper(gyr, acc, mag, fs=FS, received=masks, blend="output", **kwargs)
+    gate = {"gyr": gyr, "fs": FS} if "single_frame_gate" in kwargs else {}
+    np.testing.assert_array_equal(direct, blend_with_single_frame(plain, acc, mag, masks, **kwargs, **gate))
+    assert np.abs(direct - plain).max() > 0.01  # it did blend
 
 
 def test_blend_without_loss_returns_quat_d(arm):
@@ -342,13 +361,20 @@ COMMON_BAD = [
     (_bad_sample("acc", 0.0), "acc"),
     (_bad_sample("mag", np.inf), "mag"),
     (_all_lost, "no received sample"),
-    (lambda a: {"hybrid": "both"}, "hybrid"),
-    (lambda a: {"hybrid": "output", "mag": None}, "mag"),
-    (lambda a: {"schedule": "slow"}, "schedule"),
-    (lambda a: {"hold_window": 5}, "hold_window"),
-    (lambda a: {"schedule": "hold", "hold_window": 0}, "hold_window"),
-    (lambda a: {"rho": 0.0}, "rho"),
-    (lambda a: {"tau": np.nan}, "tau"),
+    (lambda a: {"blend": "both"}, "blend.*'output'.*'feedback'"),
+    (lambda a: {"blend": "output", "mag": None}, "mag is required for blend='output'"),
+    (lambda a: {"blend": "output", "schedule": "slow"}, "schedule"),
+    (lambda a: {"blend": "output", "hold_window": 5}, "hold_window"),
+    (lambda a: {"blend": "output", "schedule": "hold", "hold_window": 0}, "hold_window"),
+    (lambda a: {"blend": "output", "schedule": "hold", "hold_window": [5, 6]}, "hold_window"),
+    (lambda a: {"blend": "feedback", "rho": 0.0}, "rho"),
+    (lambda a: {"blend": "output", "tau": np.nan}, "tau"),
+    (lambda a: {"rho": 2.0}, "rho is not used by .* without blend"),
+    (lambda a: {"schedule": "decay", "hold_window": 5}, "schedule, hold_window are not used by .* without blend"),
+    (lambda a: {"gap": "freeze"}, "gap"),
+    (lambda a: {"gap": "ar"}, "gap='ar' is not available"),
+    (lambda a: {"gap": "constant_rate", "gap_time_constant": 0.0}, "gap_time_constant"),
+    (lambda a: {"output_on_lost": "last"}, "output_on_lost"),
 ]
 FUSION_BAD = [
     (lambda a: {"gain": -0.5}, "gain"),
@@ -363,7 +389,7 @@ VQF_BAD = [
     (lambda a: {"params": {"tauAcc": "slow"}}, "params"),
     (lambda a: {"params": "defaults"}, "params"),
 ]
-CASES = [(fusion_ahrs, *case) for case in COMMON_BAD + FUSION_BAD] + [
+CASES = [(fusion_orientation, *case) for case in COMMON_BAD + FUSION_BAD] + [
     (vqf_orientation, *case) for case in COMMON_BAD + VQF_BAD
 ]
 

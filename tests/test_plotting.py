@@ -142,9 +142,11 @@ def test_style_cycles_okabe_ito_and_paper_002_methods_have_palette_colours():
         assert plotting.METHOD_COLORS[name] in plotting.OKABE_ITO.values()
     # Notebook 05's estimators: every one in the palette, each with a marker; a peer's hybrid
     # variants share its colour, so colour and marker together tell all of them apart.
-    from wsnlib.orientation import compare
+    from wsnlib.orientation.loss_handling import PAPER_OPTIONS
 
-    loss_study = (*compare.OUR_METHODS, compare.SINGLE_FRAME, *compare.PEER_ESTIMATORS)
+    peers = ("Fusion", "Fusion + hybrid (output)", "Fusion + hybrid (feedback)",
+             "VQF", "VQF + hybrid (output)", "VQF + hybrid (feedback)")
+    loss_study = (*PAPER_OPTIONS, "single frame", *peers)
     assert all(plotting.METHOD_COLORS[name] in plotting.OKABE_ITO.values() for name in loss_study)
     assert all(plotting.METHOD_MARKERS.get(name) for name in loss_study)
     pairs = {(plotting.METHOD_COLORS[name], plotting.METHOD_MARKERS[name]) for name in loss_study}

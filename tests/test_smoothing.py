@@ -6,6 +6,7 @@ import dataclasses
 import math
 
 import numpy as np
+import pytest
 from _recordings import error_deg, turning_recording
 
 from wsnlib import frames
@@ -21,17 +22,49 @@ def test_smoother_equals_filter_at_the_end():
     received = np.ones(len(gyr), bool)
     received[100:130] = False
     received[300:320] = False
-    filt = kalman_orientation(gyr, acc, mag, fs=FS, received=received, settings=SMOOTHER_SETTINGS)
+    filt = kalman_orientation(gyr, acc, mag, fs=FS, received=received, settings=SMOOTHER_SETTINGS, replay=False)
     smooth = smooth_orientation(gyr, acc, mag, fs=FS, received=received)
     np.testing.assert_allclose(Q.canonical(smooth[-1]), Q.canonical(filt[-1]), atol=1e-12)
     assert not np.allclose(smooth[:-50], filt[:-50])  # ... and differs where later samples help
+    # (the forward pass never replays: the filter that does ends elsewhere)
+    replayed = kalman_orientation(gyr, acc, mag, fs=FS, received=received, settings=SMOOTHER_SETTINGS)
+    assert error_deg(replayed[-1], smooth[-1]) > 1e-6
+
+
+@pytest.mark.parametrize("options", [{"gap": "ar"}, {"gap": "constant_rate"},
+                                     {"gap": "constant_rate", "gap_time_constant": math.inf}, {"gap": "hold"}],
+                         ids=lambda o: "-".join(map(str, o.values())))
+def test_forward_pass_is_the_filter_without_replay_with_the_same_gap_options(options):
+    gyr, acc, mag, _ = turning_recording(noise=0.02)
+    received = np.ones(len(gyr), bool)
+    received[100:130] = False
+    received[560:590] = False  # late, so that the last sample still depends on the gap option
+    settings = dataclasses.replace(SMOOTHER_SETTINGS, gap_rate_prediction_order=8, gap_rate_prediction_window_s=1.0)
+    filt = kalman_orientation(gyr, acc, mag, fs=FS, received=received, settings=settings, replay=False, **options)
+    smooth = smooth_orientation(gyr, acc, mag, fs=FS, received=received, settings=settings, **options)
+    np.testing.assert_allclose(Q.canonical(smooth[-1]), Q.canonical(filt[-1]), atol=1e-12)
+    other = {"gap": "hold"} if options["gap"] != "hold" else {"gap": "constant_rate"}
+    assert error_deg(smooth_orientation(gyr, acc, mag, fs=FS, received=received, settings=settings, **other)[-1],
+                     smooth[-1]) > 1e-6  # the option reached the forward pass
+
+
+def test_smoother_options_are_checked():
+    gyr, acc, mag, _ = turning_recording(n=50)
+    with pytest.raises(ValueError, match="gap"):
+        smooth_orientation(gyr, acc, mag, fs=FS, gap="freeze")
+    with pytest.raises(ValueError, match="gap_time_constant.*gap='hold'"):
+        smooth_orientation(gyr, acc, mag, fs=FS, gap="hold", gap_time_constant=0.2)
+    with pytest.raises(TypeError, match="replay"):  # the forward pass never replays
+        smooth_orientation(gyr, acc, mag, fs=FS, replay=True)
+    with pytest.raises(TypeError, match="output_on_lost"):  # every sample gets the smoothed estimate
+        smooth_orientation(gyr, acc, mag, fs=FS, output_on_lost="hold")
 
 
 def test_trailing_gap_is_the_filters_extrapolation():
     gyr, acc, mag, _ = turning_recording(noise=0.02)
     received = np.ones(len(gyr), bool)
     received[-40:] = False
-    filt = kalman_orientation(gyr, acc, mag, fs=FS, received=received, settings=SMOOTHER_SETTINGS)
+    filt = kalman_orientation(gyr, acc, mag, fs=FS, received=received, settings=SMOOTHER_SETTINGS, replay=False)
     smooth = smooth_orientation(gyr, acc, mag, fs=FS, received=received)
     np.testing.assert_allclose(Q.canonical(smooth[-41]), Q.canonical(filt[-41]), atol=1e-12)
     # nothing after the last received sample: the smoother extrapolates as the filter does
@@ -68,8 +101,8 @@ def test_hermite_gap_matches_both_ends_and_is_exact_for_constant_rate():
     received = np.ones(n, bool)
     received[80:120] = False
     # exact when the forward pass extrapolates the constant rate undamped
-    constant = dataclasses.replace(SMOOTHER_SETTINGS, gap_rate_decay_s=math.inf, gap_rate_prediction=False)
-    smooth = smooth_orientation(gyr, acc, mag, fs=FS, received=received, settings=constant)
+    smooth = smooth_orientation(gyr, acc, mag, fs=FS, received=received, gap="constant_rate",
+                                gap_time_constant=math.inf)
     assert error_deg(smooth, quat)[80:120].max() < 0.5
     # the gap curve from both sides' linear prediction is exact for a constant rate too
     window = dataclasses.replace(SMOOTHER_SETTINGS, gap_rate_prediction_order=8, gap_rate_prediction_window_s=1.0)
@@ -98,8 +131,7 @@ def test_predicted_gap_follows_a_swing_that_hermite_cuts_across():
     base = dataclasses.replace(SMOOTHER_SETTINGS, acc_rate_gate=math.inf, gap_rate_prediction_order=8,
                                gap_rate_prediction_window_s=1.0)
     predicted = smooth_orientation(gyr, acc, mag, fs=FS, received=received, settings=base)
-    hermite = smooth_orientation(gyr, acc, mag, fs=FS, received=received,
-                                 settings=dataclasses.replace(base, gap_rate_prediction=False))
+    hermite = smooth_orientation(gyr, acc, mag, fs=FS, received=received, settings=base, gap="constant_rate")
     err_p, err_h = error_deg(predicted, truth)[300:330], error_deg(hermite, truth)[300:330]
     assert err_h.max() > 20.0
     assert err_p.max() < 1.0
@@ -111,8 +143,7 @@ def test_gap_without_a_window_on_each_side_keeps_the_hermite_curve():
     received[20:38] = False  # 0.4 s of history only: less than the 1 s window (filter and smoother)
     window = dataclasses.replace(SMOOTHER_SETTINGS, gap_rate_prediction_order=8, gap_rate_prediction_window_s=1.0)
     with_prediction = smooth_orientation(gyr, acc, mag, fs=FS, received=received, settings=window)
-    without = smooth_orientation(gyr, acc, mag, fs=FS, received=received,
-                                 settings=dataclasses.replace(window, gap_rate_prediction=False))
+    without = smooth_orientation(gyr, acc, mag, fs=FS, received=received, settings=window, gap="constant_rate")
     np.testing.assert_array_equal(with_prediction, without)
 
 

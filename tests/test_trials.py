@@ -1,8 +1,9 @@
 import numpy as np
 import pytest
 
+from wsnlib.loss import LossProfile
 from wsnlib.sim import arm_extension
-from wsnlib.sim.trials import LossProfile, arm_loss_trials
+from wsnlib.sim.trials import arm_loss_trials
 
 
 def _movements():
@@ -10,7 +11,7 @@ def _movements():
 
 
 def test_shapes_labels_and_profiles(rng):
-    profiles = [LossProfile.none(), LossProfile.burst(80, 4), LossProfile.gilbert_elliott(0.2, 3.0)]
+    profiles = [LossProfile.none(), LossProfile.burst(80 / 50.0, 4), LossProfile.gilbert_elliott(0.2, 3.0)]
     trials = arm_loss_trials(_movements(), profiles, 5, rng=rng)
     n = 2 * 3 * 5
     assert trials.gyr.shape == (n, 2, 200, 3)
@@ -57,4 +58,4 @@ def test_bad_inputs(rng):
     with pytest.raises(ValueError, match="share"):
         arm_loss_trials({"a": arm_extension(duration_s=4.0), "b": arm_extension(duration_s=5.0)},
                         [LossProfile.none()], 1, rng=rng)
-    assert LossProfile.gilbert_elliott(0.0).kind == "none"
+    assert LossProfile.gilbert_elliott(0.0).model == "none"

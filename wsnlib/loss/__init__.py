@@ -22,6 +22,8 @@ Loss models
   42:1977–1997, 1963, in its simplified form (Good = received, Bad = lost), as commonly used
   for bursty IEEE 802.15.4 links.
 * :func:`loss_trace_from_file`: a measured per-packet trace.
+* :class:`LossProfile`: a named pattern (none, bursts, Gilbert–Elliott) that draws the masks
+  of a recording, in seconds (the studies' profiles).
 
 λ
 -
@@ -34,8 +36,9 @@ Modules
   Gilbert–Elliott, measured traces).
 * :mod:`wsnlib.loss.masks`: packets ↔ samples and statistics of masks (λ, run lengths,
   loss fraction, hold-last).
+* :mod:`wsnlib.loss.profiles`: :class:`LossProfile`.
 
-Every name is re-exported here, so ``from wsnlib.loss import gilbert_elliott`` keeps working.
+This package's door gathers every public name: ``from wsnlib.loss import gilbert_elliott``.
 """
 
 from __future__ import annotations
@@ -58,9 +61,10 @@ from wsnlib.loss.models import (
     gilbert_elliott_probabilities,
     loss_trace_from_file,
 )
+from wsnlib.loss.profiles import LossProfile
 
 __all__ = [
-    "SAMPLES_PER_PACKET", "bernoulli_loss", "burst_lengths", "burst_loss", "burst_mask", "burst_train",
+    "LossProfile", "SAMPLES_PER_PACKET", "bernoulli_loss", "burst_lengths", "burst_loss", "burst_mask", "burst_train",
     "gilbert_elliott", "gilbert_elliott_probabilities", "hold_last", "loss_fraction", "loss_trace_from_file",
     "lost_run_length", "n_packets_for", "packets_to_samples",
 ]

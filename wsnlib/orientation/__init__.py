@@ -1,56 +1,79 @@
 """Orientation estimators: Madgwick's filter and a gap-aware Kalman filter (data fusion), TRIAD,
-Davenport, SVD and QUEST (single frame), and an offline smoother.
+Davenport, SVD and QUEST (single frame), an offline smoother, and two peer filters.
 
 All take body-frame signals ``(..., T, 3)`` and return ENU quaternions ``(..., T, 4)``
-(see :mod:`wsnlib` for the conventions).  :mod:`.loss_handling` adds paper 001's hybrid
-SLERP (eqs. (3)–(4)) and the loss-handling alternatives of its Sec. V behind one dispatcher,
-:func:`estimate_orientation`, that runs one settings object per method (:mod:`.method_settings`);
-:mod:`.lost_run` holds eq. (3) and the λ schedules, :mod:`.hybrid_blend` eq. (4) as an output
-stage on any filter and the gate of the gated hybrid.
-:mod:`.peers` wraps two peer filters, x-io Fusion and VQF, with the same loss semantics.
-:mod:`.kalman` is the gap-aware error-state Kalman filter (``estimate_orientation(...,
-method="kalman")``), :mod:`.smoothing` its offline RTS smoother with Hermite curves across
-gaps, :mod:`.single_frame` Wahba solvers beside TRIAD.
+(see :mod:`wsnlib` for the conventions), with packet loss given as a boolean ``received``
+mask ``(..., T)``.  One door each:
+
+* :func:`madgwick` — Madgwick's filter, holding its estimate over gaps (paper 001's receiver);
+* :func:`estimate_orientation` — Madgwick's filter with every loss-handling option: paper
+  001's hybrid SLERP (eqs. (3)–(4)) and its Sec. V alternatives (:mod:`.loss_handling`);
+* :func:`kalman_orientation` — the gap-aware error-state Kalman filter (:mod:`.kalman`);
+* :func:`smooth_orientation` — its offline RTS smoother with curves across gaps
+  (:mod:`.smoothing`);
+* :func:`fusion_orientation`, :func:`vqf_orientation` — x-io Fusion and VQF as peers with the
+  same loss semantics (:mod:`.peers`);
+* :func:`triad`, :func:`tilt_quaternion`, :func:`davenport`, :func:`quest`,
+  :func:`svd_single_frame` — single-frame solvers (no memory, nothing to lose).
+
+The loss vocabulary
+-------------------
+Every filter that runs over time takes the same keywords for what happens around a gap (a
+run of lost samples); a filter refuses, with a ``ValueError`` naming it, a value it does not
+support:
+
+``gap``
+    What the filter's *state* does inside a gap: ``"hold"`` (it stays where it was),
+    ``"constant_rate"`` (it keeps turning by the last received angular rate, optionally
+    decaying with ``gap_time_constant`` s; dead reckoning, gyroscope only) or ``"ar"`` (by an
+    autoregressive prediction of the rate fitted on the rates before the gap; Kalman filter
+    and smoother).  Defaults: ``"hold"`` for Madgwick's family and the peers, ``"ar"`` for the
+    Kalman filter and the smoother.
+``replay``
+    ``True``: when the first sample after a gap arrives, re-run the gap from the state at its
+    start with rates that meet the first received one (paper 001's gyroscope interpolation,
+    applied to the state), then update.  Causal: it changes the state from the gap's end on,
+    never what was output on the lost samples.  Madgwick's family and the Kalman filter
+    (default on there).
+``output_on_lost``
+    What is *output* on a lost sample: ``"estimate"`` (the filter's state: held or predicted,
+    per ``gap``) or ``"hold"`` (the previous output, what a receiver that shows only measured
+    updates displays).  The state is not affected.  Not the smoother's (it outputs its
+    smoothed estimate everywhere).
+``blend``
+    Paper 001's hybrid: ``None`` (none), ``"output"`` (SLERP towards the single frame as an
+    output stage) or ``"feedback"`` (the SLERP's result also replaces the filter's state),
+    with μ of eq. (3) from ``rho``, ``tau``, ``schedule``, ``hold_window``, and the *gated*
+    hybrid with ``single_frame_gate``.  Madgwick's family and the peers.
+
+A keyword given where the call does not use it (``rho`` without ``blend``, a
+``gap_time_constant`` with ``gap="hold"``) is a ``ValueError``, never silently ignored.
+:data:`.loss_handling.PAPER_OPTIONS` spells paper 001's five options in this vocabulary.
 
 The arithmetic is numba-compiled: :mod:`._scalar_kernels` holds Madgwick's update, TRIAD,
 SLERP and the quaternion helpers as scalar functions that follow the equations line by line,
-:mod:`._kernels` the loop over time of every loss option (one recording) and the drivers that
-run batch elements in parallel, :mod:`._kalman_kernels` the Kalman filter's.  :mod:`._batch` holds the
-argument checks the public functions share.
+:mod:`._kernels` the loop over time of Madgwick's filter (one recording) and the drivers that
+run batch elements in parallel, :mod:`._kalman_kernels` the Kalman filter's.  :mod:`._batch`
+holds the argument checks (the vocabulary's among them) the public functions share.
 """
 
-from wsnlib.orientation.hybrid_blend import SingleFrameGate, blend_with_single_frame, single_frame_trusted
+from wsnlib.orientation.hybrid_blend import SingleFrameGate, single_frame_trusted
 from wsnlib.orientation.kalman import KalmanSettings, kalman_orientation
 from wsnlib.orientation.loss_handling import estimate_orientation
 from wsnlib.orientation.lost_run import effective_lost_run, slerp_weight
 from wsnlib.orientation.madgwick import madgwick, madgwick_step
-from wsnlib.orientation.method_settings import (
-    AdaptiveBetaSettings,
-    DtExtensionSettings,
-    GyroInterpolationSettings,
-    HoldLastSettings,
-    HybridSettings,
-    KalmanMethodSettings,
-)
-from wsnlib.orientation.peers import fusion_ahrs, vqf_orientation
+from wsnlib.orientation.peers import fusion_orientation, vqf_orientation
 from wsnlib.orientation.single_frame import davenport, quest, svd_single_frame
 from wsnlib.orientation.smoothing import smooth_orientation
 from wsnlib.orientation.triad import tilt_quaternion, triad
 
 __all__ = [
-    "AdaptiveBetaSettings",
-    "DtExtensionSettings",
-    "GyroInterpolationSettings",
-    "HoldLastSettings",
-    "HybridSettings",
-    "KalmanMethodSettings",
     "KalmanSettings",
     "SingleFrameGate",
-    "blend_with_single_frame",
     "davenport",
     "effective_lost_run",
     "estimate_orientation",
-    "fusion_ahrs",
+    "fusion_orientation",
     "kalman_orientation",
     "madgwick",
     "madgwick_step",

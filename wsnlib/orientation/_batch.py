@@ -33,7 +33,13 @@ def check_choice(value, name: str, choices: tuple[str, ...]) -> str:
     return value
 
 
-def positive_array(value, name: str) -> np.ndarray:
+def positive_array(value, name: str, allow_inf: bool = False) -> np.ndarray:
+    """``value`` as a float array > 0 (and finite, unless ``allow_inf``), else ``ValueError`` naming it."""
+    if allow_inf:
+        arr = np.asarray(value, dtype=float)
+        if np.any(np.isnan(arr)) or np.any(arr <= 0.0):
+            raise ValueError(f"{name} must be > 0 (inf allowed), got {value!r}")
+        return arr
     arr = as_float_array(value, name, min_ndim=0)  # raises on NaN/inf, naming the argument
     if np.any(arr <= 0.0):
         raise ValueError(f"{name} must be > 0 (and finite), got {value!r}")
@@ -149,21 +155,79 @@ def check_inputs(gyr, acc, mag, received, q0=None):
     return signals, received, q0, shapes
 
 
-#: What the filters do during a gap (the ``gap`` argument).
-GAPS = ("hold", "constant_rate")
+# ------------------------------------------------------------------------------------------
+# The loss vocabulary shared by every filter (documented in wsnlib.orientation)
+# ------------------------------------------------------------------------------------------
+
+#: ``gap``: what the filter's state does inside a gap.
+GAPS = ("hold", "constant_rate", "ar")
+#: ``output_on_lost``: what is output on a lost sample.
+OUTPUTS_ON_LOST = ("estimate", "hold")
+#: ``blend``: where paper 001's SLERP towards the single frame acts (``None``: no hybrid).
+BLENDS = ("output", "feedback")
 
 
-def check_gap(gap, gap_time_constant, method: str = "hold_last") -> tuple[str, float | None]:
-    """``gap`` one of :data:`GAPS`; ``gap_time_constant`` (s) > 0 or None, only with "constant_rate"."""
-    gap = check_choice(gap, "gap", GAPS)
+def check_gap(gap, gap_time_constant, filter_name: str, supported=GAPS[:2]) -> tuple[str, float | None]:
+    """``gap`` one of ``supported``; ``gap_time_constant`` (s, > 0, ``inf`` = constant) or None,
+    not with ``"hold"`` (the state does not turn there)."""
+    if not isinstance(gap, str) or gap not in GAPS:
+        raise ValueError(f"gap must be one of {', '.join(map(repr, GAPS))}; got {gap!r}")
+    if gap not in supported:
+        raise ValueError(f"gap={gap!r} is not available for {filter_name} (it supports "
+                         f"{', '.join(map(repr, supported))})")
     if gap_time_constant is not None:
-        if gap != "constant_rate":
-            raise ValueError("gap_time_constant is only used with gap='constant_rate'")
-        gap_time_constant = float(positive_array(gap_time_constant, "gap_time_constant"))
-    if gap == "constant_rate" and method in ("dt_extension", "gyro_interpolation"):
-        raise ValueError(f"gap='constant_rate' cannot be combined with method={method!r}: both fill the gap "
-                         "with the gyroscope (use one or the other)")
+        if gap == "hold":
+            raise ValueError("gap_time_constant is only used when the state turns in a gap, not with gap='hold'")
+        gap_time_constant = float(positive_array(gap_time_constant, "gap_time_constant", allow_inf=True))
     return gap, gap_time_constant
+
+
+def rate_factor(gap_time_constant, fs: float) -> float:
+    """Factor by which a predicted rate decays per lost sample, ``exp(−Δt/τ)`` (1: constant)."""
+    if gap_time_constant is None or np.isinf(gap_time_constant):
+        return 1.0
+    return float(np.exp(-1.0 / (fs * gap_time_constant)))
+
+
+def check_flag(value, name: str) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be True or False, got {value!r}")
+    return bool(value)
+
+
+def check_output_on_lost(output_on_lost) -> bool:
+    """``output_on_lost`` one of :data:`OUTPUTS_ON_LOST`; True when the output is held there."""
+    return check_choice(output_on_lost, "output_on_lost", OUTPUTS_ON_LOST) == "hold"
+
+
+def check_blend(blend, mag, filter_name: str) -> str | None:
+    """``blend`` None or one of :data:`BLENDS`; the hybrid's TRIAD needs ``mag``."""
+    if blend is None:
+        return None
+    blend = check_choice(blend, "blend", BLENDS)
+    if mag is None:
+        raise ValueError(f"mag is required for blend={blend!r} in {filter_name}: TRIAD (q_s) needs the magnetometer")
+    return blend
+
+
+def refuse_unused(filter_name: str, why: str, **given) -> None:
+    """Raise if any keyword in ``given`` is not None: the call would silently ignore it."""
+    passed = [name for name, value in given.items() if value is not None and value is not False]
+    if passed:
+        raise ValueError(f"{', '.join(passed)} {'is' if len(passed) == 1 else 'are'} not used by {filter_name} "
+                         f"{why}; leave {'it' if len(passed) == 1 else 'them'} out")
+
+
+def hold_lost_output(quat: np.ndarray, received) -> np.ndarray:
+    """``output_on_lost="hold"`` for any filter: on every lost sample after the first, in place,
+    the output of the sample before (``quat`` ``(*batch, T, C)``, ``received`` broadcasting
+    to ``(*batch, T)``)."""
+    n_t = quat.shape[-2]
+    if n_t and received is not None:
+        batch = quat.shape[:-2]
+        mask = np.asarray(received)
+        K.run_hold_lost(quat.reshape(-1, n_t, quat.shape[-1]), flat(mask, 1), index_into(mask.shape[:-1], batch))
+    return quat
 
 
 def check_has_sample(mask: np.ndarray, batch: tuple[int, ...]) -> None:
@@ -265,8 +329,8 @@ def raise_on_overflow(status: np.ndarray, batch: tuple[int, ...], **params) -> N
         )
 
 
-def run_filter(signals, received, q0, batch, *, fs, method, blend=K.NO_BLEND, beta=0.0, beta_max=None,
-               rho=1.0, tau=1.0, schedule=K.DECAY, window=1, gap="hold", gap_time_constant=None,
+def run_filter(signals, received, q0, batch, *, fs, method=K.STANDARD, replay=False, blend=K.NO_BLEND, beta=0.0,
+               beta_max=None, rho=1.0, tau=1.0, schedule=K.DECAY, window=1, gap="hold", gap_time_constant=None,
                single_frame_gate=None) -> np.ndarray:
     """Madgwick's filter with a loss-handling method over a batch: ``(*batch, T, 4)``.
 
@@ -274,8 +338,9 @@ def run_filter(signals, received, q0, batch, *, fs, method, blend=K.NO_BLEND, be
     ``(..., T)`` bool or None, ``q0`` ``(..., 4)`` unit or None (then every batch element must
     receive a sample), ``batch`` the broadcast of all leading shapes, parameters (scalars or
     arrays broadcasting to ``batch``) as in :func:`._kernels.filter_stream`; ``gap`` and
-    ``gap_time_constant`` checked by :func:`check_gap`; ``single_frame_gate`` the gated hybrid's
-    vector (:data:`._kernels.GATE_SIZE` floats, needs ``mag``) or None.
+    ``gap_time_constant`` checked by :func:`check_gap` (``"hold"`` or ``"constant_rate"``);
+    ``single_frame_gate`` the gated hybrid's vector (:data:`._kernels.GATE_SIZE` floats, needs
+    ``mag``) or None.
     """
     n_t = signals["gyr"].shape[-2]
     mask = np.ones(n_t, dtype=bool) if received is None else received
@@ -294,20 +359,20 @@ def run_filter(signals, received, q0, batch, *, fs, method, blend=K.NO_BLEND, be
     params = [per_element(x, batch) for x in (beta, beta_max, rho, tau)]
     windows = per_element(window, batch, np.int64)
     predict = gap == "constant_rate"
-    rate_factor = 1.0 if gap_time_constant is None else float(np.exp(-1.0 / (fs * gap_time_constant)))
+    factor = rate_factor(gap_time_constant, fs)
     gated = single_frame_gate is not None
     gate = np.zeros(K.GATE_SIZE) if single_frame_gate is None else np.asarray(single_frame_gate, dtype=float)
     flat_out = out.reshape(-1, n_t, 4)
     status = np.empty(flat_out.shape[0], dtype=np.int64)
     if status.size == 1:  # one stream: the loop itself, no thread start-up
         status[0] = K.filter_stream(gyr[0], acc[0], mag[0], use_mag, masks[0], starts[0], q0 is not None,
-                                    method, blend, 1.0 / fs, *(x[0] for x in params), schedule, windows[0],
-                                    predict, rate_factor, gated, gate, flat_out[0])
+                                    method, replay, blend, 1.0 / fs, *(x[0] for x in params), schedule, windows[0],
+                                    predict, factor, gated, gate, flat_out[0])
     else:
         index = [index_into(shape, batch) for shape in (signals["gyr"].shape[:-2], signals["acc"].shape[:-2],
                                                         signals["mag"].shape[:-2] if use_mag else (),
                                                         mask.shape[:-1], () if q0 is None else q0.shape[:-1])]
-        K.run_filter(gyr, acc, mag, use_mag, masks, starts, q0 is not None, *index, method, blend, 1.0 / fs,
-                     *params, schedule, windows, predict, rate_factor, gated, gate, flat_out, status)
+        K.run_filter(gyr, acc, mag, use_mag, masks, starts, q0 is not None, *index, method, replay, blend, 1.0 / fs,
+                     *params, schedule, windows, predict, factor, gated, gate, flat_out, status)
     raise_on_overflow(status, batch, fs=fs, beta=beta)
     return out

@@ -52,9 +52,11 @@ _LIN_VAR = 30
 _N_GATE = 31
 
 
-def kalman_settings_vector(settings, dt: float) -> np.ndarray:
-    """What the Kalman kernels read from a ``KalmanSettings`` and Δt (s): variances per sample and
-    gates, in the order of the indices above (plain Python; checked by the caller)."""
+def kalman_settings_vector(settings, dt: float, gap: str, replay: bool, gap_time_constant: float) -> np.ndarray:
+    """What the Kalman kernels read from a ``KalmanSettings``, Δt (s) and the gap options (the
+    vocabulary of :mod:`wsnlib.orientation`: ``gap`` "hold", "constant_rate" or "ar",
+    ``replay``, ``gap_time_constant`` in s, ``inf`` = constant): variances per sample, gates
+    and switches, in the order of the indices above (plain Python; checked by the caller)."""
     s = settings
     vector = np.empty(_N_SETTINGS)
     vector[_DT] = dt
@@ -65,7 +67,8 @@ def kalman_settings_vector(settings, dt: float) -> np.ndarray:
     vector[_GAP_VAR] = (s.gap_rate_noise * dt) ** 2
     vector[_GAP_NOISE] = s.gap_rate_noise
     vector[_GAP_RELATIVE_NOISE] = s.gap_rate_relative_noise
-    vector[_GAP_DECAY] = math.exp(-dt / s.gap_rate_decay_s)
+    # The held rate's factor per lost sample: 0 holds the state, 1 keeps the rate constant.
+    vector[_GAP_DECAY] = 0.0 if gap == "hold" else math.exp(-dt / gap_time_constant)
     vector[_GRAVITY] = s.gravity
     vector[_ACC_NORM_GATE] = s.acc_norm_gate
     vector[_ACC_RATE_GATE] = s.acc_rate_gate
@@ -91,8 +94,8 @@ def kalman_settings_vector(settings, dt: float) -> np.ndarray:
     # the estimate shrinks to 0 when the sensor has not turned enough to observe it.
     vector[_HI_RIDGE] = 0.09 / dt
     vector[_HI_MIN_BIAS] = s.mag_hard_iron_min_bias
-    vector[_GAP_REPLAY] = 1.0 if s.gap_replay else 0.0
-    vector[_AR_ON] = 1.0 if s.gap_rate_prediction else 0.0
+    vector[_GAP_REPLAY] = 1.0 if replay else 0.0
+    vector[_AR_ON] = 1.0 if gap == "ar" else 0.0
     vector[_AR_ORDER] = s.gap_rate_prediction_order
     vector[_AR_WINDOW] = round(s.gap_rate_prediction_window_s / dt)
     vector[_ACC_DIST_FACTOR] = s.acc_disturbance_factor

@@ -62,8 +62,8 @@ from wsnlib.orientation._scalar_kernels import (  # noqa: F401
 # Codes (ints, so that one compiled loop serves every method)
 # ------------------------------------------------------------------------------------------
 
-#: Loss-handling methods, in the order of :data:`wsnlib.orientation.loss_handling.METHODS`.
-HOLD_LAST, DT_EXTENSION, GYRO_INTERPOLATION, ADAPTIVE_BETA, HYBRID = range(5)
+#: Madgwick's update rule after a gap, in the order of :data:`wsnlib.orientation.loss_handling.METHODS`.
+STANDARD, DT_EXTENSION, ADAPTIVE_BETA = range(3)
 #: λ schedules, in the order of :data:`wsnlib.orientation.loss_handling.SCHEDULES`.
 DECAY, HOLD, INSTANT = range(3)
 #: Hybrid blends: none, output stage, feedback into the state.
@@ -171,18 +171,21 @@ def run_single_frame_trust(gyr, acc, mag, received, i_gyr, i_acc, i_mag, i_rx, g
 
 
 @njit(**COMPILE)
-def filter_stream(gyr, acc, mag, use_mag, received, q0, has_q0, method, blend, dt, beta, beta_max,
+def filter_stream(gyr, acc, mag, use_mag, received, q0, has_q0, method, replay, blend, dt, beta, beta_max,
                   rho, tau, schedule, window, predict_gap, rate_factor, gated, gate, out):
-    """Madgwick's filter with one loss-handling method over one recording; returns a status.
+    """Madgwick's filter with the loss options over one recording; returns a status.
 
     ``gyr``, ``acc``, ``mag`` ``(T, 3)`` (only received samples are read), ``received`` ``(T,)``,
     ``q0`` ``(4,)`` used if ``has_q0`` (else the filter starts from TRIAD, or the tilt without
     ``mag``, of the first received sample, which then only initialises), ``out`` ``(T, 4)``.
+    ``method`` the update rule (:data:`STANDARD`, :data:`DT_EXTENSION`, :data:`ADAPTIVE_BETA`).
     On a lost sample the output is the previous output, or with ``predict_gap`` the state
     turned on by the last received rate, times ``rate_factor`` per lost sample (1: constant
-    rate).  With ``gated`` the hybrid skips eq. (4) (μ = 1) on every sample whose TRIAD
-    :func:`single_frame_check` (vector ``gate``) does not trust.  See
-    :func:`wsnlib.orientation.estimate_orientation` for what each method does.
+    rate).  With ``replay`` the first received sample after a gap first re-runs the gap from
+    the state at its start, gyroscope only, the rate linear between both ends.  ``blend``: the
+    hybrid's SLERP (:data:`NO_BLEND`, :data:`OUTPUT_BLEND`, :data:`FEEDBACK_BLEND`); with
+    ``gated`` it skips eq. (4) (μ = 1) on every sample whose TRIAD :func:`single_frame_check`
+    (vector ``gate``) does not trust.  See :func:`wsnlib.orientation.estimate_orientation`.
     """
     n_t = received.shape[0]
     q = (q0[0], q0[1], q0[2], q0[3])
@@ -201,6 +204,7 @@ def filter_stream(gyr, acc, mag, use_mag, received, q0, has_q0, method, blend, d
     lam, prev_lost, since = 0.0, False, 0  # λ_eff schedule state
     run = 0  # samples lost since the last received one (after the start)
     last = -1  # last received sample
+    q_last = q  # the state at that sample: where a replay starts
     g_gap = (0.0, 0.0, 0.0)  # the rate a predicted gap turns at
     trusted, ref_norm, ref_dip = True, 0.0, 0.0  # gated hybrid: the field's reference
     for t in range(n_t):
@@ -223,13 +227,15 @@ def filter_stream(gyr, acc, mag, use_mag, received, q0, has_q0, method, blend, d
             trusted, ref_norm, ref_dip = single_frame_check(_vec(acc, t), _vec(mag, t), _vec(gyr, t), gate,
                                                             ref_norm, ref_dip)
         if not started:  # the first received sample only initialised the filter (above)
-            started, last = True, t
+            started, last, q_last = True, t, q
             _store(out, t, q)
             continue
         g = _vec(gyr, t)
-        if method == GYRO_INTERPOLATION and run > 0:
-            # Replay the lost samples, gyroscope only, ω interpolated from the last received
-            # sample before the gap (or the first after it, for a gap at the start).
+        if replay and run > 0:
+            # Replay the lost samples from the state at the gap's start, gyroscope only, ω
+            # interpolated from the last received sample before the gap (or the first after
+            # it, for a gap at the start).
+            q = q_last
             for s in range(t - run, t):
                 if last >= 0:
                     frac = (s - last) / (t - last)
@@ -253,14 +259,14 @@ def filter_stream(gyr, acc, mag, use_mag, received, q0, has_q0, method, blend, d
         if not is_finite4(q):
             return OVERFLOW
         _store(out, t, shown)
-        run, last, g_gap = 0, t, g
+        run, last, q_last, g_gap = 0, t, q, g
     return OK
 
 
 @njit(parallel=True, **COMPILE)
 def run_filter(gyr, acc, mag, use_mag, received, q0, has_q0, i_gyr, i_acc, i_mag, i_rx, i_q0,
-               method, blend, dt, beta, beta_max, rho, tau, schedule, window, predict_gap, rate_factor, gated, gate,
-               out, status):
+               method, replay, blend, dt, beta, beta_max, rho, tau, schedule, window, predict_gap, rate_factor, gated,
+               gate, out, status):
     """:func:`filter_stream` for every batch element ``b`` of ``out`` ``(B, T, 4)``, in parallel.
 
     Element ``b`` reads recording ``gyr[i_gyr[b]]`` (likewise ``acc``, ``mag``), mask
@@ -269,7 +275,7 @@ def run_filter(gyr, acc, mag, use_mag, received, q0, has_q0, i_gyr, i_acc, i_mag
     """
     for b in prange(out.shape[0]):
         status[b] = filter_stream(gyr[i_gyr[b]], acc[i_acc[b]], mag[i_mag[b]], use_mag, received[i_rx[b]],
-                                  q0[i_q0[b]], has_q0, method, blend, dt, beta[b], beta_max[b], rho[b],
+                                  q0[i_q0[b]], has_q0, method, replay, blend, dt, beta[b], beta_max[b], rho[b],
                                   tau[b], schedule, window[b], predict_gap, rate_factor, gated, gate, out[b])
 
 

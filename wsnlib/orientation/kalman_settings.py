@@ -11,8 +11,6 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-import numpy as np
-
 # ==========================================================================================
 # Settings
 # ==========================================================================================
@@ -23,18 +21,21 @@ class KalmanSettings:
     """Noise levels and gates of :func:`~wsnlib.orientation.kalman.kalman_orientation` (and
     :func:`~wsnlib.orientation.smoothing.smooth_orientation`).
 
-    Defaults: ``gap_replay``, ``acc_disturbance_factor``, ``gap_rate_prediction_order`` and
+    What the filter does in a gap (``gap``, ``replay``, ``output_on_lost``, ``gap_time_constant``)
+    is not a setting but the keywords every filter of :mod:`wsnlib.orientation` shares (see
+    :func:`~wsnlib.orientation.kalman.kalman_orientation`); the parameters of its "ar"
+    prediction and its noise model are here.
+
+    Defaults: ``acc_disturbance_factor``, ``gap_rate_prediction_order`` and
     ``gap_rate_prediction_window_s`` are the values chosen most often by leave-one-trial-out
-    tuning (8 settings, as every peer: gap_replay ∈ {True, False} × acc_disturbance_factor ∈
+    tuning (8 settings, as every peer: replay ∈ {True, False} × acc_disturbance_factor ∈
     {4, 16} × (order, window) ∈ {(24, 3 s), (48, 6 s)}) on the 17 shared BROAD trials at 50 Hz
     under Gilbert–Elliott loss (10 %, mean burst 3 packets of 6 samples), see
-    ``benchmarks/eval_loss_tolerance.py``; ``gap_rate_prediction`` (on) and
-    ``acc_disturbance_factor`` > 0 were chosen by every fold in earlier runs of that script
-    against the decaying rate (``gap_rate_prediction=False``) and 0, as were
-    ``mag_hard_iron_min_bias``, ``gap_rate_relative_noise``, ``mag_noise``,
-    ``mag_norm_gate``, ``gap_rate_decay_s``, ``velocity_noise``, ``acc_noise`` and
-    ``gap_rate_noise`` (most often, with other grids); the other numbers are as documented
-    per field.
+    :mod:`wsnlib.studies.loss_tolerance`; ``acc_disturbance_factor`` > 0 was chosen by every
+    fold in earlier runs of that study against 0, as were ``mag_hard_iron_min_bias``,
+    ``gap_rate_relative_noise``, ``mag_noise``, ``mag_norm_gate``, ``velocity_noise``,
+    ``acc_noise`` and ``gap_rate_noise`` (most often, with other grids); the other numbers are
+    as documented per field.
 
     Attributes
     ----------
@@ -69,9 +70,6 @@ class KalmanSettings:
         faster the motion, the less the rate at the start of a gap says about the rest of it.
         Default 0.1, chosen most often by LOTO from {0.5, 0.1} (a larger value lets the first
         samples after a gap in fast motion over-correct).
-    gap_rate_decay_s : float
-        Time constant (s) with which the extrapolated rate decays to 0 during a gap; ``inf``
-        keeps it constant.  Default 0.2 s, chosen most often by LOTO from {inf, 0.2}.
     gravity : float
         Norm of gravity (m/s²); default standard gravity.
     acc_norm_gate : float
@@ -124,31 +122,10 @@ class KalmanSettings:
         field norm (and the corrected norm is closer to the reference than the raw one);
         ``inf`` switches the correction off.  Default 0.1, the size ``mag_norm_gate`` would
         reject; chosen most often by LOTO from {0.1, inf}.
-    gap_replay : bool
-        When the first sample after a gap arrives, re-integrate the state over the gap from
-        the last received state with the angular rate interpolated linearly between the rates
-        before and after the gap (paper 001's gyroscope interpolation applied to the state;
-        causal: the lost samples were already output as the extrapolation, only the state
-        from the gap's end on changes).  Default True.  :func:`~wsnlib.orientation.smooth_orientation` always
-        runs its forward pass without it (its Hermite curve uses both ends instead, and the
-        RTS pass needs the recorded predictions to be the filter's own).  Chosen most often
-        by LOTO from {True, False}.
-    gap_rate_prediction : bool
-        Over a gap, predict the angular rate by linear prediction (an autoregressive model per
-        axis, :func:`wsnlib.orientation._gap_rate_kernels.gap_rate_fit`) fitted at the gap's start
-        on the rates of the last ``gap_rate_prediction_window_s``, instead of the last received
-        rate decaying with ``gap_rate_decay_s``; with ``gap_replay`` the replay then uses these
-        rates plus a linear ramp that brings the prediction at the first received sample onto
-        the measured rate.  An arm's swing is a damped oscillation, which a short linear
-        predictor follows for a fraction of a period, while a held or decaying rate overshoots
-        it.  The predicted rate's norm is capped at the window's largest.  Falls back to the
-        decay when fewer than a window of rates precede the gap, or when the window holds
-        fewer than ``3 × gap_rate_prediction_order`` samples at this ``fs``.  Default True
-        (see the class's defaults; on gaps of 18 samples cut into the 17 shared BROAD trials,
-        starting from the true orientation, order 8 on 1 s gives a mean error at the gap's end
-        of 34° against 47° for the rate decaying with 0.2 s).
     gap_rate_prediction_order : int
-        Order of the linear predictor (rates of the last this many samples), 1 to 64.
+        With ``gap="ar"``: order of the linear predictor (an autoregressive model per axis,
+        :func:`wsnlib.orientation._gap_rate_kernels.gap_rate_fit`, fitted at the gap's start on
+        the rates of the last ``gap_rate_prediction_window_s``), 1 to 64.
         Default 48 (LOTO, see the class's defaults).
     gap_rate_prediction_window_s : float
         Length (s) of the rate history the predictor is fitted on.  Default 6 s (LOTO, see
@@ -179,7 +156,6 @@ class KalmanSettings:
     mag_noise: float = 0.2
     gap_rate_noise: float = 0.3
     gap_rate_relative_noise: float = 0.1
-    gap_rate_decay_s: float = 0.2
     gravity: float = 9.80665
     acc_norm_gate: float = 0.2 * 9.80665
     acc_rate_gate: float = 10.0
@@ -198,8 +174,6 @@ class KalmanSettings:
     mag_dip_tilt_sigmas: float = 3.0
     mag_hard_iron_tau_s: float = 3.0
     mag_hard_iron_min_bias: float = 0.1
-    gap_replay: bool = True
-    gap_rate_prediction: bool = True
     gap_rate_prediction_order: int = 48
     gap_rate_prediction_window_s: float = 6.0
     acc_disturbance_factor: float = 4.0
@@ -208,11 +182,6 @@ class KalmanSettings:
     def __post_init__(self):
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
-            if f.name in _BOOLEAN_SETTINGS:
-                if not isinstance(value, (bool, np.bool_)):
-                    raise ValueError(f"KalmanSettings.{f.name} must be True or False, got {value!r}")
-                object.__setattr__(self, f.name, bool(value))
-                continue
             try:
                 number = float(value)
             except (TypeError, ValueError) as exc:
@@ -234,15 +203,13 @@ class KalmanSettings:
             object.__setattr__(self, f.name, number)
 
 
-#: Settings that are switches (True/False).
-_BOOLEAN_SETTINGS = frozenset({"gap_replay", "gap_rate_prediction"})
 #: Settings that may be 0 (switches the feature off).
 _MAY_BE_ZERO = frozenset({"acc_disturbance_factor"})
 #: Settings that are whole numbers, and their largest value.
 _INTEGER_SETTINGS = frozenset({"gap_rate_prediction_order"})
 _LARGEST_ORDER = 64
 #: Settings that may be ``inf`` (switches the feature off).
-_MAY_BE_INFINITE = frozenset({"gap_rate_decay_s", "acc_innovation_gate", "acc_norm_gate", "acc_rate_gate",
+_MAY_BE_INFINITE = frozenset({"acc_innovation_gate", "acc_norm_gate", "acc_rate_gate",
                               "mag_norm_gate", "mag_dip_gate", "mag_reference_tau_s", "mag_new_time_s",
                               "mag_max_rejection_s", "velocity_tau_s", "mag_hard_iron_tau_s",
                               "mag_hard_iron_min_bias",

@@ -119,11 +119,12 @@ def madgwick_step(q, gyr, acc, mag, dt, beta) -> np.ndarray:
     return out
 
 
-def madgwick(
-    gyr, acc, mag=None, *, fs: float, beta: float, received=None, q0=None, gap: str = "hold",
-    gap_time_constant=None,
-) -> np.ndarray:
+def madgwick(gyr, acc, mag=None, *, fs: float, beta: float, received=None, q0=None) -> np.ndarray:
     """Madgwick's filter over whole recordings, with packet loss, batched.
+
+    The paper's receiver: a lost sample is skipped and the previous estimate is output there.
+    The loss-handling options (prediction in a gap, replay, the hybrid, paper 001's Sec. V
+    methods) are :func:`wsnlib.orientation.estimate_orientation`'s.
 
     Parameters
     ----------
@@ -147,14 +148,6 @@ def madgwick(
         ``None``: each batch element starts at the first sample it received, from TRIAD
         (MARG form) or :func:`tilt_quaternion` (IMU form, zero heading); that sample only
         initialises, and updates start at the next one.
-    gap : {"hold", "constant_rate"}
-        What the output does on a lost sample: ``"hold"`` keeps the previous estimate (the
-        paper's receiver); ``"constant_rate"`` keeps turning it by the last received angular
-        rate (dead reckoning: the state is integrated, gyroscope only, over each lost
-        sample, and the next received sample updates from there).
-    gap_time_constant : float, optional
-        With ``"constant_rate"``: the extrapolated rate decays as ``exp(−t/τ)`` with this τ (s);
-        ``None``: it stays constant.
 
     Returns
     -------
@@ -181,12 +174,10 @@ def madgwick(
     """
     fs = B.check_fs(fs)
     beta = B.check_beta(beta)
-    gap, gap_time_constant = B.check_gap(gap, gap_time_constant)
     if beta.ndim:
         raise ValueError(f"beta must be one number here, got shape {beta.shape} (use estimate_orientation)")
     signals, received, q0, shapes = B.check_inputs(gyr, acc, mag, received, q0)
     batch = B.broadcast_batch(shapes)
     if q0 is None and signals["gyr"].shape[-2] == 0:
         raise ValueError("no samples (T = 0): pass q0 to define the output")
-    return B.run_filter(signals, received, q0, batch, fs=fs, method=K.HOLD_LAST, beta=float(beta), gap=gap,
-                        gap_time_constant=gap_time_constant)
+    return B.run_filter(signals, received, q0, batch, fs=fs, beta=float(beta))

@@ -4,7 +4,7 @@ Two published filters a user may run instead of Madgwick's, fed the same receive
 with wsnlib's conventions (:mod:`wsnlib`) and :func:`wsnlib.orientation.madgwick`'s loss
 semantics:
 
-* :func:`fusion_ahrs`: x-io Technologies' Fusion (S. Madgwick's revised AHRS, a
+* :func:`fusion_orientation`: x-io Technologies' Fusion (S. Madgwick's revised AHRS, a
   complementary filter with gain ramp-down at start-up and optional acceleration and
   magnetic rejection), through its Python package ``imufusion`` (1.3.x);
 * :func:`vqf_orientation`: VQF, D. Laidig and T. Seel, "VQF: Highly accurate IMU
@@ -39,12 +39,19 @@ Frames (established by static tests at several orientations, ``tests/test_peers.
   (``mag=None``) is relative to a frame with z up and a heading fixed by the start, as
   Madgwick's IMU form.
 
+Loss options
+------------
+The vocabulary of every filter of :mod:`wsnlib.orientation`: ``gap`` ("hold" or
+"constant_rate"), ``output_on_lost``, ``gap_time_constant``, and the hybrid as ``blend`` with
+ρ, τ, ``schedule``, ``hold_window`` and ``single_frame_gate``.  (``gap="ar"`` and ``replay``
+are the Kalman filter's only.)
+
 Hybrid
 ------
-``hybrid="output"``: the peer runs untouched and its output goes through
-:func:`wsnlib.orientation.loss_handling.blend_with_single_frame`: ``q_f = SLERP(q_s, q_d,
+``blend="output"``: the peer runs untouched and its output goes through
+:func:`wsnlib.orientation.hybrid_blend.blend_with_single_frame`: ``q_f = SLERP(q_s, q_d,
 μ(λ_eff))`` on received samples with λ_eff > 0, ``q_s`` TRIAD of the sample.
-``hybrid="feedback"``: ``q_f`` also replaces the filter's orientation after each such
+``blend="feedback"``: ``q_f`` also replaces the filter's orientation after each such
 update, so that the state itself is pulled towards TRIAD.  Both libraries allow it:
 
 * Fusion: ``Ahrs.set_quaternion(q_f)``; nothing else of its state is orientation.
@@ -64,38 +71,455 @@ whose TRIAD looks untrustworthy (:class:`wsnlib.orientation.SingleFrameGate`).
 Gap prediction
 --------------
 ``gap="constant_rate"`` (as in :func:`wsnlib.orientation.estimate_orientation`): on a lost
-sample the output is the last received output turned on by the last received angular rate
+sample the estimate is the last received output turned on by the last received angular rate
 (raw gyroscope, body frame), ``q_k = q_last ⊗ Exp(ω Δt Σ_{j≤k} f^j)`` with ``f = 1`` or
 ``f = exp(−Δt/τ)`` (``gap_time_constant`` τ); the rotation is about one body axis, so this is
 exact for that rate.  At the next received sample the filter's orientation is set to the last
 prediction (Fusion: ``set_quaternion``; VQF: ``gyrQuat``, as for the feedback hybrid) and
 the library updates from there.  ``gap="hold"`` (default) holds the output.  A gap before the
-first received sample is held either way (the filter has not started).
-
-Modules
--------
-* :mod:`wsnlib.orientation.fusion_peer`: :func:`fusion_ahrs` and its settings;
-* :mod:`wsnlib.orientation.vqf_peer`: :func:`vqf_orientation`;
-* :mod:`wsnlib.orientation._peer_common`: the checks and the loss, hybrid and gap plumbing both share.
-
-Every name is re-exported here: ``from wsnlib.orientation.peers import fusion_ahrs`` keeps working.
+first received sample is held either way (the filter has not started).  With
+``output_on_lost="hold"`` the output on lost samples is the previous output whatever ``gap``.
 """
 
 from __future__ import annotations
 
-# The names marked F401 were imported or defined here by earlier versions; kept importable.
-from wsnlib.orientation._peer_common import HYBRIDS, _predict_gap  # noqa: F401
-from wsnlib.orientation.fusion_peer import FUSION_DEFAULT_SETTINGS, fusion_ahrs
-from wsnlib.orientation.loss_handling import (  # noqa: F401
-    DEFAULT_HOLD_WINDOW,
-    SCHEDULES,
-    SingleFrameGate,
-    blend_with_single_frame,
-    check_single_frame_gate,
-    effective_lost_run,
-    slerp_weight,
-)
-from wsnlib.orientation.triad import triad  # noqa: F401
-from wsnlib.orientation.vqf_peer import _vqf_set_quat9d, vqf_orientation  # noqa: F401
+import imufusion
+import numpy as np
+import vqf
 
-__all__ = ["FUSION_DEFAULT_SETTINGS", "HYBRIDS", "fusion_ahrs", "vqf_orientation"]
+from wsnlib import fixed_order
+from wsnlib import quaternion as Q
+from wsnlib._validation import check_nonnegative, check_positive
+from wsnlib.orientation import _batch as B
+from wsnlib.orientation import _kernels as K
+from wsnlib.orientation.hybrid_blend import blend_with_single_frame, check_single_frame_gate, trusted_unchecked
+from wsnlib.orientation.lost_run import DEFAULT_HOLD_WINDOW, SCHEDULES, effective_lost_run, slerp_weight
+from wsnlib.orientation.triad import triad
+
+# --------------------------------------------------------------------------------------------
+# Validation shared by both wrappers
+# --------------------------------------------------------------------------------------------
+
+
+def _prepare(gyr, acc, mag, fs, received):
+    """Checked, broadcast signals ``(*batch, T, 3)`` and mask ``(*batch, T)``."""
+    fs = check_positive(fs, "fs")
+    signals, mask, _, shapes = B.check_inputs(gyr, acc, mag, received)
+    n_t = signals["gyr"].shape[-2]
+    if mask is None:
+        mask = np.ones(n_t, dtype=bool)
+    batch = B.broadcast_batch(shapes)
+    B.check_usable(signals, mask)  # NaN/inf (zero acc, mag) in received samples
+    mask = np.broadcast_to(mask, batch + (n_t,))
+    has_sample = mask.any(axis=-1)
+    if not np.all(has_sample):
+        bad = tuple(int(i) for i in np.argwhere(~has_sample)[0])
+        raise ValueError(f"received has no received sample for batch element {bad}: the output is undefined there")
+    signals = {name: np.broadcast_to(arr, batch + (n_t, 3)) for name, arr in signals.items()}
+    return fs, signals, mask, batch
+
+
+def _predict_gap(q_last, omega, n_lost: int, dt: float, factor: float) -> np.ndarray:
+    """``(n_lost, 4)``: ``q_last ⊗ Exp(ω Δt Σ_{j≤k} f^j)``, k = 1 … n_lost (:mod:`wsnlib.orientation.peers`)."""
+    k = np.arange(1, n_lost + 1)
+    weight = k.astype(float) if factor == 1.0 else factor * (1.0 - factor**k) / (1.0 - factor)
+    turns = np.asarray(omega, dtype=float) * dt * weight[:, None]
+    return Q.multiply(np.asarray(q_last, dtype=float), Q.from_rotation_vector(turns))
+
+
+def _feedback_inputs(signals, mask, rho, tau, schedule, window, gate=None, fs=None):
+    """Where the feedback blends ``(*batch, T)``, TRIAD there ``(*batch, T, 4)`` and μ ``(*batch, T)``."""
+    started_gap = mask | ~np.logical_or.accumulate(mask, axis=-1)  # no gap before the first sample
+    lam = effective_lost_run(started_gap, schedule, window)
+    blend_at = mask & (lam > 0.0)
+    if gate is not None:
+        blend_at &= trusted_unchecked(signals, mask, mask.shape[:-1], gate.vector(fs))
+    q_s = np.zeros(mask.shape + (4,))
+    q_s[..., 0] = 1.0
+    if blend_at.any():
+        q_s[blend_at] = triad(signals["acc"][blend_at], signals["mag"][blend_at])
+    return blend_at, q_s, slerp_weight(lam, rho, tau)
+
+
+def _slerp(q_s: np.ndarray, q_d: np.ndarray, mu: float) -> np.ndarray:
+    """Eq. (4) for one sample, in ``q_d``'s hemisphere (:func:`wsnlib.orientation._kernels.slerp`)."""
+    return np.array(K.slerp(tuple(q_s.tolist()), tuple(q_d.tolist()), float(mu)))
+
+
+def _hold(out: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Rows of ``out`` ``(T, 4)`` filled on received samples: lost ones take the last received
+    row, those before the first received sample the first one."""
+    index = np.arange(mask.shape[-1])
+    src = np.maximum.accumulate(np.where(mask, index, -1))
+    return out[np.where(src < 0, np.argmax(mask), src)]
+
+
+def _run_batch(one, signals, mask, batch, feedback, predict=False):
+    """``one(gyr, acc, mag, mask, fb)`` on every batch element; ``(*batch, T, 4)``.  With ``predict``
+    ``one`` fills the lost samples after the first received one itself."""
+    n_t = mask.shape[-1]
+    out = np.empty(batch + (n_t, 4))
+    for idx in np.ndindex(*batch):
+        gyr, acc = (np.ascontiguousarray(signals[name][idx]) for name in ("gyr", "acc"))
+        mag = np.ascontiguousarray(signals["mag"][idx]) if "mag" in signals else None
+        fb = None if feedback is None else tuple(x[idx] for x in feedback)
+        filled = np.logical_or.accumulate(mask[idx]) if predict else mask[idx]
+        out[idx] = _hold(one(gyr, acc, mag, mask[idx], fb), filled)
+    return out
+
+
+class _Options:
+    """The checked loss options of a peer call (:mod:`wsnlib.orientation`'s vocabulary)."""
+
+    def __init__(self, filter_name, mag, fs, gap, output_on_lost, gap_time_constant, blend, rho, tau, schedule,
+                 hold_window, single_frame_gate):
+        gap, gap_time_constant = B.check_gap(gap, gap_time_constant, filter_name)
+        self.gap_factor = None if gap == "hold" else B.rate_factor(gap_time_constant, fs)
+        self.hold_output = B.check_output_on_lost(output_on_lost)
+        self.blend = B.check_blend(blend, mag, filter_name)
+        if self.blend is None:
+            B.refuse_unused(filter_name, "without blend", rho=rho, tau=tau, schedule=schedule,
+                            hold_window=hold_window, single_frame_gate=single_frame_gate)
+        self.gate = check_single_frame_gate(single_frame_gate)
+        self.rho = check_positive(2.0 if rho is None else rho, "rho")
+        self.tau = check_positive(6.0 if tau is None else tau, "tau")
+        self.schedule = B.check_choice("decay" if schedule is None else schedule, "schedule", SCHEDULES)
+        self.window = B.check_hold_window(hold_window, self.schedule, DEFAULT_HOLD_WINDOW)
+        if self.window is not None and self.window.ndim:
+            raise ValueError(f"hold_window must be one positive integer here, got {hold_window!r}")
+        self.fs = fs
+
+    def feedback(self, signals, mask):
+        """The feedback hybrid's inputs (:func:`_feedback_inputs`), or None."""
+        if self.blend != "feedback":
+            return None
+        return _feedback_inputs(signals, mask, self.rho, self.tau, self.schedule, self.window, self.gate, self.fs)
+
+    def finish(self, quat, signals, mask):
+        """The output hybrid and the output on lost samples, on the peer's output."""
+        if self.blend == "output":
+            extra = {} if self.gate is None else {"single_frame_gate": self.gate, "gyr": signals["gyr"],
+                                                  "fs": self.fs}
+            quat = blend_with_single_frame(quat, signals["acc"], signals["mag"], mask, rho=self.rho, tau=self.tau,
+                                           schedule=self.schedule,
+                                           hold_window=None if self.window is None else int(self.window), **extra)
+        if self.hold_output:
+            B.hold_lost_output(quat, mask)
+        return quat
+
+
+# --------------------------------------------------------------------------------------------
+# x-io Fusion (imufusion)
+# --------------------------------------------------------------------------------------------
+
+#: Fields of ``imufusion.AhrsSettings`` a caller may set through ``settings``, with
+#: Fusion's defaults (all switch the feature off); see :func:`fusion_orientation` for units.
+FUSION_DEFAULT_SETTINGS = {
+    "gyroscope_range": 0.0,
+    "acceleration_rejection": 0.0,
+    "magnetic_rejection": 0.0,
+    "rejection_timeout": 0.0,
+}
+
+#: m/s² per g, to feed Fusion's accelerometer in g.
+_G = 9.80665
+
+
+def _fusion_settings(fs: float, gain, settings) -> imufusion.AhrsSettings:
+    values = dict(FUSION_DEFAULT_SETTINGS)
+    if settings is not None:
+        if not isinstance(settings, dict):
+            raise ValueError(f"settings must be a dict of imufusion.AhrsSettings fields, got {type(settings).__name__}")
+        for key, value in settings.items():
+            if key in ("sample_rate", "convention", "gain"):
+                raise ValueError(f"settings[{key!r}] is set by fusion_orientation (fs, ENU, gain=); leave it out")
+            if key not in FUSION_DEFAULT_SETTINGS:
+                listed = ", ".join(repr(k) for k in FUSION_DEFAULT_SETTINGS)
+                raise ValueError(f"settings has unknown key {key!r}; known: {listed}")
+            values[key] = check_nonnegative(value, f"settings[{key!r}]")
+    obj = imufusion.AhrsSettings()
+    obj.sample_rate = fs
+    obj.convention = imufusion.CONVENTION_ENU  # the constructor argument is ignored in 1.3.3
+    obj.gain = check_nonnegative(gain, "gain")
+    for key, value in values.items():
+        setattr(obj, key, value)
+    if obj.convention != imufusion.CONVENTION_ENU:  # pragma: no cover - guards a library change
+        raise RuntimeError("imufusion did not accept CONVENTION_ENU")
+    return obj
+
+
+def _fusion_one(settings, dt=None, gap_factor=None):
+    def one(gyr, acc, mag, mask, feedback):
+        ahrs = imufusion.Ahrs()
+        ahrs.set_settings(settings)
+        gyr_deg = np.degrees(gyr).tolist()
+        acc_g = (acc / _G).tolist()
+        mag = None if mag is None else mag.tolist()
+        n_t = mask.shape[-1]
+        out = np.empty((n_t, 4))
+        if feedback is not None:
+            blend_at, q_s, mu = feedback
+        received = np.flatnonzero(mask).tolist()
+        prev = -1
+        for t in received:
+            if gap_factor is not None and prev >= 0 and t - prev > 1:  # dead reckoning over the gap
+                out[prev + 1:t] = _predict_gap(out[prev], gyr[prev], t - prev - 1, dt, gap_factor)
+                ahrs.set_quaternion(out[t - 1])
+            prev = t
+            if mag is None:
+                ahrs.update_no_magnetometer(gyr_deg[t], acc_g[t])
+            else:
+                ahrs.update(gyr_deg[t], acc_g[t], mag[t])
+            if feedback is not None and blend_at[t]:
+                q = ahrs.get_quaternion().astype(float)
+                q = _slerp(q_s[t], q / fixed_order.norm(q), mu[t])
+                ahrs.set_quaternion(q)
+                out[t] = q
+            else:
+                out[t] = ahrs.get_quaternion()
+            out[t] /= fixed_order.norm(out[t])  # Fusion computes in float32
+        if gap_factor is not None and 0 <= prev < n_t - 1:  # a gap at the end
+            out[prev + 1:] = _predict_gap(out[prev], gyr[prev], n_t - 1 - prev, dt, gap_factor)
+        return out
+
+    return one
+
+
+def fusion_orientation(gyr, acc, mag=None, *, fs: float, received=None, gain: float = 0.5,
+                       settings: dict | None = None, gap: str = "hold", output_on_lost: str = "estimate",
+                       gap_time_constant=None, blend: str | None = None, rho=None, tau=None, schedule=None,
+                       hold_window=None, single_frame_gate=None) -> np.ndarray:
+    """x-io Fusion AHRS (``imufusion.Ahrs``) over whole recordings, with packet loss, batched.
+
+    Each batch element gets a fresh ``imufusion.Ahrs`` with ``convention =
+    CONVENTION_ENU``, ``sample_rate = fs`` and the settings below, then one ``update`` (or
+    ``update_no_magnetometer``) per received sample, gyroscope converted to °/s and
+    accelerometer to g.  Lost samples make no call and hold the output (:mod:`wsnlib.orientation.peers`).
+    Fusion's start-up is kept: its gain starts at 10 and falls linearly to ``gain`` over
+    3 s of updates (150 received samples at 50 Hz), with rejection inactive meanwhile.
+
+    Parameters
+    ----------
+    gyr, acc : array_like, shape (..., T, 3)
+        Angular rate (rad/s) and specific force (m/s², +g up at rest) in the body frame.
+    mag : array_like, shape (..., T, 3), optional
+        Magnetic field in the body frame (µT; Fusion uses the direction only).  ``None``:
+        ``update_no_magnetometer`` (heading from the gyroscope, zeroed during start-up).
+    fs : float
+        Sampling rate (Hz), > 0: every received sample is integrated over 1/fs.
+    received : array_like of bool, shape (..., T), optional
+        True = received; lost samples are never read (they may hold NaN).  ``None``: all.
+    gain : float
+        Fusion's gain (rad/s per unit of the cross-product error, default 0.5, Fusion's
+        default), >= 0: how strongly accelerometer and magnetometer correct the gyroscope.
+    settings : dict, optional
+        Overrides of the other ``imufusion.AhrsSettings`` fields (defaults, Fusion's own:
+        every feature off):
+
+        * ``"gyroscope_range"`` (°/s, default 0 = off): a gyroscope axis above 98 % of it
+          restarts the start-up ramp (keeping the orientation);
+        * ``"acceleration_rejection"`` (degrees, default 0 = off): the accelerometer is
+          ignored while its direction disagrees with the estimated gravity by more than
+          this (Fusion's README suggests 10°);
+        * ``"magnetic_rejection"`` (degrees, default 0 = off): the same for the
+          magnetometer's heading (README: 10°–20°);
+        * ``"rejection_timeout"`` (s, default 0): after this long of rejection the sensor
+          is used again (recovery); 0 switches both rejections off.  Counted in updates,
+          i.e. in received samples × 1/fs.
+
+        ``sample_rate`` (= ``fs``), ``convention`` (= ENU) and ``gain`` (its own argument)
+        are not accepted here.
+    gap : {"hold", "constant_rate"}
+        In a gap: hold (default), or keep turning by the last received angular rate, the
+        filter continuing from that prediction (module docstring; the semantics of
+        :func:`wsnlib.orientation.estimate_orientation`).
+    output_on_lost : {"estimate", "hold"}
+        On lost samples: the estimate (the prediction with ``"constant_rate"``), or the
+        previous output.
+    gap_time_constant : float, optional
+        With ``"constant_rate"``: the extrapolated rate decays as ``exp(−t/τ)``, τ in s (> 0);
+        ``None`` or ``inf``: constant.
+    blend : {None, "output", "feedback"}
+        Paper 001's SLERP towards TRIAD after a gap (module docstring); needs ``mag``.
+    rho, tau : float, optional
+        ρ, τ of eq. (3) (finite, > 0; default 2 and 6, μ = 1/2 at λ_eff = 12 samples); only
+        with ``blend``.
+    schedule : {"decay", "hold", "instant"}, optional
+        λ_eff after a gap (:func:`wsnlib.orientation.lost_run.effective_lost_run`; default
+        ``"decay"``); only with ``blend``.
+    hold_window : int, optional
+        Received samples during which ``schedule="hold"`` keeps λ_eff (default 50); only
+        with that schedule.
+    single_frame_gate : SingleFrameGate or bool, optional
+        With ``blend``: the gated hybrid, no blend on received samples whose TRIAD fails a
+        check of :class:`wsnlib.orientation.SingleFrameGate` (``True``: default tolerances).
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., T, 4)
+        ENU unit quaternions (body → earth), ``...`` the broadcast of the leading dimensions
+        of the signals and ``received``.  Lost samples hold the previous output (or the
+        prediction, ``gap="constant_rate"``, unless ``output_on_lost="hold"``); samples before
+        the first received one hold the output at it.
+
+    Raises
+    ------
+    ValueError
+        Naming the argument: wrong shapes, mismatched T, leading dimensions that do not
+        broadcast, a non-boolean ``received``, NaN/inf or a zero ``acc``/``mag`` vector in
+        a received sample, ``fs`` <= 0, ``gain`` < 0, an unknown or negative setting, an
+        unknown ``blend``, ``schedule``, ``gap`` or ``output_on_lost``, bad ρ, τ or
+        ``hold_window``, ``mag`` None with ``blend``, ρ, τ, ``schedule``, ``hold_window`` or
+        ``single_frame_gate`` without ``blend``, a ``gap_time_constant`` <= 0 or with
+        ``"hold"``, a ``single_frame_gate`` of the wrong type, or a batch element with no
+        received sample.
+
+    Notes
+    -----
+    Fusion computes in single precision: outputs are normalised again in double, and two
+    runs on the same data agree exactly, but comparisons with double-precision filters
+    should allow ~1e-6.
+    """
+    fs, signals, mask, batch = _prepare(gyr, acc, mag, fs, received)
+    options = _Options("fusion_orientation", mag, fs, gap, output_on_lost, gap_time_constant, blend, rho, tau,
+                       schedule, hold_window, single_frame_gate)
+    ahrs_settings = _fusion_settings(fs, gain, settings)
+    quat = _run_batch(_fusion_one(ahrs_settings, 1.0 / fs, options.gap_factor), signals, mask, batch,
+                      options.feedback(signals, mask), predict=options.gap_factor is not None)
+    return options.finish(quat, signals, mask)
+
+
+# --------------------------------------------------------------------------------------------
+# VQF (vqf)
+# --------------------------------------------------------------------------------------------
+
+def _vqf_params(params) -> dict:
+    if params is None:
+        return {}
+    if not isinstance(params, dict):
+        raise ValueError(f"params must be a dict of VQF parameters, got {type(params).__name__}")
+    known = vqf.VQF(1.0).params
+    for key in params:
+        if key in ("gyrTs", "accTs", "magTs"):
+            raise ValueError(f"params[{key!r}] is set from fs; leave it out")
+        if key not in known:
+            raise ValueError(f"params has unknown key {key!r}; known: {', '.join(sorted(known))}")
+    return dict(params)
+
+
+def _pieces(mask: np.ndarray, blend_at) -> tuple[np.ndarray, np.ndarray]:
+    """Starts and ends of the runs of received samples, also cut after every blended sample."""
+    prev = np.concatenate(([False], mask[:-1]))
+    nxt = np.concatenate((mask[1:], [False]))
+    cut = np.zeros_like(mask) if blend_at is None else blend_at
+    prev_cut = np.concatenate(([False], cut[:-1]))
+    starts = np.flatnonzero(mask & (~prev | prev_cut))
+    ends = np.flatnonzero(mask & (~nxt | cut)) + 1
+    return starts, ends
+
+
+def _vqf_set_quat9d(filt, q_f: np.ndarray, use_mag: bool = True) -> None:
+    """Make ``filt``'s 9D output (6D without ``use_mag``) ``q_f`` by replacing ``gyrQuat``.
+
+    Why ``gyrQuat`` and not ``accQuat``: :mod:`wsnlib.orientation.peers`.
+    """
+    state = filt.state
+    half = -0.5 * state["delta"] if use_mag else 0.0
+    undo_delta = np.array([np.cos(half), 0.0, 0.0, np.sin(half)])
+    gyr_quat = Q.multiply(Q.conjugate(np.asarray(state["accQuat"])), Q.multiply(undo_delta, q_f))
+    state["gyrQuat"] = gyr_quat / fixed_order.norm(gyr_quat)
+    filt.state = state
+
+
+def _vqf_one(fs: float, params: dict, gap_factor=None):
+    def one(gyr, acc, mag, mask, feedback):
+        try:
+            filt = vqf.VQF(1.0 / fs, **params)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"params rejected by vqf.VQF: {exc}") from exc
+        key = "quat6D" if mag is None else "quat9D"
+        out = np.empty((mask.shape[-1], 4))
+        blend_at, q_s, mu = (None, None, None) if feedback is None else feedback
+        prev = -1  # last received sample
+        for start, end in zip(*_pieces(mask, blend_at), strict=True):
+            if gap_factor is not None and prev >= 0 and start - prev > 1:  # dead reckoning over the gap
+                out[prev + 1:start] = _predict_gap(out[prev], gyr[prev], start - prev - 1, 1.0 / fs, gap_factor)
+                _vqf_set_quat9d(filt, out[start - 1], mag is not None)
+            prev = end - 1
+            piece = filt.updateBatch(gyr[start:end], acc[start:end], None if mag is None else mag[start:end])
+            out[start:end] = piece[key]
+            last = end - 1
+            if feedback is not None and blend_at[last]:
+                out[last] = _slerp(q_s[last], out[last], mu[last])
+                _vqf_set_quat9d(filt, out[last])
+        n_t = mask.shape[-1]
+        if gap_factor is not None and 0 <= prev < n_t - 1:  # a gap at the end
+            out[prev + 1:] = _predict_gap(out[prev], gyr[prev], n_t - 1 - prev, 1.0 / fs, gap_factor)
+        return out
+
+    return one
+
+
+def vqf_orientation(gyr, acc, mag=None, *, fs: float, received=None, params: dict | None = None, gap: str = "hold",
+                    output_on_lost: str = "estimate", gap_time_constant=None, blend: str | None = None, rho=None,
+                    tau=None, schedule=None, hold_window=None, single_frame_gate=None) -> np.ndarray:
+    """VQF (Laidig & Seel 2023, ``vqf.VQF``) over whole recordings, with packet loss, batched.
+
+    Each batch element gets a fresh ``vqf.VQF(1/fs, **params)``; every contiguous run of
+    received samples goes through one ``updateBatch`` call, the state carrying over between
+    calls, which is exactly "lost samples are skipped, the next received one uses the
+    nominal Ts".  The output is ``quat9D`` with ``mag``, ``quat6D`` without.  This is the
+    causal (online) filter; ``vqf.offlineVQF`` (acausal) is not used.
+
+    Parameters
+    ----------
+    gyr, acc : array_like, shape (..., T, 3)
+        Angular rate (rad/s) and specific force (m/s²) in the body frame; VQF uses these
+        units as given (rest detection and bias estimation thresholds are in them).
+    mag : array_like, shape (..., T, 3), optional
+        Magnetic field in the body frame (µT; VQF accepts any unit).  ``None``: 6D output,
+        heading relative to the start.
+    fs : float
+        Sampling rate (Hz), > 0; VQF's ``gyrTs = 1/fs`` (accelerometer and magnetometer
+        the same).
+    received : array_like of bool, shape (..., T), optional
+        True = received; lost samples are never read.  ``None``: all.
+    params : dict, optional
+        Overrides of ``VQFParams`` (``vqf.VQF`` keyword arguments); VQF's defaults:
+        ``tauAcc`` 3.0 s, ``tauMag`` 9.0 s (inclination and heading correction time
+        constants), ``motionBiasEstEnabled`` True, ``restBiasEstEnabled`` True,
+        ``magDistRejectionEnabled`` True, ``biasSigmaInit`` 0.5 °/s,
+        ``biasForgettingTime`` 100 s, ``biasClip`` 2 °/s, ``biasSigmaMotion`` 0.1 °/s,
+        ``biasVerticalForgettingFactor`` 1e-4, ``biasSigmaRest`` 0.03 °/s, ``restMinT``
+        1.5 s, ``restFilterTau`` 0.5 s, ``restThGyr`` 2 °/s, ``restThAcc`` 0.5 m/s²,
+        ``magCurrentTau`` 0.05 s, ``magRefTau`` 20 s, ``magNormTh`` 0.1 (relative),
+        ``magDipTh`` 10°, ``magNewTime`` 20 s, ``magNewFirstTime`` 5 s, ``magNewMinGyr``
+        20 °/s, ``magMinUndisturbedTime`` 0.5 s, ``magMaxRejectionTime`` 60 s,
+        ``magRejectionFactor`` 2.  Times are counted in received samples × Ts.  The
+        sampling times come from ``fs`` and are not accepted here.
+    gap, output_on_lost, gap_time_constant, blend, rho, tau, schedule, hold_window, single_frame_gate
+        As in :func:`fusion_orientation`.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., T, 4)
+        ENU unit quaternions (body → earth; y = magnetic north with ``mag``).  Lost samples
+        hold the previous output (or the prediction, ``gap="constant_rate"``, unless
+        ``output_on_lost="hold"``); samples before the first received one hold the output at it.
+
+    Raises
+    ------
+    ValueError
+        Naming the argument: wrong shapes, mismatched T, leading dimensions that do not
+        broadcast, a non-boolean ``received``, NaN/inf or a zero ``acc``/``mag`` vector in
+        a received sample, ``fs`` <= 0, an unknown key in ``params`` (or a value VQF
+        rejects), and what :func:`fusion_orientation` refuses of the loss options, or a batch
+        element with no received sample.
+    """
+    fs, signals, mask, batch = _prepare(gyr, acc, mag, fs, received)
+    options = _Options("vqf_orientation", mag, fs, gap, output_on_lost, gap_time_constant, blend, rho, tau,
+                       schedule, hold_window, single_frame_gate)
+    vqf_params = _vqf_params(params)
+    quat = _run_batch(_vqf_one(fs, vqf_params, options.gap_factor), signals, mask, batch,
+                      options.feedback(signals, mask), predict=options.gap_factor is not None)
+    return options.finish(quat, signals, mask)

@@ -23,7 +23,7 @@ rate match at both ends (``J_r`` is the right Jacobian of SO(3)).  ``r1`` is tak
 rotation by ``‖r1‖ + 2πn`` (n ∈ {−1, 0, 1}) closest to ``h (ω0 + ω1)/2``, so a fast turn of
 more than 180° through a gap is not unwound the short way.
 
-With ``settings.gap_rate_prediction`` (default) and a full window
+With ``gap="ar"`` (default) and a full window
 (``gap_rate_prediction_window_s``) of samples on *both* sides of the gap, the curve is
 instead built from the rates the filter's linear predictor gives from each side
 (:func:`wsnlib.orientation._gap_rate_kernels.gap_rate_fit`: fitted on the window before the gap
@@ -54,7 +54,6 @@ from wsnlib.orientation._kalman_layout import (
     KALMAN_AR_ORDER,
     KALMAN_AR_WINDOW,
     KALMAN_DT,
-    KALMAN_GAP_REPLAY,
     NX,
 )
 from wsnlib.orientation._kernels import (
@@ -72,13 +71,12 @@ from wsnlib.orientation.kalman import KalmanSettings, check_finite_output, prepa
 #: leave-one-trial-out tuning of the smoother chose differently from the filter's (most often,
 #: 8 settings, 17 BROAD trials, GE 10 %; ``benchmarks/eval_loss_tolerance.py``): the
 #: magnetometer's norm gate is 5 % instead of 10 % and the accelerometer's innovation gate
-#: 6.0 instead of 13.8 (both chosen in earlier runs of that script); no gap replay (the
-#: forward pass never replays, see :func:`smooth_orientation`).  The gap's linear prediction
+#: 6.0 instead of 13.8 (both chosen in earlier runs of that script).  The gap's linear prediction
 #: (order 48 on 6 s) and the adaptive accelerometer noise (factor 4) are the filter's
 #: defaults, and also what the smoother's own LOTO chose most often (grid
 #: acc_disturbance_factor ∈ {4, 16} × acc_innovation_gate ∈ {13.8, 6} × (order, window) ∈
 #: {(24, 3 s), (48, 6 s)}).
-SMOOTHER_SETTINGS = KalmanSettings(mag_norm_gate=0.05, acc_innovation_gate=6.0, gap_replay=False)
+SMOOTHER_SETTINGS = KalmanSettings(mag_norm_gate=0.05, acc_innovation_gate=6.0)
 
 
 @njit(**COMPILE)
@@ -281,8 +279,8 @@ def _smooth_batch(gyr, acc, mag, has_mag, received, index, q_init, start, init_o
                        q_init[n], start[n], init_only, s, out_q[n], interpolate_gaps)
 
 
-def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, settings=None, q0=None,
-                       interpolate_gaps: bool = True) -> np.ndarray:
+def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None, settings=None, gap: str = "ar",
+                       gap_time_constant=None, interpolate_gaps: bool = True) -> np.ndarray:
     """Offline orientation: forward Kalman filter, backward RTS pass, curves across gaps.
 
     Uses every received sample, also those after a sample (module docstring).  For recorded
@@ -290,11 +288,13 @@ def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, settings
 
     Parameters
     ----------
-    gyr, acc, mag, fs, received, q0, settings
+    gyr, acc, mag, fs, received, q0, settings, gap, gap_time_constant
         As in :func:`wsnlib.orientation.kalman.kalman_orientation` (same filter);
-        ``settings=None`` gives :data:`SMOOTHER_SETTINGS` (tuned for the smoother).  The
-        forward pass never replays gaps (``settings.gap_replay`` is ignored: the RTS pass needs
-        the filter's own predictions, and the Hermite curve uses both ends of each gap).
+        ``settings=None`` gives :data:`SMOOTHER_SETTINGS` (tuned for the smoother); ``gap``
+        also chooses the curve across gaps (module docstring).  The forward pass does not
+        replay gaps (the RTS pass needs the filter's own predictions, and the curve uses both
+        ends of each gap), and every lost sample gets the smoothed estimate (no
+        ``output_on_lost``).
     interpolate_gaps : bool
         Replace the smoothed estimate across each gap by the curve of the module docstring
         (both sides' linear prediction, or the cubic Hermite curve) (default); ``False`` keeps
@@ -305,15 +305,15 @@ def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, settings
     numpy.ndarray, shape (..., T, 4)
         ENU unit quaternions (body → earth), ``...`` the broadcast leading dimensions.  At the
         last sample equal to the output of the filter with the same settings and
-        ``gap_replay=False``.
+        ``replay=False``.
 
     Raises
     ------
     ValueError
         As :func:`~wsnlib.orientation.kalman.kalman_orientation`.
     """
-    s = settings_vector(SMOOTHER_SETTINGS if settings is None else settings, fs)
-    s[KALMAN_GAP_REPLAY] = 0.0  # the RTS pass needs the filter's own predictions (KalmanSettings.gap_replay)
+    s = settings_vector(SMOOTHER_SETTINGS if settings is None else settings, fs, gap=gap, replay=False,
+                        gap_time_constant=gap_time_constant, filter_name="smooth_orientation")
     inputs = prepare_inputs(gyr, acc, mag, received, q0)
     if not isinstance(interpolate_gaps, bool):
         raise ValueError(f"interpolate_gaps must be True or False, got {interpolate_gaps!r}")

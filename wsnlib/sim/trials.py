@@ -4,13 +4,13 @@ A *trial* is one simulated recording of the two arm nodes (independent sensor no
 loss mask per node.  :func:`arm_loss_trials` stacks every (movement, loss profile, repetition)
 along one leading axis, so a whole study is one batched filter call.
 
-Loss profiles (paper 001):
+Loss profiles (:class:`wsnlib.loss.LossProfile`) per node, paper 001's way:
 
-* ``LossProfile.burst(start_sample=80, n_packets=4)`` — Section IV: the humerus loses
-  ``n_packets`` consecutive packets right after ``start_sample`` samples; the forearm loses
-  nothing;
-* ``LossProfile.gilbert_elliott(loss_rate, mean_burst=3)`` — bursty random loss on *both*
-  nodes, independently (two radios), packets of 6 samples;
+* ``LossProfile.burst(start_s, n_packets=4)`` — Section IV: the humerus loses ``n_packets``
+  consecutive packets right after ``start_s`` seconds (80 samples = 1.6 s at 50 Hz); the
+  forearm loses nothing;
+* ``LossProfile.gilbert_elliott(loss_rate, mean_burst_packets=3)`` — bursty random loss on
+  *both* nodes, independently (two radios), packets of 6 samples;
 * ``LossProfile.none()`` — everything received (the lossless reference).
 """
 
@@ -21,69 +21,10 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from wsnlib import loss
+from wsnlib.loss import LossProfile
 from wsnlib.sim.arm import ArmTrajectory, arm_kinematics
 from wsnlib.sim.disturbance import Disturbance
 from wsnlib.sim.imu import ImuSpec, simulate_imu
-
-
-@dataclass(frozen=True)
-class LossProfile:
-    """How packets are lost in a trial; build with the class methods.
-
-    Attributes
-    ----------
-    name : str
-        Label used in tables (e.g. ``"burst 4 packets"``, ``"GE 10 %"``).
-    kind : {"none", "burst", "gilbert_elliott"}
-    start_sample, n_packets : int
-        Burst position (samples) and length (packets); humerus only.
-    loss_rate : float
-        Gilbert–Elliott stationary packet loss rate, in [0, 1).
-    mean_burst : float
-        Gilbert–Elliott mean burst length (packets), ≥ 1.
-    samples_per_packet : int
-    """
-
-    name: str
-    kind: str
-    start_sample: int = 0
-    n_packets: int = 0
-    loss_rate: float = 0.0
-    mean_burst: float = 1.0
-    samples_per_packet: int = loss.SAMPLES_PER_PACKET
-
-    @classmethod
-    def none(cls) -> LossProfile:
-        return cls("no loss", "none")
-
-    @classmethod
-    def burst(cls, start_sample: int = 80, n_packets: int = 4,
-              samples_per_packet: int = loss.SAMPLES_PER_PACKET) -> LossProfile:
-        return cls(f"burst {n_packets} packets", "burst", start_sample=start_sample, n_packets=n_packets,
-                   samples_per_packet=samples_per_packet)
-
-    @classmethod
-    def gilbert_elliott(cls, loss_rate: float, mean_burst: float = 3.0,
-                        samples_per_packet: int = loss.SAMPLES_PER_PACKET) -> LossProfile:
-        if loss_rate == 0.0:
-            return cls("GE 0 %", "none", samples_per_packet=samples_per_packet)
-        return cls(f"GE {100 * loss_rate:g} %", "gilbert_elliott", loss_rate=loss_rate, mean_burst=mean_burst,
-                   samples_per_packet=samples_per_packet)
-
-    def masks(self, n_samples: int, n_trials: int, *, rng: np.random.Generator) -> np.ndarray:
-        """Received masks ``(n_trials, 2, n_samples)`` (node axis: humerus, forearm)."""
-        received = np.ones((n_trials, 2, n_samples), dtype=bool)
-        if self.kind == "none":
-            return received
-        if self.kind == "burst":
-            received[:, 0] = loss.burst_mask(n_samples, self.start_sample, self.n_packets, self.samples_per_packet)
-            return received
-        if self.kind == "gilbert_elliott":
-            n_packets = loss.n_packets_for(n_samples, self.samples_per_packet)
-            packets = loss.gilbert_elliott(n_packets, self.loss_rate, self.mean_burst, rng=rng, shape=(n_trials, 2))
-            return loss.packets_to_samples(packets, self.samples_per_packet, n_samples)
-        raise ValueError(f"kind must be 'none', 'burst' or 'gilbert_elliott', got {self.kind!r}")
 
 
 @dataclass(frozen=True)
@@ -150,7 +91,7 @@ def arm_loss_trials(movements: dict[str, ArmTrajectory], profiles: list[LossProf
     movements : dict[str, ArmTrajectory]
         All with the same number of samples and sampling rate (e.g.
         :func:`wsnlib.sim.arm.movement_set`).
-    profiles : list of LossProfile
+    profiles : list of wsnlib.loss.LossProfile
     n_repetitions : int
         Trials per (movement, profile), ≥ 1.
     rng : numpy.random.Generator
@@ -184,7 +125,10 @@ def arm_loss_trials(movements: dict[str, ArmTrajectory], profiles: list[LossProf
         parts["mag"].append(mag)
         parts["quat_true"].append(np.broadcast_to(truth.quat, (per_movement,) + truth.quat.shape))
         for profile in profiles:
-            parts["received"].append(profile.masks(n_samples, n_repetitions, rng=rng))
+            received = profile.mask(n_samples, fs, rng, shape=(n_repetitions, 2))
+            if profile.model == "burst":
+                received[:, 1] = True  # the burst is the humerus's only
+            parts["received"].append(received)
             labels += [{"movement": name, "profile": profile.name, "repetition": r} for r in range(n_repetitions)]
     stacked = {key: np.concatenate(value) for key, value in parts.items()}
     return Trials(**stacked, labels=pd.DataFrame(labels), fs=float(fs))

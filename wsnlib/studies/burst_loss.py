@@ -178,8 +178,8 @@ def hybrid_vs_fusion(recording, *, rho, tau, loss_packets, beta, loss_start, los
     The node ``lossy_node`` loses ``loss_packets`` packets after ``loss_start`` samples; the
     other node loses nothing, so both estimators give it the same orientation (μ = 1 without
     a loss) and it is estimated once.  ``lossy_node`` runs
-    :func:`wsnlib.orientation.estimate_orientation` with ``method="hold_last"`` (data fusion)
-    and ``method="hybrid"`` (ρ, τ, ``schedule``, ``blend``); the elbow angle is forearm pitch
+    :func:`wsnlib.orientation.estimate_orientation` as plain data fusion and with the hybrid
+    (``blend``, ρ, τ, ``schedule``); the elbow angle is forearm pitch
     minus humerus pitch (:func:`wsnlib.metrics.elbow_angle_deg`).
 
     Parameters
@@ -210,13 +210,13 @@ def hybrid_vs_fusion(recording, *, rho, tau, loss_packets, beta, loss_start, los
     n_samples = recording.time_s.size
     received, first_lost, first_after = _burst(n_samples, loss_start, loss_packets, samples_per_packet)
     signals = {node: (recording.gyr[node], recording.acc[node], recording.mag[node]) for node in (h, f)}
-    common = dict(fs=recording.fs, beta=beta, rho=rho, tau=tau)
-    q_other = estimate_orientation(*signals[f], method="hold_last", **common)
-    hybrid = dict(method="hybrid", schedule=schedule, blend=blend,
+    common = dict(fs=recording.fs, beta=beta)
+    q_other = estimate_orientation(*signals[f], **common)
+    hybrid = dict(blend=blend, rho=rho, tau=tau, schedule=schedule,
                   hold_window=hold_window if schedule == "hold" else None)
     elbow = {name: metrics.elbow_angle_deg(estimate_orientation(*signals[h], received=received, **common, **options),
                                            q_other)
-             for name, options in (("data fusion", dict(method="hold_last")), ("hybrid", hybrid))}
+             for name, options in (("data fusion", {}), ("hybrid", hybrid))}
     truth = metrics.elbow_angle_deg(recording.quat_true[h], recording.quat_true[f])
     recovery = {name: _recovery(value - truth, received, first_lost, first_after, recording.fs, threshold_deg)
                 for name, value in elbow.items()}

@@ -1,7 +1,7 @@
 """Tables, selections and sentences of notebook 10 (the loss-tolerance study, issue 11).
 
 What the notebook shows beyond :mod:`wsnlib.studies.loss_tolerance` (running) and
-:mod:`wsnlib.studies.loss_tolerance_summary` (intervals, rankings, targets): the paper's
+:mod:`wsnlib.studies.loss_tolerance.summary` (intervals, rankings, targets): the paper's
 weight μ(λ) beside the Kalman filter's 1 − K, the tables of methods and loss profiles, which
 trials and which burst the burst figure shows, the per-phase table, the paper-vs-ours table and
 the sentences built from them.  Angles in degrees, times in seconds, rates in °/s.
@@ -16,8 +16,9 @@ import pandas as pd
 
 from wsnlib import paper_values
 from wsnlib.orientation import KalmanSettings, slerp_weight
-from wsnlib.studies.loss_tolerance import AFTER_GAP_S, FS, HEADLINE, LATENCY_RULES, PROFILES
-from wsnlib.studies.loss_tolerance_summary import diagnosis_sentence, error_budget
+from wsnlib.studies.loss_tolerance.evaluation import AFTER_GAP_S
+from wsnlib.studies.loss_tolerance.registry import FS, HEADLINE, LATENCY_RULES, PROFILES
+from wsnlib.studies.loss_tolerance.summary import comparison_sentences, diagnosis_sentence, error_budget, trial_table
 
 #: Column of :func:`weight_vs_gap` holding the Kalman filter's 1 − K.
 KALMAN_WEIGHT_COLUMN = "Kalman: 1 − K (heading)"
@@ -96,7 +97,7 @@ def error_vs_loss_rate_inputs(profiles, means: pd.DataFrame, methods, groups=LOS
     profiles : sequence of LossProfile
         The lossless profile and the Gilbert–Elliott ones with 6-sample packets are kept.
     means : pandas.DataFrame
-        Rows of :func:`~wsnlib.studies.loss_tolerance_summary.summary_table` for one metric.
+        Rows of :func:`~wsnlib.studies.loss_tolerance.summary.summary_table` for one metric.
     methods : iterable of str
         The methods run.
     groups : mapping title → methods
@@ -169,11 +170,9 @@ def burst_window(trace: Mapping, end: int, *, before_s: float, after_s: float, f
 
 def headline_values(per_trial: pd.DataFrame, methods, metric: str = "rmse_total",
                     profile: str = HEADLINE) -> pd.DataFrame:
-    """Trials × methods of ``metric`` at ``profile`` (columns in the order of ``methods``)."""
-    rows = per_trial[per_trial["profile"] == profile]
-    if rows.empty:
-        raise ValueError(f"no rows at profile {profile!r}")
-    return rows.pivot(index="trial", columns="method", values=metric)[list(methods)]
+    """Trials × methods of ``metric`` at ``profile`` (mean over the loss draws; columns in the order of
+    ``methods``)."""
+    return trial_table(per_trial, profile, metric)[list(methods)]
 
 
 #: Columns of :func:`phase_table`: per_trial column → label.
@@ -191,12 +190,13 @@ def phase_table(per_trial: pd.DataFrame, profile: str = HEADLINE) -> pd.DataFram
 
 
 def error_budgets(per_trial: pd.DataFrame, methods, profile: str = HEADLINE) -> pd.DataFrame:
-    """:func:`~wsnlib.studies.loss_tolerance_summary.error_budget` of every method, one row each."""
+    """:func:`~wsnlib.studies.loss_tolerance.summary.error_budget` of every method, one row each."""
     return pd.DataFrame({m: error_budget(per_trial, m, profile) for m in methods}).T
 
 
 def trust_sentence(trust: pd.DataFrame) -> str:
-    """How often the gate trusts the single frame, from :func:`~wsnlib.studies.loss_tolerance.single_frame_trust`."""
+    """How often the gate trusts the single frame, from
+    :func:`~wsnlib.studies.loss_tolerance.evaluation.single_frame_trust`."""
     share = trust["trusted_share"]
     return (f"The gate trusts the single frame on {100 * share.median():.0f} % of the movement "
             f"samples of the median trial (from {100 * share.min():.0f} % on "
@@ -211,7 +211,7 @@ def paper_vs_ours(means: pd.DataFrame, best_peer: str, profile: str = "paper bur
     Parameters
     ----------
     means : pandas.DataFrame
-        :func:`~wsnlib.studies.loss_tolerance_summary.summary_table` (with ``peak_increase_deg``
+        :func:`~wsnlib.studies.loss_tolerance.summary.summary_table` (with ``peak_increase_deg``
         and ``recovery_s``).
     best_peer : str
         The peer shown beside ours.
@@ -274,13 +274,12 @@ def summary_bullets(per_trial: pd.DataFrame, *, ranking_sentence: str, targets: 
     ranking_sentence : str
         The headline ranking in words (:func:`wsnlib.stats.describe_ranking`).
     targets : pandas.DataFrame
-        :func:`~wsnlib.studies.loss_tolerance_summary.targets_table`.
+        :func:`~wsnlib.studies.loss_tolerance.summary.targets_table`.
     best : mapping
-        :func:`~wsnlib.studies.loss_tolerance_summary.best_methods`.
+        :func:`~wsnlib.studies.loss_tolerance.summary.best_methods`.
     comparisons : mapping question → table
-        :func:`~wsnlib.studies.loss_tolerance_summary.paired_comparisons`; the total-RMSE rows are told.
+        :func:`~wsnlib.studies.loss_tolerance.summary.paired_comparisons`; the total-RMSE rows are told.
     """
-    from wsnlib.studies.loss_tolerance_summary import comparison_sentences
 
     return ([f"* **Ranking at {HEADLINE}.** {ranking_sentence}",
              "* **Targets.** " + "; ".join(f"{name}: {row['verdict']}" for name, row in targets.iterrows()) + ".",

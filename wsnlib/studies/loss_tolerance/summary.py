@@ -1,8 +1,9 @@
 """Summaries of the loss-tolerance study: means with bootstrap intervals, rankings, the issue's targets.
 
-Inputs are the tidy ``per_trial`` table of :func:`wsnlib.studies.loss_tolerance.evaluate`.
-Every interval is a bootstrap over trials from :mod:`wsnlib.stats` (paired: all methods are
-resampled with the same trials), and every sentence is generated from the numbers.
+Inputs are the tidy ``per_trial`` table of :func:`wsnlib.studies.loss_tolerance.evaluate`; a
+trial's value under a profile is the mean over its loss draws.  Every interval is a bootstrap
+over trials from :mod:`wsnlib.stats` (paired: all methods are resampled with the same trials),
+and every sentence is generated from the numbers.
 
 Targets (issue 11, at the headline profile, GE 10 %)
 ----------------------------------------------------
@@ -21,7 +22,8 @@ import numpy as np
 import pandas as pd
 
 from wsnlib import stats
-from wsnlib.studies.loss_tolerance import AFTER_GAP_S, HEADLINE
+from wsnlib.studies.loss_tolerance.evaluation import AFTER_GAP_S
+from wsnlib.studies.loss_tolerance.registry import HEADLINE
 
 #: Metrics summarised by :func:`summary_table` by default.
 SUMMARY_METRICS = ("rmse_total", "rmse_heading", "rmse_inclination", "rms_lost", "rms_after_gap", "rms_steady",
@@ -36,13 +38,14 @@ TARGETS = {"best causal / best peer (GE 10 %)": ("ratio", 0.5),
 LOSSLESS_REFERENCE = "VQF (defaults)"
 
 
-def _table(per_trial: pd.DataFrame, profile: str, metric: str) -> pd.DataFrame:
-    """Trials × methods of ``metric`` at ``profile`` (methods in the table's order)."""
+def trial_table(per_trial: pd.DataFrame, profile: str, metric: str) -> pd.DataFrame:
+    """Trials × methods of ``metric`` at ``profile``, the mean over each trial's loss draws (methods
+    in the table's order, trials sorted)."""
     rows = per_trial[per_trial["profile"] == profile]
     if rows.empty:
-        raise ValueError(f"profile {profile!r} is not in per_trial")
+        raise ValueError(f"no rows at profile {profile!r}")
     order = list(dict.fromkeys(rows["method"]))
-    return rows.pivot(index="trial", columns="method", values=metric)[order]
+    return rows.groupby(["trial", "method"])[metric].mean().unstack("method")[order]
 
 
 def summary_table(per_trial: pd.DataFrame, *, rng: np.random.Generator, metrics=SUMMARY_METRICS,
@@ -64,7 +67,7 @@ def summary_table(per_trial: pd.DataFrame, *, rng: np.random.Generator, metrics=
     rows = []
     for metric in metrics:
         for profile in dict.fromkeys(per_trial["profile"]):
-            table = _table(per_trial, profile, metric).dropna(axis=0, how="all").dropna(axis=1)
+            table = trial_table(per_trial, profile, metric).dropna(axis=0, how="all").dropna(axis=1)
             if table.shape[0] < 2 or table.shape[1] == 0:
                 continue
             ci = stats.bootstrap_ci(table.to_numpy(), rng=rng, n_boot=n_boot)
@@ -78,7 +81,7 @@ def summary_table(per_trial: pd.DataFrame, *, rng: np.random.Generator, metrics=
 def ranking(per_trial: pd.DataFrame, *, rng: np.random.Generator, profile: str = HEADLINE,
             metric: str = "rmse_total", n_boot: int = 2000) -> pd.DataFrame:
     """Methods ranked by mean ``metric`` at ``profile``; a tie where the paired difference's interval holds 0."""
-    return stats.rank_with_ties(_table(per_trial, profile, metric), rng=rng, n_boot=n_boot)
+    return stats.rank_with_ties(trial_table(per_trial, profile, metric), rng=rng, n_boot=n_boot)
 
 
 def best_methods(per_trial: pd.DataFrame, profile: str = HEADLINE) -> dict[str, str]:
@@ -105,8 +108,8 @@ def targets_table(per_trial: pd.DataFrame, *, rng: np.random.Generator, n_boot: 
         met with room), ci_meets (the whole interval meets the target).
     """
     best = best_methods(per_trial)
-    headline = _table(per_trial, HEADLINE, "rmse_total")
-    lossless = _table(per_trial, "lossless", "rmse_total")
+    headline = trial_table(per_trial, HEADLINE, "rmse_total")
+    lossless = trial_table(per_trial, "lossless", "rmse_total")
     if LOSSLESS_REFERENCE not in lossless:
         raise ValueError(f"per_trial lacks the lossless reference method {LOSSLESS_REFERENCE!r}")
     pairs = [(headline[best["causal"]], headline[best["peer"]], f"{best['causal']} / {best['peer']}"),
@@ -224,7 +227,7 @@ def paired_comparisons(per_trial: pd.DataFrame, pairs, *, rng: np.random.Generat
     rows = []
     for without, with_ in pairs:
         for metric in metrics:
-            table = _table(per_trial, profile, metric)
+            table = trial_table(per_trial, profile, metric)
             missing = [m for m in (without, with_) if m not in table]
             if missing:
                 raise ValueError(f"pairs name methods not in per_trial at {profile!r}: {missing}")
@@ -245,7 +248,9 @@ def paired_comparisons(per_trial: pd.DataFrame, pairs, *, rng: np.random.Generat
 #: How :func:`comparison_sentences` names the metrics.
 METRIC_WORDS = {"rmse_total": "mean total RMSE", "rms_lost": "mean RMS error on lost samples",
                 "rms_after_gap": f"mean RMS error in the {AFTER_GAP_S:g} s after a gap",
-                "rms_steady": "mean RMS error on the other samples"}
+                "rms_steady": "mean RMS error on the other samples",
+                "mean_increase_deg": "mean error a gap adds (over the window after it)",
+                "peak_increase_deg": "peak error a gap adds"}
 
 
 def comparison_sentences(comparisons: pd.DataFrame, unit: str = "°") -> list[str]:

@@ -1,7 +1,9 @@
-"""The loss-tolerance study's registry: methods with their grids, and the loss profiles.
+"""The loss-tolerance study's registries: methods with their grids, and the loss profiles.
 
-What each method and profile is, and why the grids are as they are: :mod:`wsnlib.studies.loss_tolerance`
-(which runs them, :func:`wsnlib.studies.loss_tolerance.evaluate`, and re-exports every name here).
+:func:`default_methods` and :data:`PROFILES` are notebook 10's (issue 11's study),
+:func:`paper001_methods` and :func:`paper001_profiles` notebook 05's (paper 001's options on real
+recordings).  What each method and profile is, and why the grids are as they are: the package
+docstring, :mod:`wsnlib.studies.loss_tolerance`.
 """
 
 from __future__ import annotations
@@ -13,16 +15,18 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
-from wsnlib import loss
+from wsnlib.loss import LossProfile, hold_last
 from wsnlib.orientation import (
     KalmanSettings,
     SingleFrameGate,
     estimate_orientation,
-    fusion_ahrs,
+    fusion_orientation,
     kalman_orientation,
     smooth_orientation,
+    triad,
     vqf_orientation,
 )
+from wsnlib.studies.hybrid_tuning import hybrid_options, mu_options
 
 #: Sampling rate of the study (Hz): the paper's 50 Hz; BROAD is resampled to it.
 FS = 50.0
@@ -70,38 +74,43 @@ class Method:
             raise ValueError(f"grid of {self.name!r} must hold 1 to {MAX_SETTINGS} settings, got {len(self.grid)}")
 
 
-def _madgwick(rec, setting, received, *, option, gap=None):
+def _madgwick(rec, setting, received, **options):
     return estimate_orientation(rec.gyr, rec.acc, rec.mag, fs=FS, beta=setting["beta"], received=received,
-                                method=option, gap=gap)
+                                **options)
 
 
 def _hybrid(rec, setting, received, *, gated=False):
     return estimate_orientation(rec.gyr, rec.acc, rec.mag, fs=FS, beta=MADGWICK_BETA, received=received,
-                                method="hybrid", blend="feedback", rho=1.0, tau=setting["rho_tau"],
+                                blend="feedback", rho=1.0, tau=setting["rho_tau"],
                                 single_frame_gate=SingleFrameGate() if gated else None)
 
 
 def _peer(rec, setting, received, *, library, hybrid, gated=False, gap="hold"):
     signals = [np.broadcast_to(x, received.shape + (3,)) for x in (rec.gyr, rec.acc, rec.mag)]
-    extra = {"hybrid": "feedback", "rho": 1.0, "tau": setting["rho_tau"]} if hybrid else {}
+    extra = {"blend": "feedback", "rho": 1.0, "tau": setting["rho_tau"]} if hybrid else {}
     if gated:
         extra["single_frame_gate"] = SingleFrameGate()
     if library == "Fusion":
-        return fusion_ahrs(*signals, fs=FS, received=received, gain=setting["gain"], gap=gap, **extra)
+        return fusion_orientation(*signals, fs=FS, received=received, gain=setting["gain"], gap=gap, **extra)
     params = {"tauAcc": setting["tauAcc"], "tauMag": setting["tauMag"]}
     return vqf_orientation(*signals, fs=FS, received=received, params=params, gap=gap, **extra)
 
 
 def _kalman(rec, setting, received, *, offline):
+    """The Kalman filter (or smoother) with ``setting``: ``replay`` (the filter's only) as a keyword,
+    the other entries :class:`~wsnlib.orientation.KalmanSettings` fields."""
+    setting = dict(setting)
+    options = {} if offline else {"replay": setting.pop("replay", True)}
     function = smooth_orientation if offline else kalman_orientation
-    return function(rec.gyr, rec.acc, rec.mag, fs=FS, received=received, settings=KalmanSettings(**setting))
+    return function(rec.gyr, rec.acc, rec.mag, fs=FS, received=received, settings=KalmanSettings(**setting),
+                    **options)
 
 
 def settings_grid(fixed: Mapping | None = None, **axes) -> tuple[dict, ...]:
     """Every combination of the values of ``axes`` (the first axis varies slowest), plus ``fixed``.
 
-    ``settings_grid({"mag_norm_gate": 0.05}, gap_replay=(True, False))`` →
-    ``({"mag_norm_gate": 0.05, "gap_replay": True}, {"mag_norm_gate": 0.05, "gap_replay": False})``.
+    ``settings_grid({"mag_norm_gate": 0.05}, replay=(True, False))`` →
+    ``({"mag_norm_gate": 0.05, "replay": True}, {"mag_norm_gate": 0.05, "replay": False})``.
     """
     fixed = dict(fixed or {})
     for name, values in axes.items():
@@ -115,11 +124,11 @@ def settings_grid(fixed: Mapping | None = None, **axes) -> tuple[dict, ...]:
 BETA_GRID = settings_grid(beta=(0.01, 0.02, 0.041, 0.07, 0.1, 0.2, 0.4, 0.8))
 #: ρτ (samples) of our hybrid, ρ = 1 (plain and gated).
 HYBRID_GRID = settings_grid(rho_tau=(1, 3, 6, 12, 24, 48, 96, 192))
-#: Our Kalman filter (:class:`wsnlib.orientation.KalmanSettings` fields; the rest at their
-#: defaults): gap replay on/off, how strongly the accelerometer's noise grows with the recent
+#: Our Kalman filter (``replay``, and :class:`wsnlib.orientation.KalmanSettings` fields; the rest
+#: at their defaults): gap replay on/off, how strongly the accelerometer's noise grows with the recent
 #: linear-acceleration level, and the order / window (s) of the linear prediction of the rate
 #: in a gap (paired: a longer window carries a longer model).
-KALMAN_GRID = tuple({"gap_replay": replay, "acc_disturbance_factor": factor,
+KALMAN_GRID = tuple({"replay": replay, "acc_disturbance_factor": factor,
                      "gap_rate_prediction_order": order, "gap_rate_prediction_window_s": window}
                     for replay in (True, False) for factor in (4.0, 16.0) for order, window in ((24, 3.0), (48, 6.0)))
 #: Our smoother: the magnetometer's norm gate fixed at 0.05; the accelerometer's noise growth,
@@ -151,14 +160,13 @@ def default_methods(grids: Mapping[str, tuple] | None = None) -> dict[str, Metho
     ----------
     grids : mapping method name → sequence of dict, optional
         Grids replacing the default ones (module constants such as :data:`KALMAN_GRID`) of the
-        methods named, e.g. ``{"Kalman": settings_grid(gap_replay=(True, False))}``; each
+        methods named, e.g. ``{"Kalman": settings_grid(replay=(True, False))}``; each
         holds 1 to :data:`MAX_SETTINGS` settings.
     """
     entries = [
-        Method("hold_last", "causal", BETA_GRID, functools.partial(_madgwick, option="hold_last")),
-        Method("constant_rate", "causal", BETA_GRID,
-               functools.partial(_madgwick, option="hold_last", gap="constant_rate")),
-        Method("gyro_interpolation", "causal", BETA_GRID, functools.partial(_madgwick, option="gyro_interpolation"),
+        Method("hold_last", "causal", BETA_GRID, _madgwick),
+        Method("constant_rate", "causal", BETA_GRID, functools.partial(_madgwick, gap="constant_rate")),
+        Method("gyro_interpolation", "causal", BETA_GRID, functools.partial(_madgwick, replay=True),
                latency="gap"),
         Method("hybrid (feedback)", "causal", HYBRID_GRID, _hybrid),
         Method("gated hybrid (feedback)", "causal", HYBRID_GRID, functools.partial(_hybrid, gated=True)),
@@ -200,61 +208,82 @@ def quick_methods(methods: Mapping[str, Method] | None = None, n_settings: int =
     return {name: dataclasses.replace(m, grid=m.grid[:n_settings]) for name, m in methods.items()}
 
 
-@dataclasses.dataclass(frozen=True)
-class LossProfile:
-    """A packet-loss pattern.
-
-    Attributes
-    ----------
-    name : str
-    model : {"none", "burst", "gilbert_elliott"}
-    loss_rate : float
-        Long-run fraction of lost packets (Gilbert–Elliott).
-    mean_burst_packets : float
-        Mean number of consecutive lost packets (Gilbert–Elliott).
-    samples_per_packet : int
-    burst_packets : int
-        Packets per burst (``"burst"``).
-    burst_start_s, burst_period_s : float
-        First nominal burst start and the period of the bursts (s).
-    response_window_s : float
-        Window after each gap in which the error increase and recovery are measured (s).
-    """
-
-    name: str
-    model: str
-    loss_rate: float = 0.0
-    mean_burst_packets: float = 3.0
-    samples_per_packet: int = loss.SAMPLES_PER_PACKET
-    burst_packets: int = 4
-    burst_start_s: float = 4.0
-    burst_period_s: float = 8.0
-    response_window_s: float = 2.0
-
-    def mask(self, n_samples: int, fs: float, rng: np.random.Generator) -> np.ndarray:
-        """Received mask ``(n_samples,)``, True = received (``rng`` is used by Gilbert–Elliott only)."""
-        if self.model == "none":
-            return np.ones(n_samples, dtype=bool)
-        if self.model == "burst":
-            start, period = int(round(self.burst_start_s * fs)), int(round(self.burst_period_s * fs))
-            return loss.burst_train(n_samples, start, period, self.burst_packets, self.samples_per_packet)[0]
-        if self.model == "gilbert_elliott":
-            packets = loss.gilbert_elliott(loss.n_packets_for(n_samples, self.samples_per_packet), self.loss_rate,
-                                           self.mean_burst_packets, rng=rng)
-            return loss.packets_to_samples(packets, self.samples_per_packet, n_samples)
-        raise ValueError(f"model must be 'none', 'burst' or 'gilbert_elliott', got {self.model!r}")
-
-
 #: Name of the headline profile (tuning and targets).
 HEADLINE = "GE 10 %"
 
 #: The profiles of the study, in order (the first is lossless: the reference of the burst response).
 PROFILES = (
-    LossProfile("lossless", "none"),
-    LossProfile("paper burst", "burst", response_window_s=4.0),
-    LossProfile("GE 5 %", "gilbert_elliott", 0.05),
-    LossProfile(HEADLINE, "gilbert_elliott", 0.10),
-    LossProfile("GE 20 %", "gilbert_elliott", 0.20),
-    LossProfile("GE 10 %, 1-sample packets", "gilbert_elliott", 0.10, samples_per_packet=1),
-    LossProfile("GE 10 %, 12-sample packets", "gilbert_elliott", 0.10, samples_per_packet=12),
+    LossProfile.none("lossless"),
+    LossProfile.burst(4.0, 4, period_s=8.0, name="paper burst"),
+    LossProfile.gilbert_elliott(0.05),
+    LossProfile.gilbert_elliott(0.10, name=HEADLINE),
+    LossProfile.gilbert_elliott(0.20),
+    LossProfile.gilbert_elliott(0.10, samples_per_packet=1, name="GE 10 %, 1-sample packets"),
+    LossProfile.gilbert_elliott(0.10, samples_per_packet=12, name="GE 10 %, 12-sample packets"),
 )
+
+
+# ------------------------------------------------------------------------------------------
+# Notebook 05: paper 001's options on real recordings, beside the peers
+# ------------------------------------------------------------------------------------------
+
+
+def _paper_option(rec, setting, received, *, options):
+    return estimate_orientation(rec.gyr, rec.acc, rec.mag, fs=FS, beta=setting["beta"], received=received,
+                                **options)
+
+
+def _single_frame(rec, setting, received):
+    return hold_last(triad(rec.acc, rec.mag), received)
+
+
+def _peer_with_blend(rec, setting, received, *, library, blend_options):
+    signals = [np.broadcast_to(x, received.shape + (3,)) for x in (rec.gyr, rec.acc, rec.mag)]
+    if library == "Fusion":
+        return fusion_orientation(*signals, fs=FS, received=received, gain=setting["gain"], **blend_options)
+    return vqf_orientation(*signals, fs=FS, received=received, params={"tauAcc": setting["tauAcc"]}, **blend_options)
+
+
+def paper001_methods(hybrid: Mapping, beta_grid, fusion_gain_grid, vqf_tau_acc_grid) -> dict[str, Method]:
+    """Notebook 05's registry: paper 001's options, the single frame and the peers, plain and in the hybrid.
+
+    Paper 001's options (:data:`wsnlib.orientation.loss_handling.PAPER_OPTIONS`) on Madgwick's
+    filter, each over ``beta_grid`` (rad/s): ``hold_last``, ``dt_extension``,
+    ``gyro_interpolation`` (latency rule "gap"), ``adaptive_beta`` (μ of ``hybrid``) and
+    ``hybrid`` (``hybrid``'s blend and μ); ``single frame`` (TRIAD held over gaps, nothing to
+    tune); Fusion over ``fusion_gain_grid`` and VQF over ``vqf_tau_acc_grid`` (``tauAcc``, s; its
+    other parameters its authors'), each plain and wrapped in the hybrid with output and with
+    feedback blending (μ of ``hybrid``).  One grid per filter, the same size for each, as the
+    notebook's tuning budget.
+
+    Parameters
+    ----------
+    hybrid : mapping
+        The hybrid setting (``schedule``, ``blend``, ``rho``, ``tau``[, ``hold_window``]), e.g.
+        :data:`wsnlib.studies.hybrid_tuning.RECOMMENDED_HYBRID`.
+    beta_grid, fusion_gain_grid, vqf_tau_acc_grid : sequence of float
+    """
+    betas, gains, taus = (settings_grid(beta=beta_grid), settings_grid(gain=fusion_gain_grid),
+                          settings_grid(tauAcc=vqf_tau_acc_grid))
+    options = {"hold_last": {}, "dt_extension": {"method": "dt_extension"}, "gyro_interpolation": {"replay": True},
+               "adaptive_beta": {"method": "adaptive_beta", **mu_options(hybrid)}, "hybrid": hybrid_options(hybrid)}
+    entries = [Method(name, "causal", betas, functools.partial(_paper_option, options=option),
+                      latency="gap" if name == "gyro_interpolation" else "none") for name, option in options.items()]
+    entries.append(Method("single frame", "causal", ({},), _single_frame))
+    for library, grid in (("Fusion", gains), ("VQF", taus)):
+        entries.append(Method(library, "peer", grid, functools.partial(_peer_with_blend, library=library,
+                                                                       blend_options={})))
+        for blend in ("output", "feedback"):
+            entries.append(Method(f"{library} + hybrid ({blend})", "peer", grid,
+                                  functools.partial(_peer_with_blend, library=library,
+                                                    blend_options={"blend": blend, **mu_options(hybrid)})))
+    return {m.name: m for m in entries}
+
+
+def paper001_profiles(ge_loss_rates=(0.05, 0.10, 0.20), mean_burst_packets: float = 3.0, burst_packets: int = 4,
+                      burst_period_s: float = 8.0) -> tuple[LossProfile, ...]:
+    """Notebook 05's profiles: lossless, the paper's burst repeated every ``burst_period_s`` from half a
+    period on ("paper burst"), and Gilbert–Elliott at each rate (6-sample packets)."""
+    return (LossProfile.none("lossless"),
+            LossProfile.burst(burst_period_s / 2, burst_packets, period_s=burst_period_s, name="paper burst"),
+            *(LossProfile.gilbert_elliott(rate, mean_burst_packets) for rate in ge_loss_rates))

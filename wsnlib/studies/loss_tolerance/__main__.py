@@ -1,17 +1,15 @@
-"""Loss-tolerant orientation on real data (issue 11's targets): a thin CLI over the study.
+"""The loss-tolerance study from the command line: ``python -m wsnlib.studies.loss_tolerance``.
 
-The logic lives in :mod:`wsnlib.studies.loss_tolerance` (methods, loss profiles, leave-one-trial-
-out tuning at GE 10 %, metrics) and :mod:`wsnlib.studies.loss_tolerance_summary` (bootstrap
-intervals, targets).  On every BROAD trial present in ``$WSNLIB_BROAD_DIR`` (resampled to
-50 Hz), each method's grid (at most 8 settings) is tuned leave-one-trial-out at Gilbert–Elliott
-10 % (mean burst 3 packets of 6 samples, one seeded draw per trial); every other profile is
-scored with the setting chosen for each trial there.  Printed: per-method mean total RMSE
-with a paired 95 % bootstrap interval over trials under each profile, the run time per method,
-the three targets with PASS/MISS and margins (≤ 0.5×, ≤ 0.25×, ≤ VQF + 1°), and whether
-gating the single frame helps the hybrids and predicting through a gap helps the peers (paired
-differences over trials).
+On the BROAD trials in ``$WSNLIB_BROAD_DIR`` (every one present, or those named with
+``--trials``), resampled to 50 Hz, notebook 10's registry is tuned leave-one-trial-out at
+Gilbert–Elliott 10 % and scored under every profile (:func:`~wsnlib.studies.loss_tolerance.evaluate`).
+Printed: per-method mean total RMSE per profile with a paired 95 % bootstrap interval at the
+headline, the run time per method, the setting chosen most often, the issue's three targets
+with PASS/MISS and margins, the two side questions (does gating the single frame help the
+hybrids, does predicting through a gap help the peers) and where the best causal filter's error
+lies.  ``--out FILE.csv`` also writes the per-trial table.
 
-Run:  ``WSNLIB_BROAD_DIR=../shared/data/broad .venv/bin/python benchmarks/eval_loss_tolerance.py [--quick]``
+    python -m wsnlib.studies.loss_tolerance [--quick] [--seed 2021] [--draws 1] [--trials NAME ...] [--out F.csv]
 """
 
 from __future__ import annotations
@@ -23,27 +21,37 @@ import numpy as np
 
 from wsnlib.io.broad import broad_trials
 from wsnlib.studies import loss_tolerance as study
-from wsnlib.studies import loss_tolerance_summary as summary
+from wsnlib.studies.loss_tolerance import summary
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="python -m wsnlib.studies.loss_tolerance",
+                                     description="Loss-tolerant orientation on BROAD recordings (notebook 10's study).")
     parser.add_argument("--quick", action="store_true", help="2 trials, 2 settings per method")
-    parser.add_argument("--seed", type=int, default=2021)
-    args = parser.parse_args()
-    names = broad_trials(present_only=True)
+    parser.add_argument("--seed", type=int, default=2021, help="seed of the loss masks and the bootstrap")
+    parser.add_argument("--draws", type=int, default=1, help="Gilbert-Elliott masks per trial and profile")
+    parser.add_argument("--trials", nargs="+", metavar="NAME", help="BROAD trial names (default: every one present)")
+    parser.add_argument("--out", metavar="CSV", help="also write the per-trial table to this file")
+    return parser
+
+
+def main(argv=None) -> int:
+    args = _parser().parse_args(argv)
+    names = list(args.trials) if args.trials else broad_trials(present_only=True)
     if args.quick:
         names = names[:2]
     if len(names) < 2:
-        raise SystemExit("need at least 2 BROAD trials in $WSNLIB_BROAD_DIR for leave-one-trial-out")
+        raise SystemExit("need at least 2 BROAD trials (in $WSNLIB_BROAD_DIR, or --trials) for leave-one-trial-out")
     methods = study.quick_methods() if args.quick else study.default_methods()
     print(f"{len(names)} BROAD trials, tuned at {study.HEADLINE} (mean burst 3 packets of 6 samples), "
-          f"1 draw per trial and profile, seed {args.seed}")
+          f"{args.draws} draw(s) per trial and random profile, seed {args.seed}")
     start = time.perf_counter()
     recordings = study.load_recordings(names, progress=False)
     loss_rng, boot_rng = np.random.default_rng(args.seed).spawn(2)
-    result = study.evaluate(recordings, rng=loss_rng, methods=methods, progress=True)
+    result = study.evaluate(recordings, rng=loss_rng, methods=methods, draws=args.draws, progress=True)
     elapsed = time.perf_counter() - start
+    if args.out:
+        result.per_trial.to_csv(args.out, index=False)
 
     table = summary.summary_table(result.per_trial, rng=boot_rng, metrics=("rmse_total",))
     means = table.pivot(index="method", columns="profile", values="mean")
@@ -53,8 +61,8 @@ def main() -> None:
     headline = table[table["profile"] == study.HEADLINE].set_index("method")
     for method, row in means.iterrows():
         low, high = headline.loc[method, ["ci_low", "ci_high"]]
-        print(f"  {method:28s} " + " ".join(f"{v:12.2f}" for v in row) +
-              f"  [{low:6.2f}, {high:6.2f}] {result.seconds[method]:6.1f}")
+        print(f"  {method:28s} " + " ".join(f"{v:12.2f}" for v in row)
+              + f"  [{low:6.2f}, {high:6.2f}] {result.seconds[method]:6.1f}")
     chosen = result.choices.groupby("method", sort=False)["setting"].agg(lambda s: s.value_counts().index[0])
     print("\nSetting chosen most often (leave-one-trial-out at the headline):")
     for method, setting in chosen.items():
@@ -74,7 +82,8 @@ def main() -> None:
     best = summary.best_methods(result.per_trial)
     print("\n" + summary.diagnosis_sentence(result.per_trial, best["causal"]))
     print(f"\nTotal time {elapsed:.0f} s (load + evaluate).")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

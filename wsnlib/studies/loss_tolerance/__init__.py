@@ -1,0 +1,108 @@
+"""Loss-tolerant orientation on real recordings: methods, loss profiles, fair tuning, metrics (issue 11).
+
+The study behind notebooks 05 and 10 and its command line (``python -m
+wsnlib.studies.loss_tolerance --help``).  Every recording given (BROAD trials resampled to
+:data:`FS`) is run through every method of a registry under every loss profile, and scored
+against the optical reference; :mod:`.summary` turns the tidy tables into means with bootstrap
+intervals, rankings and the issue's targets, :mod:`.tables` into the notebooks' tables and
+sentences.
+
+Fair tuning
+-----------
+Each method has a grid of at most :data:`MAX_SETTINGS` settings (the same budget for the
+peers and for ours).  Tuning happens **once**, at the headline profile (:data:`HEADLINE`,
+Gilbert–Elliott 10 %, mean burst 3 packets of 6 samples, for notebook 10; lossless for
+notebook 05): every setting is scored by the trial's total RMSE over movement samples (the
+mean over the headline's loss draws), and leave-one-trial-out
+(:func:`wsnlib.loto.leave_one_out_choice`) gives each trial the setting with the lowest mean
+score over the *other* trials.  Under every other profile, each trial is scored with the
+setting chosen for it at the headline profile — so a setting is never tuned on the trial it is
+scored on, and the other profiles show how a setting tuned for one loss pattern carries over.
+
+Loss profiles
+-------------
+Lossless; the paper's burst (4 packets of 6 samples, :func:`wsnlib.loss.burst_train`, one
+burst every 8 s from 4 s on: no randomness); Gilbert–Elliott 5/10/20 % with a mean burst of 3
+packets of 6 samples; and GE 10 % with 1- and 12-sample packets (mean burst 3 *packets*, so the
+gaps scale with the packet).  Masks are drawn from a child of the ``rng`` passed in, one per
+trial (:meth:`numpy.random.Generator.spawn`), so a trial's masks do not depend on how many
+trials run, and every method sees the same masks (paired comparison).  ``draws`` masks per
+trial for each random profile (one by default); every draw is a row of the results.
+
+Two options, two questions
+--------------------------
+The registry holds two options as methods of their own, so that they are tuned with the same
+budget and scored on the same masks as what they modify: the *gated* hybrid (ours and Fusion's
+wrapped in it), which applies the single frame only where
+:class:`wsnlib.orientation.SingleFrameGate` trusts it, and the peers predicting at the last
+received rate in a gap (``gap="constant_rate"``) instead of holding.  :data:`GATING_PAIRS` and
+:data:`GAP_PREDICTION_PAIRS` name the pairs; :func:`.summary.paired_comparisons` answers
+"does it help?".
+
+The grids are module constants (:data:`KALMAN_GRID`, :data:`SMOOTHER_GRID`, ...) built with
+:func:`settings_grid`; ``default_methods(grids={...})`` replaces any of them.
+
+Latency
+-------
+Causal filters output each sample when it arrives (0 s).  Gyro interpolation fills a gap's
+angular rate with the first sample *after* it, so its state for the gap is final only then:
+latency up to the gap's length (reported as the trial's longest gap; its output on lost
+samples is the held estimate).  The smoother needs the whole recording (latency = duration).
+
+Paper 001 on real data
+----------------------
+:func:`paper001_methods` is the registry of notebook 05: the paper's options on Madgwick's
+filter (hold, Δt extension, gyroscope interpolation, adaptive β, the hybrid), the single frame
+held over gaps, and Fusion and VQF plain and wrapped in the hybrid (output and feedback), each
+with one gain grid, tuned leave-one-trial-out without loss (``headline="lossless"``).
+
+Modules
+-------
+:mod:`.registry` holds the methods (:func:`default_methods`, :func:`paper001_methods`, the
+grids) and the loss profiles (:data:`PROFILES`); :mod:`.evaluation` runs and scores them
+(:func:`evaluate`); :mod:`.summary` and :mod:`.tables` read the results; ``__main__`` is the
+command line.  This package's door gathers the names of the first two.
+"""
+
+from wsnlib.studies.loss_tolerance.evaluation import (
+    AFTER_GAP_S,
+    RECOVERY_THRESHOLD_DEG,
+    LossToleranceResult,
+    evaluate,
+    load_recordings,
+    response_window_s,
+    single_frame_trust,
+)
+from wsnlib.studies.loss_tolerance.registry import (
+    BETA_GRID,
+    FS,
+    FUSION_GRID,
+    FUSION_HYBRID_GRID,
+    GAP_PREDICTION_PAIRS,
+    GATING_PAIRS,
+    HEADLINE,
+    HYBRID_GRID,
+    KALMAN_GRID,
+    KINDS,
+    LATENCY_RULES,
+    MADGWICK_BETA,
+    MAX_SETTINGS,
+    PROFILES,
+    SMOOTHER_GRID,
+    VQF_GRID,
+    VQF_HYBRID_GRID,
+    Method,
+    default_methods,
+    paper001_methods,
+    paper001_profiles,
+    quick_methods,
+    settings_grid,
+)
+
+__all__ = [
+    "AFTER_GAP_S", "BETA_GRID", "FS", "FUSION_GRID", "FUSION_HYBRID_GRID", "GAP_PREDICTION_PAIRS", "GATING_PAIRS",
+    "HEADLINE", "HYBRID_GRID", "KALMAN_GRID", "KINDS", "LATENCY_RULES", "MADGWICK_BETA", "MAX_SETTINGS", "PROFILES",
+    "RECOVERY_THRESHOLD_DEG", "SMOOTHER_GRID", "VQF_GRID", "VQF_HYBRID_GRID", "LossToleranceResult", "Method",
+    "default_methods", "evaluate", "load_recordings", "paper001_methods", "paper001_profiles", "quick_methods",
+    "response_window_s", "settings_grid", "single_frame_trust",
+]
