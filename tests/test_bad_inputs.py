@@ -15,11 +15,13 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 import pytest  # noqa: E402
 
-from wsnlib import _files, accel_format, plotting  # noqa: E402
+from wsnlib import _files, plotting  # noqa: E402
 from wsnlib import quaternion as Q  # noqa: E402
-from wsnlib import rss as RSS  # noqa: E402
-from wsnlib.datasets import Recording, read_recording, sidecar_path, write_recording  # noqa: E402
-from wsnlib.fingerprint import KNNFingerprint, ProbabilisticKNN  # noqa: E402
+from wsnlib.io import accel  # noqa: E402
+from wsnlib.io import rss as RSS  # noqa: E402
+from wsnlib.io.recording import Recording, read_recording, write_recording  # noqa: E402
+from wsnlib.io.sidecar import sidecar_path  # noqa: E402
+from wsnlib.radio import KNNFingerprint, ProbabilisticKNN  # noqa: E402
 from wsnlib.radio import _checks as radio_checks  # noqa: E402
 
 # --------------------------------------------------------------------------------------------
@@ -240,7 +242,7 @@ def _writers(rng, rss_table, tmp_path):
     return {
         "recording": (write_recording(_recording(rng), tmp_path / "rec.csv"), read_recording),
         "rss": (RSS.write_rss(rss_table, tmp_path / "rss.csv", packet_rate_hz=30.0), RSS.read_rss),
-        "acc": (accel_format.write_acc(_acc_table(), tmp_path / "acc.csv", rate_hz=30.0), accel_format.read_acc),
+        "acc": (accel.write_acc(_acc_table(), tmp_path / "acc.csv", rate_hz=30.0), accel.read_acc),
     }
 
 

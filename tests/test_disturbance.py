@@ -7,14 +7,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from wsnlib import datasets, frames, paths
+from wsnlib import frames, paths
 from wsnlib import quaternion as Q
+from wsnlib.io import broad
 from wsnlib.sim import disturbance as D
 from wsnlib.sim.arm import arm_kinematics, movement_set
 from wsnlib.sim.imu import ImuSpec, simulate_imu
 from wsnlib.sim.trials import LossProfile, arm_loss_trials
 
-BROAD_DIR = Path(os.environ.get(datasets.BROAD_DIR_ENV_VAR) or paths.ROOT.parent / "shared" / "data" / "broad")
+BROAD_DIR = Path(os.environ.get(broad.BROAD_DIR_ENV_VAR) or paths.ROOT.parent / "shared" / "data" / "broad")
 
 
 @pytest.fixture(scope="module")

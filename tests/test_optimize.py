@@ -6,15 +6,6 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from wsnlib.fingerprint import (
-    KNNFingerprint,
-    ProbabilisticKNN,
-    anchor_subsets,
-    knn_from_terms,
-    knn_grid_from_terms,
-    pknn_from_loglik,
-    pknn_grid_from_loglik,
-)
 from wsnlib.metrics import position_error
 from wsnlib.optimize import (
     SearchData,
@@ -37,6 +28,15 @@ from wsnlib.optimize import (
     union_of_subsets,
 )
 from wsnlib.posture import ArmChain, recursive_chain
+from wsnlib.radio import (
+    KNNFingerprint,
+    ProbabilisticKNN,
+    anchor_subsets,
+    knn_from_terms,
+    knn_grid_from_terms,
+    pknn_from_loglik,
+    pknn_grid_from_loglik,
+)
 
 CHAIN = ArmChain(segment_lengths_m=(0.30, 0.25), device_offsets_m=(0.15, 0.125))
 SMALL = SearchGrid(knn_neighbors=(1, 2, 3), powers=(1, 2), pknn_neighbors=(1, 2))
@@ -91,7 +91,7 @@ def users(rng):
     return [make_user(rng) for _ in range(3)]
 
 
-# --- the batch grid functions of wsnlib.fingerprint ------------------------------------------
+# --- the batch grid functions of wsnlib.radio ------------------------------------------
 
 
 def test_knn_grid_equals_knn_from_terms(rng):

@@ -16,9 +16,9 @@ import pandas as pd
 import pooch
 import pytest
 
-from wsnlib import datasets, pabr, paths
-from wsnlib.fingerprint import KNNFingerprint
-from wsnlib.io import pabr_download
+from wsnlib import paths
+from wsnlib.io import download, pabr, pabr_download
+from wsnlib.radio import KNNFingerprint
 
 SOURCE_DIR = Path(os.environ.get(pabr.PABR_DIR_ENV_VAR) or paths.ROOT.parent / "shared" / "data" / "pabr")
 HAVE_SHARED = (SOURCE_DIR / "cnf" / "tetam.dev").is_file() and (SOURCE_DIR / "hst" / "set_1").is_dir()
@@ -438,11 +438,11 @@ def tiny_registry(tiny, monkeypatch):
     """The registry pointed at the tiny copy's files (their SHA-256), as if it were the dataset."""
     (tiny / "LICENSE.md").write_text("CC0\n")
     registry = {
-        f.relative_to(tiny).as_posix(): datasets.RegistryEntry(sha256=hashlib.sha256(f.read_bytes()).hexdigest())
+        f.relative_to(tiny).as_posix(): download.RegistryEntry(sha256=hashlib.sha256(f.read_bytes()).hexdigest())
         for f in tiny.rglob("*")
         if f.is_file() and f.name != "README.md"
     }
-    # patched where the code reads it (wsnlib.io.pabr and wsnlib.pabr only re-export it)
+    # patched where the code reads it (wsnlib.io.pabr only re-exports it)
     monkeypatch.setattr(pabr_download, "PABR_REGISTRY", registry)
     return registry
 

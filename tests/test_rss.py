@@ -4,7 +4,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from wsnlib import rss as RSS
+from wsnlib.io import rss as RSS
+from wsnlib.io.sidecar import sidecar_path
 from wsnlib.sim import body as B
 from wsnlib.sim import radio as R
 
@@ -45,7 +46,7 @@ def test_round_trip_and_byte_identical_rewrite(table, tmp_path):
     assert set(sidecar["anchor_positions_m"][table["user"].iloc[0]]) == {"training", "online_static"}
     second = RSS.write_rss(df, tmp_path / "b.csv", sidecar["metadata"])
     assert first.read_bytes() == second.read_bytes()
-    assert RSS.sidecar_path(first).read_bytes() == RSS.sidecar_path(second).read_bytes()
+    assert sidecar_path(first).read_bytes() == sidecar_path(second).read_bytes()
     again = _write(table, tmp_path / "c.csv")
     assert again.read_bytes() == first.read_bytes()
 
@@ -86,7 +87,7 @@ def test_writer_sorts_rows_and_needs_a_packet_rate(table, tmp_path):
 def _hand_made(path):
     """Drop the row count and SHA-256 from the sidecar, as in a hand-converted file, so that
     the reader's checks of the CSV's content (not its integrity check) are what a test sees."""
-    side = RSS.sidecar_path(path)
+    side = sidecar_path(path)
     meta = json.loads(side.read_text())
     side.write_text(json.dumps({k: v for k, v in meta.items() if k not in ("csv_rows", "csv_sha256")}))
     return path
@@ -152,7 +153,7 @@ def test_bad_structure(table, tmp_path):
 
 def test_bad_sidecar(table, tmp_path):
     path = _write(table, tmp_path / "s.csv")
-    side = RSS.sidecar_path(path)
+    side = sidecar_path(path)
     meta = json.loads(side.read_text())
     side.write_text(json.dumps({**meta, "format_version": 2}))
     with pytest.raises(ValueError, match="format_version"):

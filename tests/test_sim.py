@@ -6,7 +6,7 @@ from scipy.spatial.transform import Rotation
 
 from wsnlib import frames
 from wsnlib import quaternion as Q
-from wsnlib.datasets import Recording
+from wsnlib.io.recording import Recording
 from wsnlib.sim import (
     ArmGeometry,
     ArmTrajectory,

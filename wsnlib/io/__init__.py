@@ -19,9 +19,6 @@ not the other way round (``tests/test_io_layer.py`` checks it).
   and the one windowing function both RSS paths (``rss``, ``pabr``) build their vectors with;
 * :mod:`wsnlib.io.download`: the verified download both dataset loaders share;
 * :mod:`wsnlib.io.resample`: rate conversion of recordings (e.g. BROAD's 285.7 Hz to 50 Hz).
-
-The old module paths (``wsnlib.datasets``, ``wsnlib.rss``, ``wsnlib.accel_format``,
-``wsnlib.pabr``, ``wsnlib.resample``) re-export the same objects.
 """
 
 from wsnlib.io import accel, broad, download, pabr, recording, resample, rss, vectors

@@ -249,7 +249,7 @@ class SearchData:
     Parameters
     ----------
     online_rss : array_like, shape (n, A)
-        Online vectors (dBm), complete (no NaN; fill first, see :mod:`wsnlib.fingerprint`).
+        Online vectors (dBm), complete (no NaN; fill first, see :mod:`wsnlib.radio`).
     movement : array_like of int, shape (n,)
         Movement index of each row (1..8 in the paper).  The rows of one movement must be
         contiguous and in time order (the held heading of eq. (8) runs along them).

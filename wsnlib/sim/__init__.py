@@ -6,7 +6,7 @@ Typical use::
     trajectory = arm_extension(fs=50.0)
     truth = arm_kinematics(trajectory)                  # ArmKinematics: quat (2, T, 4), gyr, pos, acc_lin …
     gyr, acc, mag = simulate_imu(truth, rng=rng, n_runs=100)   # each (100, 2, T, 3)
-    recording = simulate_recording(trajectory, rng=rng)        # wsnlib.datasets.Recording
+    recording = simulate_recording(trajectory, rng=rng)        # wsnlib.io.recording.Recording
 
 See the module docstrings for the body-frame convention and the datasheet sources.
 

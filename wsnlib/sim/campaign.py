@@ -72,7 +72,7 @@ class Campaign:
     Attributes
     ----------
     rss : pandas.DataFrame
-        Long RSS table (schema of :mod:`wsnlib.rss`), every user and session.
+        Long RSS table (schema of :mod:`wsnlib.io.rss`), every user and session.
     users : tuple of User
         The users as trained (day 1).
     online_users : tuple of User
@@ -137,13 +137,13 @@ class DynamicCampaign:
     Attributes
     ----------
     training_rss : pandas.DataFrame
-        Long RSS table (:mod:`wsnlib.rss`) of every user's training session (day 0).
+        Long RSS table (:mod:`wsnlib.io.rss`) of every user's training session (day 0).
     dynamic_rss : pandas.DataFrame
         Long RSS table of every user's online dynamic session (session ``"online_dynamic"``,
         the online day), labels ``P1`` … ``P5`` (short holds), ``M1_…`` … ``M8_…`` and
         ``transition``.
     acc : pandas.DataFrame
-        Long accelerometer table (:mod:`wsnlib.accel_format`, kind "acc") of the dynamic
+        Long accelerometer table (:mod:`wsnlib.io.accel`, kind "acc") of the dynamic
         sessions: 30 Hz, both targets, m/s².  ``attrs["rate_hz"]`` = 30.
     kinect : pandas.DataFrame
         Long Kinect table (kind "kinect"): target positions from the simulated Kinect, 30 fps.
@@ -309,8 +309,8 @@ def _chains_json(chains: dict[str, ArmChain]) -> dict:
 def write_dynamic_campaign(campaign: DynamicCampaign, folder, metadata: dict | None = None) -> dict[str, Path]:
     """Write the four tables of ``campaign`` into ``folder`` (:data:`DYNAMIC_FILES`).
 
-    RSS with :func:`wsnlib.rss.write_rss`, accelerometer and Kinect with
-    :func:`wsnlib.accel_format.write_samples`.  Every sidecar's metadata holds ``metadata``
+    RSS with :func:`wsnlib.io.rss.write_rss`, accelerometer and Kinect with
+    :func:`wsnlib.io.accel.write_samples`.  Every sidecar's metadata holds ``metadata``
     (e.g. the seed) and ``arm_chains`` (``{user: {segment_lengths_m, device_offsets_m}}`` of
     the online day, what :func:`read_dynamic_campaign` needs to rebuild :class:`DynamicData`);
     the accelerometer's also the sensor spec, the Kinect's the error model and camera distance.

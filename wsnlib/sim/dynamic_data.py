@@ -43,7 +43,7 @@ _MOVEMENT_RE = re.compile(r"^M(\d+)_")
 
 
 def acc_table(acc: SunspotAcc, user: str, session: str = DYNAMIC_SESSION) -> pd.DataFrame:
-    """Long accelerometer table (:mod:`wsnlib.accel_format`, kind "acc") of one session.
+    """Long accelerometer table (:mod:`wsnlib.io.accel`, kind "acc") of one session.
 
     Values rounded to 6 decimals (the CSV precision), rows ordered by time, then target.
     """
@@ -51,7 +51,7 @@ def acc_table(acc: SunspotAcc, user: str, session: str = DYNAMIC_SESSION) -> pd.
 
 
 def kinect_table(stream: KinectStream, user: str, session: str = DYNAMIC_SESSION) -> pd.DataFrame:
-    """Long Kinect table (:mod:`wsnlib.accel_format`, kind "kinect") of one session (as :func:`acc_table`)."""
+    """Long Kinect table (:mod:`wsnlib.io.accel`, kind "kinect") of one session (as :func:`acc_table`)."""
     return _long_table(stream.time_s, stream.targets, stream.label, user, session, accel_format.VALUE_COLUMNS["kinect"])
 
 
@@ -202,9 +202,9 @@ def align_dynamic(
     Parameters
     ----------
     rss : pandas.DataFrame
-        Long RSS table (:mod:`wsnlib.rss`); rows of other sessions are ignored.
+        Long RSS table (:mod:`wsnlib.io.rss`); rows of other sessions are ignored.
     acc, kinect : pandas.DataFrame
-        Long sample tables (:mod:`wsnlib.accel_format`) covering the same users and session.
+        Long sample tables (:mod:`wsnlib.io.accel`) covering the same users and session.
     chains : dict
         ``{user: ArmChain}`` (``User.geometry``) for every user of the session.
     session : str

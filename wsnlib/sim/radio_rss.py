@@ -19,7 +19,7 @@ from wsnlib.sim.radio_links import link_budget
 from wsnlib.sim.users import User
 from wsnlib.testbed import ANCHOR_NAMES, TARGET_NAMES
 
-#: Columns of the long RSS table, in order (the CSV schema of :mod:`wsnlib.rss`).
+#: Columns of the long RSS table, in order (the CSV schema of :mod:`wsnlib.io.rss`).
 RSS_COLUMNS: tuple[str, ...] = (
     "time_s",
     "user",
@@ -156,11 +156,11 @@ def simulate_rss(
     Returns
     -------
     pandas.DataFrame
-        The long table of :mod:`wsnlib.rss` (columns :data:`RSS_COLUMNS`), one row per
+        The long table of :mod:`wsnlib.io.rss` (columns :data:`RSS_COLUMNS`), one row per
         received (packet, anchor), ordered by time, target, anchor; ``rss_dbm`` int64;
         ``x_m, y_m, z_m`` the target's true position on the arm axis (shoulder frame).
         ``df.attrs`` holds ``packet_rate_hz`` and ``anchor_positions_m``
-        ``{user: {session: {anchor: [x, y, z]}}}`` for :func:`wsnlib.rss.write_rss`.
+        ``{user: {session: {anchor: [x, y, z]}}}`` for :func:`wsnlib.io.rss.write_rss`.
     """
     channel = RadioChannel() if channel is None else channel
     if not isinstance(motion, ArmMotion):
