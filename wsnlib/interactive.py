@@ -7,7 +7,9 @@ values and a function of :mod:`wsnlib.plotting` (``draw``) that draws it on a ma
 are shown:
 
 * in a live kernel, an :class:`ipywidgets.interactive` panel — a slider or a drop-down per
-  knob — whose output area is redrawn (``draw`` called again) whenever a knob moves;
+  knob — whose output area is redrawn (``draw`` called again) whenever a knob moves; knob
+  values the study refuses with ``ValueError`` (e.g. no anchor chosen) show its message in
+  place of the panel;
 * in the batch (environment variable ``WSNLIB_BATCH=1``, set by :mod:`wsnlib.reproduce`
   for the kernel), a static small-multiples figure over a few knob settings, returned so the
   notebook can save it with :func:`wsnlib.plotting.savefig`.
@@ -356,7 +358,14 @@ def _live_panel(draw, knobs):
 
     def redraw(**values):
         fig = Figure(figsize=LIVE_SIZE, layout="constrained")
-        _draw_panel(draw, knobs, fig.subplots(), values)
+        ax = fig.subplots()
+        try:
+            _draw_panel(draw, knobs, ax, values)
+        except ValueError as error:  # knob values the study refuses (e.g. no anchor chosen): say so
+            ax.clear()
+            ax.set_axis_off()
+            ax.text(0.5, 0.5, "\n".join(textwrap.wrap(str(error), _TITLE_WIDTH)), transform=ax.transAxes,
+                    ha="center", va="center")
         display(fig)
 
     return ipywidgets.interactive(redraw, **{knob.name: _widget(knob) for knob in knobs})
