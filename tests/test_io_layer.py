@@ -14,7 +14,7 @@ import wsnlib.io
 FORBIDDEN_PREFIXES = ("wsnlib.sim", "wsnlib.orientation", "wsnlib.studies", "wsnlib.plotting", "wsnlib.optimize",
                       "wsnlib.radio")
 
-IO_MODULES = ("accel", "broad", "download", "pabr", "pabr_download", "pabr_loaders", "pabr_windowing", "recording",
+IO_MODULES = ("accel", "broad", "download", "pabr", "recording",
               "resample", "rss", "rss_table", "sidecar", "vectors")
 
 
@@ -54,9 +54,6 @@ def test_old_paths_re_export_the_same_objects(old, new, names):
 @pytest.mark.parametrize(
     ("old", "new"),
     [
-        (wsnlib.io.pabr, wsnlib.io.pabr_download),
-        (wsnlib.io.pabr, wsnlib.io.pabr_loaders),
-        (wsnlib.io.pabr, wsnlib.io.pabr_windowing),
         (wsnlib.io.recording, wsnlib.io.sidecar),
     ],
 )

@@ -12,9 +12,8 @@ not the other way round (``tests/test_io_layer.py`` checks it).
   (the long table's columns and checks: :mod:`wsnlib.io.rss_table`);
 * :mod:`wsnlib.io.accel`: accelerometer and Kinect sample tables (paper 002);
 * :mod:`wsnlib.io.broad`: the BROAD benchmark trials (registry, verified download, loader);
-* :mod:`wsnlib.io.pabr`: the PABR BLE RSSI dataset, the public path of
-  :mod:`~wsnlib.io.pabr_download` (registry, verified download), :mod:`~wsnlib.io.pabr_loaders`
-  (parsing) and :mod:`~wsnlib.io.pabr_windowing` (vectors);
+* :mod:`wsnlib.io.pabr`: the PABR BLE RSSI dataset (registry, verified download, parsing,
+  vectors);
 * :mod:`wsnlib.io.vectors`: the one RSS vector type (:class:`~wsnlib.io.vectors.RssVectors`)
   and the one windowing function both RSS paths (``rss``, ``pabr``) build their vectors with;
 * :mod:`wsnlib.io.download`: the verified download both dataset loaders share;

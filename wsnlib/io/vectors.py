@@ -4,9 +4,7 @@ readings into windows.
 Both data paths build their vectors here: the simulated / CSV RSS recordings
 (:func:`wsnlib.io.rss.rss_vectors`) and the PABR BLE dataset
 (:func:`wsnlib.io.pabr.pabr_vectors`) turn their tables into a *readings* table and call
-:func:`window_readings`, which returns :class:`RssVectors`.  The old names
-``PabrVectors`` (:mod:`wsnlib.io.pabr`) and ``RssVectors`` (:mod:`wsnlib.io.rss`) are this
-same class.
+:func:`window_readings`, which returns :class:`RssVectors`.
 
 Readings, points and windows
 ----------------------------
@@ -94,9 +92,6 @@ class RssVectors:
         one anchor).
     anchors : tuple of str
         Column order of ``rss`` and ``n_readings``.
-
-    Old field names (read-only, for scripts written against ``PabrVectors``): ``positions``,
-    ``times``, ``receivers``, ``counts``, ``groups`` (= ``label``), ``windows``.
     """
 
     rss: np.ndarray
@@ -145,14 +140,6 @@ class RssVectors:
             n_packets=self.n_packets[rows],
             anchors=self.anchors,
         )
-
-    # Old names of PabrVectors, read-only.
-    positions = property(lambda self: self.position, doc="Old name of :attr:`position`.")
-    times = property(lambda self: self.time_s, doc="Old name of :attr:`time_s`.")
-    receivers = property(lambda self: self.anchors, doc="Old name of :attr:`anchors`.")
-    counts = property(lambda self: self.n_readings, doc="Old name of :attr:`n_readings`.")
-    groups = property(lambda self: self.label, doc="Old name of :attr:`label` (PABR: point number or track).")
-    windows = property(lambda self: self.window, doc="Old name of :attr:`window`.")
 
 
 def _point_codes(readings: pd.DataFrame) -> np.ndarray:
