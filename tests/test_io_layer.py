@@ -15,7 +15,7 @@ FORBIDDEN_PREFIXES = ("wsnlib.sim", "wsnlib.orientation", "wsnlib.studies", "wsn
                       "wsnlib.radio")
 
 IO_MODULES = ("accel", "broad", "download", "pabr", "recording",
-              "resample", "rss", "rss_table", "sidecar", "vectors")
+              "resample", "rss", "sidecar", "vectors")
 
 
 def test_every_io_module_is_listed():

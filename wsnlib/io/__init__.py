@@ -8,8 +8,8 @@ not the other way round (``tests/test_io_layer.py`` checks it).
 * :mod:`wsnlib.io.recording`: IMU recordings (:class:`~wsnlib.io.recording.Recording`) and their
   CSV + JSON format;
 * :mod:`wsnlib.io.sidecar`: the sidecar writer/reader every CSV + JSON format here shares;
-* :mod:`wsnlib.io.rss`: RSS recordings (paper 002) and the fingerprint vectors built from them
-  (the long table's columns and checks: :mod:`wsnlib.io.rss_table`);
+* :mod:`wsnlib.io.rss`: RSS recordings (paper 002), the long table's columns and checks, and
+  the fingerprint vectors built from them;
 * :mod:`wsnlib.io.accel`: accelerometer and Kinect sample tables (paper 002);
 * :mod:`wsnlib.io.broad`: the BROAD benchmark trials (registry, verified download, loader);
 * :mod:`wsnlib.io.pabr`: the PABR BLE RSSI dataset (registry, verified download, parsing,
