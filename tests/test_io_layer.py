@@ -1,10 +1,8 @@
 """The io layer (wsnlib.io) stands alone."""
 
-import ast
 import json
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
@@ -37,41 +35,3 @@ def test_io_imports_no_simulator(module):
     assert module in loaded
     assert [m for m in loaded if m.startswith(FORBIDDEN_PREFIXES)] == []
 
-
-@pytest.mark.parametrize(
-    ("old", "new", "names"),
-    [
-        (wsnlib.io.recording, wsnlib.io.sidecar, ["sidecar_path", "load_sidecar", "write_table_with_sidecar",
-                                                  "check_sidecar_units", "finite_column", "CSV_ROWS_KEY"]),
-    ],
-)
-def test_old_paths_re_export_the_same_objects(old, new, names):
-    for name in names:
-        old_name, new_name = name if isinstance(name, tuple) else (name, name)
-        assert getattr(old, old_name) is getattr(new, new_name), f"{old.__name__}.{old_name}"
-
-
-@pytest.mark.parametrize(
-    ("old", "new"),
-    [
-        (wsnlib.io.recording, wsnlib.io.sidecar),
-    ],
-)
-def test_old_paths_re_export_every_public_name(old, new):
-    """Every public name defined at the top level of the new module is reachable from the old one
-    (the PABR dataset's code is split over three modules behind the one public path ``wsnlib.io.pabr``)."""
-    tree = ast.parse(Path(new.__file__).read_text(encoding="utf-8"))
-    defined = set()
-    for node in tree.body:
-        if isinstance(node, ast.FunctionDef | ast.ClassDef):
-            defined.add(node.name)
-        elif isinstance(node, ast.Assign):
-            defined.update(t.id for t in node.targets if isinstance(t, ast.Name))
-        elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
-            defined.add(node.target.id)
-    # the PABR modules' helpers shared among themselves are not part of the dataset's public path
-    internal = {"logger", "missing_message", "require_path", "registry_files"}
-    public = {name for name in defined if not name.startswith("_") and name not in internal}
-    assert len(public) > 3
-    missing = sorted(name for name in public if getattr(old, name, None) is not getattr(new, name))
-    assert missing == []

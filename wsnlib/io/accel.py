@@ -70,7 +70,7 @@ import numpy as np
 import pandas as pd
 
 from wsnlib._validation import check_positive
-from wsnlib.io.recording import (
+from wsnlib.io.sidecar import (
     check_sidecar_units,
     finite_column,
     load_sidecar,

@@ -59,8 +59,7 @@ first sample, and uses empty metadata.
 
 The signal conventions are those of :mod:`wsnlib` (see ``wsnlib/__init__.py``).
 
-The BROAD loader that used to share this module is :mod:`wsnlib.io.broad`; the sidecar machinery
-all CSV + JSON formats share is :mod:`wsnlib.io.sidecar` (re-exported here, its old home).
+The sidecar machinery all CSV + JSON formats share is :mod:`wsnlib.io.sidecar`.
 """
 
 
@@ -74,11 +73,7 @@ import numpy as np
 import pandas as pd
 
 from wsnlib._validation import as_float_array, check_positive
-
-# The CSV + JSON sidecar machinery lives in wsnlib.io.sidecar; re-exported here (old home).
-from wsnlib.io.sidecar import (  # noqa: F401
-    CSV_ROWS_KEY,
-    CSV_SHA256_KEY,
+from wsnlib.io.sidecar import (
     check_sidecar_units,
     finite_column,
     load_sidecar,
@@ -273,15 +268,7 @@ def _read_sidecar(path: Path) -> dict | None:
         raise ValueError(f"{side}: {exc}") from exc
     if not isinstance(meta["nodes"], list) or not meta["nodes"]:
         raise ValueError(f"{side}: 'nodes' must be a non-empty list of node names")
-    units = meta["units"]
-    if not isinstance(units, dict):
-        raise ValueError(f"{side}: 'units' must be an object")
-    for key, unit in UNITS.items():
-        if units.get(key) != unit:
-            raise ValueError(
-                f"{side}: units[{key!r}] must be {unit!r} (convert the data first), "
-                f"got {units.get(key)!r}"
-            )
+    check_sidecar_units(meta, UNITS, side)
     if not isinstance(meta.get("metadata", {}), dict):
         raise ValueError(f"{side}: 'metadata' must be an object")
     return meta
