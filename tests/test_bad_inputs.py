@@ -222,12 +222,13 @@ def _recording(rng, n=40):
 
 @pytest.fixture(scope="module")
 def rss_table():
+    from wsnlib.sim import arm_motion as M
     from wsnlib.sim import body as B
     from wsnlib.sim import radio as R
 
     rng = np.random.default_rng(3)
     user = B.make_users(1, rng=rng)[0]
-    return R.simulate_rss(B.hold("P1", 2.0), user, rng=rng, session="training")
+    return R.simulate_rss(M.hold("P1", 2.0), user, rng=rng, session="training")
 
 
 def _acc_table(n=20):

@@ -3,15 +3,15 @@
 import numpy as np
 import pandas as pd
 import pytest
+from _sim_helpers import paper_user
 
 from wsnlib import quaternion as Q
 from wsnlib.frames import STANDARD_GRAVITY
 from wsnlib.io import accel
 from wsnlib.posture import gravity_gate, pitch_from_acc
-from wsnlib.sim.body import POSTURES, hold, movement, paper_user, posture_direction
+from wsnlib.sim.arm_motion import hold, movement
 from wsnlib.sim.campaign import (
     DYNAMIC_SESSION,
-    arm_chain,
     movement_number,
     read_dynamic_campaign,
     simulate_campaign,
@@ -21,6 +21,7 @@ from wsnlib.sim.campaign import (
 )
 from wsnlib.sim.optical import KinectModel
 from wsnlib.sim.sunspot import SunspotAccSpec, ideal_specific_force, segment_axis_in_device, simulate_sunspot_acc
+from wsnlib.testbed import POSTURES, posture_direction
 
 G = STANDARD_GRAVITY
 
@@ -239,9 +240,11 @@ def test_shapes_and_geometry(noisy):
     for user, motion, acc, kinect in zip(
         noisy.online_users, noisy.motions, noisy.acc_streams, noisy.kinect_streams, strict=True
     ):
-        chain = data.arm_chain(user.name)
-        assert chain == user.geometry == arm_chain(user)
+        chain = user.geometry
         assert chain.segment_lengths_m == (user.upper_arm_m, user.forearm_m)
+        rows = data.select(user=user.name)
+        np.testing.assert_array_equal(rows.segment_length_m, np.asarray(chain.segment_lengths_m)[rows.target_index])
+        np.testing.assert_array_equal(rows.device_offset_m, np.asarray(chain.device_offsets_m)[rows.target_index])
         k = int(np.floor(motion.total_duration_s * 30 + 1e-9)) + 1
         assert acc.acc.shape == (k, 2, 3) and kinect.targets.shape == (k, 2, 3)
         assert kinect.joints.shape == (k, 3, 3)

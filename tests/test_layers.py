@@ -4,7 +4,7 @@ The picture (README, "How the library is layered"), bottom to top:
 
 core → io → algorithms → sim → report → studies → compat (the old module paths, re-exports only).
 
-A module's layer is given by its first name under ``wsnlib`` (``wsnlib.sim.radio_rss`` → ``sim``),
+A module's layer is given by its first name under ``wsnlib`` (``wsnlib.sim.radio_channel`` → ``sim``),
 so a new top-level module or package must be placed in :data:`LAYERS` before the test passes.
 The scan reads ``import`` statements with :mod:`ast` (also those inside functions), so a lazy
 import that runs upward is caught as well.

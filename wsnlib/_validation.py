@@ -76,3 +76,11 @@ def as_bool_mask(value, name: str, shape: tuple[int, ...]) -> np.ndarray:
         return np.broadcast_to(arr, shape)
     except ValueError as exc:
         raise ValueError(f"{name} has shape {arr.shape}, which does not fit {shape}") from exc
+
+
+def check_rng(rng) -> np.random.Generator:
+    """Return ``rng`` unless it is not a :class:`numpy.random.Generator` (``ValueError``): every
+    random draw of the library comes from a generator the caller passes in."""
+    if not isinstance(rng, np.random.Generator):
+        raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+    return rng

@@ -91,7 +91,7 @@ from wsnlib import quaternion as Q
 from wsnlib._validation import as_float_array, check_nonnegative, check_positive
 from wsnlib.arm_model import ArmKinematics
 from wsnlib.sim.arm_motion import ArmMotion
-from wsnlib.sim.users import User
+from wsnlib.sim.body import User
 
 #: Down-sampling methods of :class:`SunspotAccSpec`.
 DOWNSAMPLE_METHODS = ("mean", "latest")
