@@ -392,8 +392,9 @@ def test_paper_tables_couple_target2_to_target1(rng):
     setting3 = Setting.from_row(sel.set_index("movement").loc[3].to_dict() | {"approach": "deterministic"})
     np.testing.assert_allclose(elbow[rows], evaluate_setting(users1[0], setting3)["joints"][rows])
     assert set(tables.deployable.columns) == {"Table 2", "Table 3"}
-    avg = tables.average_pe()
-    assert avg.loc["deterministic", "Table 2"] <= avg.loc["deterministic", "Table 3"] + 1e-9
+    # the tables' last rows (mean PE over both targets): choosing per movement is never worse
+    mean2, mean3 = (sel.groupby("approach")["pe_cm"].mean() for sel in (tables.selection2, tables.selection3))
+    assert mean2["deterministic"] <= mean3["deterministic"] + 1e-9
 
 
 def test_evaluate_chain_equals_the_hand_wired_chain(rng):

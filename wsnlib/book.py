@@ -38,7 +38,7 @@ from pathlib import Path
 
 import nbformat
 
-from wsnlib import paths, reproduce
+from wsnlib import batch_selection, paths
 
 #: The two papers, in our words, and how to cite them.
 PAPERS = (
@@ -156,7 +156,7 @@ class Page:
 
     @property
     def is_solutions(self) -> bool:
-        return self.href.startswith(f"{reproduce.SOLUTIONS}/")
+        return self.href.startswith(f"{batch_selection.SOLUTIONS}/")
 
 
 def executed_folder() -> Path:
@@ -176,8 +176,8 @@ def collect_pages(executed_dir: Path | None = None) -> list[Page]:
     if not executed_dir.is_dir():
         raise BookError(f"{executed_dir} does not exist: {hint}")
     pages, problems = [], []
-    for source in reproduce.list_batch():
-        name = reproduce.notebook_name(source)
+    for source in batch_selection.list_batch():
+        name = batch_selection.notebook_name(source)
         page = Page(source, executed_dir / name, name[: -len(".ipynb")] + ".html")
         problem = _execution_problem(page.executed)
         if problem:

@@ -37,6 +37,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 from matplotlib.figure import Figure
 
+from wsnlib._validation import check_count
+
 #: Environment variable that marks an unattended (batch) run; "1" means batch.
 BATCH_ENV_VAR = "WSNLIB_BATCH"
 
@@ -136,8 +138,7 @@ def explore(draw: Callable, knobs: Mapping, *, compute: Callable | None = None, 
             raise TypeError(f"compute must be callable as compute(**values), got {type(compute).__name__}")
         draw = _computed_panel(compute, draw)
     parsed = _with_start(_parse_knobs(knobs), start)
-    if isinstance(ncols, bool) or not isinstance(ncols, numbers.Integral) or ncols < 1:
-        raise ValueError(f"ncols must be a positive integer, got {ncols!r}")
+    check_count(ncols, "ncols")
     settings = _static_settings(parsed, static)
     if in_batch():
         return _static_figure(draw, parsed, settings, int(ncols), sharey)

@@ -99,6 +99,7 @@ import numpy as np
 import pandas as pd
 
 from wsnlib import paths
+from wsnlib._validation import check_count
 from wsnlib.io.download import RegistryEntry, download_verified
 from wsnlib.io.vectors import RssVectors, window_readings
 
@@ -418,12 +419,8 @@ def load_pabr_fingerprints(
     """
     if set_name not in FINGERPRINT_SETS:
         raise ValueError(f"set_name must be one of {FINGERPRINT_SETS}, got {set_name!r}")
-    if common_span_packets is not None and (
-        isinstance(common_span_packets, bool)
-        or not isinstance(common_span_packets, int | np.integer)
-        or common_span_packets < 1
-    ):
-        raise ValueError(f"common_span_packets must be a positive integer or None, got {common_span_packets!r}")
+    if common_span_packets is not None:
+        check_count(common_span_packets, "common_span_packets")
     receivers = load_pabr_receivers(data_dir, download=download, downloader=downloader)
     folder = pabr_dir(data_dir) / "hst" / set_name
     files = sorted(folder.glob("*.mbd"))
@@ -651,8 +648,7 @@ def pabr_vectors(
     missing = [c for c in needed if c not in table.columns]
     if missing:
         raise ValueError(f"table lacks the column(s) {missing} (expected a load_pabr_* table)")
-    if isinstance(min_receivers, bool) or not isinstance(min_receivers, int | np.integer) or min_receivers < 1:
-        raise ValueError(f"min_receivers must be a positive integer, got {min_receivers!r}")
+    check_count(min_receivers, "min_receivers")
     receiver = table["receiver"]
     names = (
         list(receiver.cat.categories) if isinstance(receiver.dtype, pd.CategoricalDtype) else sorted(receiver.unique())

@@ -51,6 +51,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from wsnlib._validation import check_count, check_positive
+
 #: Columns of a readings table (input of :func:`window_readings`); ``packet`` is optional.
 READING_COLUMNS: tuple[str, ...] = ("user", "session", "target", "label", "anchor", "rss_dbm", "time_s",
                                     "x_m", "y_m", "z_m")
@@ -158,16 +160,10 @@ def _check_window(window_packets, window_s, window) -> None:
     if sum(arg is not None for arg in (window_packets, window_s, window)) != 1:
         raise ValueError("give exactly one of window_packets (packets per window), window_s (seconds) and "
                          "window='point'")
-    if window_packets is not None and (isinstance(window_packets, bool)
-                                       or not isinstance(window_packets, numbers.Integral) or window_packets < 1):
-        raise ValueError(f"window_packets must be a positive integer, got {window_packets!r}")
+    if window_packets is not None:
+        check_count(window_packets, "window_packets")
     if window_s is not None:
-        try:
-            seconds = float(window_s)
-        except (TypeError, ValueError):
-            seconds = float("nan")
-        if not np.isfinite(seconds) or seconds <= 0:
-            raise ValueError(f"window_s must be a positive number of seconds, got {window_s!r}")
+        check_positive(window_s, "window_s")
     if window is not None and window != "point":
         raise ValueError(f"window must be 'point' (one vector per point), got {window!r}")
 
@@ -236,8 +232,7 @@ def window_readings(
     """
     _check_window(window_packets, window_s, window)
     fill_value = _check_fill(fill, floor_dbm)
-    if isinstance(min_anchors, bool) or not isinstance(min_anchors, numbers.Integral) or min_anchors < 1:
-        raise ValueError(f"min_anchors must be a positive integer, got {min_anchors!r}")
+    check_count(min_anchors, "min_anchors")
     anchors = tuple(anchors)
     missing = [c for c in READING_COLUMNS if c not in readings.columns]
     if missing:

@@ -25,7 +25,7 @@ import pandas as pd
 from sklearn.base import clone
 from sklearn.utils.validation import check_is_fitted
 
-from wsnlib._validation import as_float_array
+from wsnlib._validation import as_float_array, check_count
 from wsnlib.posture import ArmChain
 from wsnlib.radio import METRICS, KNNFingerprint, ProbabilisticKNN, anchor_subsets
 
@@ -192,8 +192,7 @@ class Setting:
     def __post_init__(self):
         _check_approach(self.approach)
         object.__setattr__(self, "anchors", parse_subset(self.anchors))
-        if isinstance(self.k, bool) or not isinstance(self.k, numbers.Integral) or self.k < 1:
-            raise ValueError(f"k must be a positive integer, got {self.k!r}")
+        check_count(self.k, "k")
         p_s = None if self.p_s is None or pd.isna(self.p_s) else self.p_s
         if self.approach == "deterministic":
             if self.metric not in METRICS:

@@ -161,11 +161,6 @@ class ArmMotion:
         angle = self.speed[-1] * self.duration_s[-1]
         return Q.multiply(Q.from_axis_angle(self.axis[-1], angle), self.quat_start[-1])
 
-    @property
-    def direction_end(self) -> np.ndarray:
-        """Arm direction (3,) at the end of the motion."""
-        return Q.rotate(self.quat_end, [1.0, 0.0, 0.0])
-
     def then(self, other: ArmMotion) -> ArmMotion:
         """This motion followed by ``other`` (shifted in time to start at this one's end).
 

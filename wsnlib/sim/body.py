@@ -74,7 +74,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from wsnlib._validation import as_float_array, check_nonnegative, check_positive
+from wsnlib._validation import as_float_array, check_count, check_nonnegative, check_positive
 from wsnlib.arm_model import FOREARM_FRACTION, UPPER_ARM_FRACTION, ArmGeometry
 from wsnlib.testbed import ANCHOR_NAMES, ANCHOR_WORN, posture_direction
 
@@ -262,10 +262,7 @@ class User:
         if not isinstance(self.body, BodyShape):
             raise ValueError(f"body must be a BodyShape, got {type(self.body).__name__}")
         for name in ("environment_seed", "day"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
-                raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
-            object.__setattr__(self, name, int(value))
+            object.__setattr__(self, name, check_count(getattr(self, name), name, 0))
 
     @property
     def worn(self) -> np.ndarray:
@@ -411,8 +408,7 @@ def make_users(
     list of User
         Each with its own ``environment_seed`` drawn from ``rng``, ``day = 0``.
     """
-    if isinstance(n_users, bool) or not isinstance(n_users, (int, np.integer)) or n_users < 1:
-        raise ValueError(f"n_users must be a positive integer, got {n_users!r}")
+    check_count(n_users, "n_users")
     if heights_m is None:
         heights = rng.uniform(1.60, 1.90, n_users)
     else:

@@ -41,6 +41,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from wsnlib._validation import check_count
 from wsnlib.io import accel
 from wsnlib.io import rss as rss_format
 from wsnlib.posture import ArmChain
@@ -99,9 +100,7 @@ def simulate_campaign(n_users: int = 5, *, rng: np.random.Generator, hold_s: flo
     -------
     Campaign
     """
-    if not isinstance(n_users, int | np.integer) or n_users < 1:
-        raise ValueError(f"n_users must be a positive integer, got {n_users!r}")
-    users = make_users(n_users, rng=rng)
+    users = make_users(check_count(n_users, "n_users"), rng=rng)
     frames, online_users = [], []
     for user in users:
         frames.append(training_session(user, rng=rng, hold_s=hold_s))
@@ -561,11 +560,10 @@ def simulate_dynamic_campaign(
     -------
     DynamicCampaign
     """
-    if isinstance(n_users, bool) or not isinstance(n_users, int | np.integer) or n_users < 1:
-        raise ValueError(f"n_users must be a positive integer, got {n_users!r}")
+    n_users = check_count(n_users, "n_users")
     acc_spec = SunspotAccSpec() if acc_spec is None else acc_spec
     kinect_model = KinectModel() if kinect_model is None else kinect_model
-    users = make_users(int(n_users), rng=rng)
+    users = make_users(n_users, rng=rng)
     training, dynamic, acc_frames, kinect_frames = [], [], [], []
     online_users, motions, acc_streams, kinect_streams = [], [], [], []
     for user in users:

@@ -71,7 +71,7 @@ import numpy as np
 import pandas as pd
 
 from wsnlib import quaternion as Q
-from wsnlib._validation import check_nonnegative, check_positive, check_rng
+from wsnlib._validation import check_count, check_nonnegative, check_positive, check_rng
 
 #: µ0 / (4π) in µT·m³/(A·m²): B (µT) = 0.1 · (3 (m·r̂) r̂ − m) / r³ with m in A·m², r in m.
 DIPOLE_CONSTANT_UT_M3_PER_AM2 = 1e-7 * 1e6
@@ -196,8 +196,7 @@ def translation_motion(n_samples: int, fs: float, rms_m_s2, band_hz=(0.5, 4.0), 
         Acceleration (m/s²) and displacement (m, ``pos'' = acc`` on the record's circle of
         frequencies, zero mean).
     """
-    if isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer) or n_samples < 2:
-        raise ValueError(f"n_samples must be an integer >= 2, got {n_samples!r}")
+    check_count(n_samples, "n_samples", 2)
     fs = check_positive(fs, "fs")
     rms = np.asarray(rms_m_s2, dtype=float)
     if not np.all(np.isfinite(rms)) or np.any(rms < 0.0):

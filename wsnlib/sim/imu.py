@@ -60,7 +60,7 @@ import numpy as np
 
 from wsnlib import frames
 from wsnlib import quaternion as Q
-from wsnlib._validation import as_float_array, check_nonnegative, check_positive
+from wsnlib._validation import as_float_array, check_count, check_nonnegative, check_positive, check_rng
 from wsnlib.arm_model import ArmGeometry, ArmKinematics
 from wsnlib.io.recording import Recording
 from wsnlib.sim.arm import ArmTrajectory, arm_kinematics
@@ -403,14 +403,11 @@ def simulate_imu(
     spec = ImuSpec() if spec is None else spec
     if not isinstance(spec, ImuSpec):
         raise ValueError(f"spec must be an ImuSpec, got {type(spec).__name__}")
-    if not isinstance(rng, np.random.Generator):
-        raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+    check_rng(rng)
     if n_runs is None:
         batch: tuple[int, ...] = ()
     else:
-        if isinstance(n_runs, bool) or not isinstance(n_runs, (int, np.integer)) or n_runs < 1:
-            raise ValueError(f"n_runs must be a positive integer or None, got {n_runs!r}")
-        batch = (int(n_runs),)
+        batch = (check_count(n_runs, "n_runs"),)
     ideal = ideal_imu(truth, gravity=gravity, mag_field_enu=mag_field_enu)
     if truth.fs is None:
         raise ValueError("truth.fs is None: simulate_imu needs uniformly sampled kinematics with a sampling rate")

@@ -168,6 +168,7 @@ from wsnlib import fixed_order
 from wsnlib._validation import (
     as_bool_mask,
     as_float_array,
+    check_count,
     check_nonnegative,
     check_nonzero_norm,
     check_positive,
@@ -323,8 +324,7 @@ class KinectErrors:
 
 def n_kinect_frames(n_samples: int, fs, frame_rate_hz: float = 30.0) -> int:
     """Number of Kinect frames ``t_k = k / frame_rate_hz`` inside ``[0, (n_samples − 1) / fs]``."""
-    if isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer) or n_samples < 1:
-        raise ValueError(f"n_samples must be a positive integer, got {n_samples!r}")
+    check_count(n_samples, "n_samples")
     fs = check_positive(fs, "fs")
     frame_rate = check_positive(frame_rate_hz, "frame_rate_hz")
     if math.isclose(fs, frame_rate, rel_tol=1e-12):

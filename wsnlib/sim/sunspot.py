@@ -88,7 +88,7 @@ import numpy as np
 
 from wsnlib import frames
 from wsnlib import quaternion as Q
-from wsnlib._validation import as_float_array, check_nonnegative, check_positive
+from wsnlib._validation import as_float_array, check_nonnegative, check_positive, check_rng
 from wsnlib.arm_model import ArmKinematics
 from wsnlib.sim.arm_motion import ArmMotion
 from wsnlib.sim.body import User
@@ -354,8 +354,7 @@ def simulate_sunspot_acc(
         raise ValueError(f"spec must be a SunspotAccSpec, got {type(spec).__name__}")
     if not isinstance(motion, ArmMotion):
         raise ValueError(f"motion must be an ArmMotion, got {type(motion).__name__}")
-    if not isinstance(rng, np.random.Generator):
-        raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+    check_rng(rng)
     gravity = check_positive(gravity, "gravity")
     duration = motion.total_duration_s if duration_s is None else check_positive(duration_s, "duration_s")
     fs, rate = spec.sample_rate_hz, spec.output_rate_hz

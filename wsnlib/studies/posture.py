@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wsnlib._validation import check_count, check_rng
 from wsnlib.io.rss import rss_vectors
 from wsnlib.optimize import SearchData, evaluate_chain
 from wsnlib.posture import pitch_from_acc
@@ -405,12 +406,10 @@ def radio_sensitivity(*, rng: np.random.Generator, n_draws: int = 8, spread: flo
     from wsnlib.optimize import paper_tables
     from wsnlib.sim.campaign import simulate_dynamic_campaign
 
-    if not isinstance(rng, np.random.Generator):
-        raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+    check_rng(rng)
     if quick:
         n_draws, n_users, hold_s = 2, 1, 4.0
-    if isinstance(n_draws, bool) or not isinstance(n_draws, int | np.integer) or n_draws < 0:
-        raise ValueError(f"n_draws must be a non-negative integer, got {n_draws!r}")
+    check_count(n_draws, "n_draws", 0)
     if n_draws == 0 and not include_nominal:
         raise ValueError("nothing to run: n_draws = 0 and include_nominal = False")
     spread = float(spread)
