@@ -94,3 +94,11 @@ def check_count(value, name: str, minimum: int = 1) -> int:
         what = {0: "a non-negative integer", 1: "a positive integer"}.get(minimum, f"an integer >= {minimum}")
         raise ValueError(f"{name} must be {what}, got {value!r}")
     return int(value)
+
+
+def check_type(value, cls: type, name: str):
+    """Return ``value``, raising ``ValueError`` naming ``name`` unless it is an instance of ``cls``."""
+    if not isinstance(value, cls):
+        article = "an" if cls.__name__[0] in "AEIOU" else "a"
+        raise ValueError(f"{name} must be {article} {cls.__name__}, got {type(value).__name__}")
+    return value

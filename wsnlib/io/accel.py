@@ -69,7 +69,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from wsnlib._validation import check_positive
+from wsnlib._validation import check_positive, check_type
 from wsnlib.io.sidecar import (
     check_sidecar_units,
     finite_column,
@@ -243,9 +243,7 @@ def write_samples(
     if rate is None:
         raise ValueError(f"{where}: rate_hz is required (argument or df.attrs['rate_hz'])")
     rate = check_positive(rate, "rate_hz")
-    metadata = {} if metadata is None else metadata
-    if not isinstance(metadata, dict):
-        raise ValueError(f"metadata must be a dict, got {type(metadata).__name__}")
+    metadata = check_type({} if metadata is None else metadata, dict, "metadata")
     frame = _sort(_validate(df, kind, targets, where), targets)
     _check_order(frame, targets, where)
     for column in ("time_s",) + VALUE_COLUMNS[kind]:

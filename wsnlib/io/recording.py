@@ -72,7 +72,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from wsnlib._validation import as_float_array, check_positive
+from wsnlib._validation import as_float_array, check_positive, check_type
 from wsnlib.io.sidecar import (
     check_sidecar_units,
     finite_column,
@@ -219,8 +219,7 @@ def write_recording(recording: Recording, path) -> Path:
     ValueError
         If ``path`` ends in ``.json`` or the metadata is not JSON serialisable.
     """
-    if not isinstance(recording, Recording):
-        raise ValueError(f"recording must be a Recording, got {type(recording).__name__}")
+    check_type(recording, Recording, "recording")
     path = Path(path)
     if path.suffix.lower() == ".json":
         raise ValueError(f"path must name the CSV file, not the sidecar: {path}")

@@ -79,7 +79,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from wsnlib._validation import check_positive
+from wsnlib._validation import check_positive, check_type
 from wsnlib.io.sidecar import (
     check_sidecar_units,
     finite_column,
@@ -330,9 +330,7 @@ def write_rss(
     rate = check_positive(rate, "packet_rate_hz")
     positions = anchor_positions_m if anchor_positions_m is not None else attrs.get("anchor_positions_m", {})
     positions = _check_positions(positions, anchors, where)
-    metadata = {} if metadata is None else metadata
-    if not isinstance(metadata, dict):
-        raise ValueError(f"metadata must be a dict, got {type(metadata).__name__}")
+    metadata = check_type({} if metadata is None else metadata, dict, "metadata")
 
     frame = sort_rows(validate_table(df, anchors, targets, where), anchors, targets)
     check_rows(frame, anchors, targets, where)

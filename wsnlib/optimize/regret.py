@@ -18,6 +18,7 @@ import dataclasses
 import numpy as np
 import pandas as pd
 
+from wsnlib._validation import check_type
 from wsnlib.optimize.data import APPROACHES, SearchGrid, _check_approaches, _paired_users, format_subset
 from wsnlib.optimize.engine import DEFAULT_CHUNK_ELEMENTS, _search
 from wsnlib.optimize.selection import _argbest, _Cube, _cubes, _setting_record, proximal_from_selection
@@ -275,9 +276,7 @@ def coupled_selection_regret(target1, target2, *, approaches=APPROACHES, grid: S
         ``target`` column with ``by_unit``.
     """
     approaches = _check_approaches(approaches)
-    grid = SearchGrid() if grid is None else grid
-    if not isinstance(grid, SearchGrid):
-        raise ValueError(f"grid must be a SearchGrid, got {type(grid).__name__}")
+    grid = check_type(SearchGrid() if grid is None else grid, SearchGrid, "grid")
     first, second = _check_halves(first, second)
     splits = _check_splits(splits)
     labels1, users1, users2 = _paired_users(target1, target2)

@@ -79,7 +79,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from wsnlib import quaternion as Q
-from wsnlib._validation import as_float_array, check_nonnegative, check_positive
+from wsnlib._validation import as_float_array, check_nonnegative, check_positive, check_type
 from wsnlib.arm_model import NODE_NAMES, Q_REFERENCE, ArmGeometry, ArmKinematics
 
 # --------------------------------------------------------------------------------------------
@@ -455,11 +455,8 @@ def arm_kinematics(trajectory: ArmTrajectory, geometry: ArmGeometry | None = Non
         mounting-point position/velocity/linear acceleration ``(2, T, 3)`` (earth frame),
         joint centres ``(3, T, 3)``.  All derivatives are analytic (module docstring).
     """
-    if not isinstance(trajectory, ArmTrajectory):
-        raise ValueError(f"trajectory must be an ArmTrajectory, got {type(trajectory).__name__}")
-    geometry = ArmGeometry.paper001() if geometry is None else geometry
-    if not isinstance(geometry, ArmGeometry):
-        raise ValueError(f"geometry must be an ArmGeometry, got {type(geometry).__name__}")
+    check_type(trajectory, ArmTrajectory, "trajectory")
+    geometry = check_type(ArmGeometry.paper001() if geometry is None else geometry, ArmGeometry, "geometry")
     ang, rate, acc = trajectory.angles, trajectory.rates, trajectory.accelerations
     n = trajectory.n_samples
 

@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from wsnlib._validation import check_count
+from wsnlib._validation import check_count, check_type
 from wsnlib.io import accel
 from wsnlib.io import rss as rss_format
 from wsnlib.posture import ArmChain
@@ -644,8 +644,7 @@ def write_dynamic_campaign(campaign: DynamicCampaign, folder, metadata: dict | N
     the accelerometer's also the sensor spec, the Kinect's the error model and camera distance.
     Byte-identical on rewrite.
     """
-    if not isinstance(campaign, DynamicCampaign):
-        raise ValueError(f"campaign must be a DynamicCampaign, got {type(campaign).__name__}")
+    check_type(campaign, DynamicCampaign, "campaign")
     folder = Path(folder)
     base = {} if metadata is None else dict(metadata)
     base["arm_chains"] = _chains_json(campaign.chains)

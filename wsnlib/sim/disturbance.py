@@ -71,7 +71,7 @@ import numpy as np
 import pandas as pd
 
 from wsnlib import quaternion as Q
-from wsnlib._validation import check_count, check_nonnegative, check_positive, check_rng
+from wsnlib._validation import check_count, check_nonnegative, check_positive, check_rng, check_type
 
 #: µ0 / (4π) in µT·m³/(A·m²): B (µT) = 0.1 · (3 (m·r̂) r̂ − m) / r³ with m in A·m², r in m.
 DIPOLE_CONSTANT_UT_M3_PER_AM2 = 1e-7 * 1e6
@@ -266,8 +266,7 @@ def draw_disturbance(disturbance: Disturbance, node_pos_enu, fs: float, batch: t
     -------
     DisturbanceSignals
     """
-    if not isinstance(disturbance, Disturbance):
-        raise ValueError(f"disturbance must be a Disturbance, got {type(disturbance).__name__}")
+    check_type(disturbance, Disturbance, "disturbance")
     check_rng(rng)
     pos = np.asarray(node_pos_enu, dtype=float)
     if pos.ndim != 3 or pos.shape[-1] != 3:

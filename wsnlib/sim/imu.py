@@ -60,7 +60,7 @@ import numpy as np
 
 from wsnlib import frames
 from wsnlib import quaternion as Q
-from wsnlib._validation import as_float_array, check_count, check_nonnegative, check_positive, check_rng
+from wsnlib._validation import as_float_array, check_count, check_nonnegative, check_positive, check_rng, check_type
 from wsnlib.arm_model import ArmGeometry, ArmKinematics
 from wsnlib.io.recording import Recording
 from wsnlib.sim.arm import ArmTrajectory, arm_kinematics
@@ -329,8 +329,7 @@ def ideal_imu(
         ``gyr = ω_B``; ``acc = q* ⊗ (a_lin + [0, 0, g]) ⊗ q``; ``mag = q* ⊗ m_E ⊗ q``;
         each ``(N_nodes, T, 3)``.
     """
-    if not isinstance(truth, ArmKinematics):
-        raise ValueError(f"truth must be an ArmKinematics, got {type(truth).__name__}")
+    check_type(truth, ArmKinematics, "truth")
     gravity = check_positive(gravity, "gravity")
     if mag_field_enu is None:
         mag_field_enu = frames.magnetic_field_enu()
@@ -400,9 +399,7 @@ def simulate_imu(
         ``(n_runs, N_nodes, T, 3)``, or ``(N_nodes, T, 3)`` when ``n_runs`` is None;
         saturated and quantised as the spec says (module docstring).
     """
-    spec = ImuSpec() if spec is None else spec
-    if not isinstance(spec, ImuSpec):
-        raise ValueError(f"spec must be an ImuSpec, got {type(spec).__name__}")
+    spec = check_type(ImuSpec() if spec is None else spec, ImuSpec, "spec")
     check_rng(rng)
     if n_runs is None:
         batch: tuple[int, ...] = ()
@@ -509,8 +506,7 @@ def simulate_recording(
         **_rng_provenance(rng),
     }
     if metadata is not None:
-        if not isinstance(metadata, dict):
-            raise ValueError(f"metadata must be a dict, got {type(metadata).__name__}")
+        check_type(metadata, dict, "metadata")
         info.update(metadata)
     return Recording(
         fs=truth.fs,

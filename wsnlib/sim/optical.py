@@ -173,6 +173,7 @@ from wsnlib._validation import (
     check_nonzero_norm,
     check_positive,
     check_rng,
+    check_type,
 )
 
 #: Distance between the Kinect and the user in paper 002, Section 4.1 (m).
@@ -503,9 +504,7 @@ def kinect_errors(
     -------
     KinectErrors
     """
-    model = KinectModel() if model is None else model
-    if not isinstance(model, KinectModel):
-        raise ValueError(f"model must be a KinectModel, got {type(model).__name__}")
+    model = check_type(KinectModel() if model is None else model, KinectModel, "model")
     rng = check_rng(rng)
     fs = check_positive(fs, "fs")
     positions = as_float_array(true_positions, "true_positions", last_dim=3, min_ndim=3)

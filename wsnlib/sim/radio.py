@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 from scipy.signal import lfilter
 
-from wsnlib._validation import check_positive
+from wsnlib._validation import check_positive, check_type
 from wsnlib.io.rss import COLUMNS
 from wsnlib.loss import gilbert_elliott
 from wsnlib.sim.arm_motion import (
@@ -163,10 +163,8 @@ def simulate_rss(
         ``{user: {session: {anchor: [x, y, z]}}}`` for :func:`wsnlib.io.rss.write_rss`.
     """
     channel = RadioChannel() if channel is None else channel
-    if not isinstance(motion, ArmMotion):
-        raise ValueError(f"motion must be an ArmMotion, got {type(motion).__name__}")
-    if not isinstance(user, User):
-        raise ValueError(f"user must be a User, got {type(user).__name__}")
+    check_type(motion, ArmMotion, "motion")
+    check_type(user, User, "user")
     if not isinstance(session, str) or not session or any(c in session for c in ',"\n\r'):
         raise ValueError(f"session must be a non-empty string without commas or quotes, got {session!r}")
     rate = check_positive(packet_rate_hz, "packet_rate_hz")

@@ -95,7 +95,7 @@ import numpy as np
 
 from wsnlib import fixed_order
 from wsnlib import quaternion as Q
-from wsnlib._validation import check_nonnegative, check_positive
+from wsnlib._validation import check_nonnegative, check_positive, check_type
 from wsnlib.arm_model import ArmKinematics
 from wsnlib.sim.body import User, body_solids, chord_length
 
@@ -376,8 +376,7 @@ def antenna_positions(kin: ArmKinematics, user: User, standoff_m: float = 0.01) 
     forward), ``radius + standoff_m`` from the device point ``kin.pos`` on the arm axis
     (:mod:`wsnlib.sim.body`, "Body for shadowing").
     """
-    if not isinstance(kin, ArmKinematics):
-        raise ValueError(f"kin must be an ArmKinematics, got {type(kin).__name__}")
+    check_type(kin, ArmKinematics, "kin")
     lateral = Q.rotate(kin.quat, np.array([0.0, -1.0, 0.0]))  # (2, T, 3)
     radii = np.array([user.body.upper_arm_radius_m, user.body.forearm_radius_m]) + standoff_m
     return kin.pos + lateral * radii[:, None, None]
@@ -482,8 +481,7 @@ def link_budget(kin: ArmKinematics, user: User, target: int, channel: RadioChann
     channel = RadioChannel() if channel is None else channel
     if target not in (0, 1):
         raise ValueError(f"target must be 0 (T1) or 1 (T2), got {target!r}")
-    if not isinstance(kin, ArmKinematics):
-        raise ValueError(f"kin must be an ArmKinematics, got {type(kin).__name__}")
+    check_type(kin, ArmKinematics, "kin")
     antenna = antenna_positions(kin, user)[target]  # (T, 3)
     directions = kin.directions  # (2, T, 3)
     axis = directions[target]  # (T, 3): the segment carries the antenna axis

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wsnlib._validation import check_count, check_rng
+from wsnlib._validation import check_count, check_rng, check_type
 from wsnlib.io.rss import rss_vectors
 from wsnlib.optimize import SearchData, evaluate_chain
 from wsnlib.posture import pitch_from_acc
@@ -234,8 +234,7 @@ def with_reference_error(inputs: StudyInputs, *, rng: np.random.Generator,
     -------
     StudyInputs
     """
-    if not isinstance(inputs, StudyInputs):
-        raise ValueError(f"inputs must be a StudyInputs, got {type(inputs).__name__}")
+    check_type(inputs, StudyInputs, "inputs")
     target1, target2 = {}, {}
     for user, data1 in inputs.target1.items():
         data2 = inputs.target2[user]
