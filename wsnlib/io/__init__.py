@@ -3,7 +3,7 @@
 Every module here depends only on the core (numpy, pandas, scipy, :mod:`wsnlib.paths`,
 :mod:`wsnlib.quaternion`, :mod:`wsnlib.testbed` and the private helpers), never on
 :mod:`wsnlib.sim`, :mod:`wsnlib.orientation` or the studies; the simulators import from here,
-not the other way round (``tests/test_io_layer.py`` checks it).
+not the other way round (``tests/test_layers.py`` checks it).
 
 * :mod:`wsnlib.io.recording`: IMU recordings (:class:`~wsnlib.io.recording.Recording`) and their
   CSV + JSON format;
