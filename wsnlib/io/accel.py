@@ -74,6 +74,7 @@ from wsnlib.io.sidecar import (
     check_sidecar_units,
     finite_column,
     load_sidecar,
+    name_column,
     sidecar_path,
     write_table_with_sidecar,
 )
@@ -153,15 +154,7 @@ def _validate(df, kind: str, targets, where: str) -> pd.DataFrame:
     for column in ("time_s",) + VALUE_COLUMNS[kind]:
         out[column] = finite_column(df, column, where)
     for column in TEXT_COLUMNS:
-        values = df[column].to_numpy(dtype=object)
-        codes, uniques = pd.factorize(values, use_na_sentinel=False)
-        for code, value in enumerate(uniques):
-            if not isinstance(value, str) or not value or value != value.strip() or any(c in value for c in ',"\n\r'):
-                row = int(np.argmax(codes == code))
-                raise ValueError(
-                    f"{where}: column {column!r} has an empty or invalid name {value!r} at data row {row + 1}"
-                )
-        out[column] = values
+        out[column] = name_column(df, column, where)
     stray = sorted(set(out["target"]) - set(targets))
     if stray:
         raise ValueError(f"{where}: column 'target' has target(s) {stray} not in the sidecar's targets {list(targets)}")

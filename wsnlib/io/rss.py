@@ -84,6 +84,7 @@ from wsnlib.io.sidecar import (
     check_sidecar_units,
     finite_column,
     load_sidecar,
+    name_column,
     sidecar_path,
     write_table_with_sidecar,
 )
@@ -196,15 +197,7 @@ def validate_table(df: pd.DataFrame, anchors, targets, where: str) -> pd.DataFra
         )
     out["rss_dbm"] = rss_values
     for column in TEXT_COLUMNS:
-        values = df[column].to_numpy(dtype=object)
-        codes, uniques = pd.factorize(values, use_na_sentinel=False)
-        for code, value in enumerate(uniques):  # check each distinct name once
-            if not isinstance(value, str) or not value or any(c in value for c in ',"\n\r') or value != value.strip():
-                row = int(np.argmax(codes == code))
-                raise ValueError(
-                    f"{where}: column {column!r} has an empty or invalid name {value!r} at data row {row + 1}"
-                )
-        out[column] = values
+        out[column] = name_column(df, column, where)
     for column, allowed, what in (("anchor", anchors, "anchors"), ("target", targets, "targets")):
         stray = sorted(set(out[column]) - set(allowed))
         if stray:

@@ -105,6 +105,18 @@ def finite_column(frame, column: str, where) -> np.ndarray:
     return values
 
 
+def name_column(frame, column: str, where) -> np.ndarray:
+    """Column ``column`` of a read table as names (object array): each a non-empty string without
+    commas, quotes, line breaks or surrounding spaces, or ``ValueError`` naming file, column and row."""
+    values = frame[column].to_numpy(dtype=object)
+    codes, uniques = pd.factorize(values, use_na_sentinel=False)
+    for code, value in enumerate(uniques):  # check each distinct name once
+        if not isinstance(value, str) or not value or any(c in value for c in ',"\n\r') or value != value.strip():
+            row = int(np.argmax(codes == code))
+            raise ValueError(f"{where}: column {column!r} has an empty or invalid name {value!r} at data row {row + 1}")
+    return values
+
+
 def load_sidecar(path: Path, format_name: str, format_version: int, *, required: bool, what: str) -> dict | None:
     """Read and check the ``<name>.json`` sidecar of a recording file (format name and version).
 
