@@ -71,6 +71,7 @@ import pandas as pd
 
 from wsnlib._validation import check_positive, check_type
 from wsnlib.io.sidecar import (
+    check_names,
     check_sidecar_units,
     finite_column,
     load_sidecar,
@@ -123,18 +124,6 @@ def _check_kind(kind) -> str:
     if kind not in VALUE_COLUMNS:
         raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
     return kind
-
-
-def _check_targets(targets) -> tuple[str, ...]:
-    if isinstance(targets, str):
-        raise ValueError("targets must be a list of names, not a single string")
-    targets = tuple(targets)
-    if not targets or len(set(targets)) != len(targets):
-        raise ValueError(f"targets must be a non-empty list of unique names, got {list(targets)}")
-    for t in targets:
-        if not isinstance(t, str) or not t or t != t.strip() or any(c in t for c in ',"\n\r'):
-            raise ValueError(f"target names must be non-empty strings without commas or quotes, got {t!r}")
-    return targets
 
 
 def _validate(df, kind: str, targets, where: str) -> pd.DataFrame:
@@ -230,7 +219,7 @@ def write_samples(
     path = Path(path)
     if path.suffix.lower() == ".json":
         raise ValueError(f"path must name the CSV file, not the sidecar: {path}")
-    targets = _check_targets(targets)
+    targets = check_names(targets, "targets")
     where = f"{kind} table for {path}"
     rate = rate_hz if rate_hz is not None else (getattr(df, "attrs", {}) or {}).get("rate_hz")
     if rate is None:
@@ -291,7 +280,7 @@ def read_samples(path, kind: str | None = None) -> tuple[pd.DataFrame, dict]:
     check_sidecar_units(meta, UNITS[meta["kind"]], side)
     try:
         meta["rate_hz"] = check_positive(meta.get("rate_hz"), "rate_hz")
-        meta["targets"] = list(_check_targets(meta.get("targets", ())))
+        meta["targets"] = list(check_names(meta.get("targets", ()), "targets"))
     except ValueError as exc:
         raise ValueError(f"{side}: {exc}") from exc
     if not isinstance(meta.setdefault("metadata", {}), dict):

@@ -74,6 +74,7 @@ import pandas as pd
 
 from wsnlib._validation import as_float_array, check_positive, check_type
 from wsnlib.io.sidecar import (
+    check_name,
     check_sidecar_units,
     finite_column,
     load_sidecar,
@@ -161,7 +162,7 @@ class Recording:
         if not self.nodes:
             raise ValueError("nodes must name at least one node")
         for name in self.nodes:
-            _check_node_name(name)
+            check_name(name, "node name")
         if len(set(self.nodes)) != len(self.nodes):
             raise ValueError(f"nodes must be unique, got {self.nodes}")
         shape = (len(self.nodes), self.time_s.size)
@@ -189,15 +190,6 @@ class Recording:
             return self.nodes.index(node)
         except ValueError:
             raise ValueError(f"node {node!r} is not in this recording {self.nodes}") from None
-
-
-def _check_node_name(name) -> None:
-    if not isinstance(name, str) or not name.strip():
-        raise ValueError(f"node names must be non-empty strings, got {name!r}")
-    if name != name.strip() or any(c in name for c in ',"\n\r'):
-        raise ValueError(
-            f"node name {name!r} must not contain commas, quotes, line breaks or surrounding spaces"
-        )
 
 
 def write_recording(recording: Recording, path) -> Path:
@@ -343,7 +335,7 @@ def read_recording(path) -> Recording:
         nodes = tuple(meta["nodes"])
         for name in nodes:
             try:
-                _check_node_name(name)
+                check_name(name, "node name")
             except ValueError as exc:
                 raise ValueError(f"{sidecar_path(path)}: {exc}") from exc
         stray = sorted(set(node_col) - set(nodes))

@@ -81,6 +81,7 @@ import pandas as pd
 
 from wsnlib._validation import check_positive, check_type
 from wsnlib.io.sidecar import (
+    check_names,
     check_sidecar_units,
     finite_column,
     load_sidecar,
@@ -124,29 +125,6 @@ FLOAT_COLUMNS: tuple[str, ...] = ("time_s", "x_m", "y_m", "z_m")
 RSS_RANGE_DBM: tuple[int, int] = (-128, 20)
 
 _INT_RE = re.compile(r"^-?\d+$")
-
-
-def check_name(value, what: str) -> str:
-    """``value`` if it is a usable name (non-empty, no commas, quotes or surrounding spaces), else ``ValueError``."""
-    if not isinstance(value, str) or not value or value != value.strip() or any(c in value for c in ',"\n\r'):
-        raise ValueError(
-            f"{what} must be a non-empty string without commas, quotes or surrounding spaces, got {value!r}"
-        )
-    return value
-
-
-def check_names(values, what: str) -> tuple[str, ...]:
-    """``values`` as a tuple of unique usable names (at least one), else ``ValueError`` naming ``what``."""
-    if isinstance(values, str):
-        raise ValueError(f"{what} must be a list of names, not a single string")
-    values = tuple(values)
-    if not values:
-        raise ValueError(f"{what} must name at least one entry")
-    for v in values:
-        check_name(v, f"entries of {what}")
-    if len(set(values)) != len(values):
-        raise ValueError(f"{what} must be unique, got {list(values)}")
-    return values
 
 
 def validate_table(df: pd.DataFrame, anchors, targets, where: str) -> pd.DataFrame:

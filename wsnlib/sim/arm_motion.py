@@ -61,6 +61,7 @@ from wsnlib import fixed_order
 from wsnlib import quaternion as Q
 from wsnlib._validation import as_float_array, check_nonnegative, check_positive
 from wsnlib.arm_model import Q_REFERENCE, ArmGeometry, ArmKinematics
+from wsnlib.io.sidecar import check_name
 from wsnlib.sim.body import User
 from wsnlib.testbed import MOVEMENTS, TRANSITION_LABEL, posture_direction
 
@@ -146,8 +147,7 @@ class ArmMotion:
         if np.any(self.duration_s <= 0.0) or np.any(self.speed < 0.0):
             raise ValueError("durations must be > 0 and speeds >= 0")
         for label in self.labels:
-            if not isinstance(label, str) or not label or any(c in label for c in ',"\n\r'):
-                raise ValueError(f"labels must be non-empty strings without commas or quotes, got {label!r}")
+            check_name(label, "labels")
         object.__setattr__(self, "labels", tuple(self.labels))
 
     @property

@@ -76,6 +76,7 @@ import numpy as np
 
 from wsnlib._validation import as_float_array, check_count, check_nonnegative, check_positive
 from wsnlib.arm_model import FOREARM_FRACTION, UPPER_ARM_FRACTION, ArmGeometry
+from wsnlib.io.sidecar import check_name
 from wsnlib.testbed import ANCHOR_NAMES, ANCHOR_WORN, posture_direction
 
 # --------------------------------------------------------------------------------------------
@@ -239,8 +240,7 @@ class User:
     day: int = 0
 
     def __post_init__(self):
-        if not isinstance(self.name, str) or not self.name.strip() or any(c in self.name for c in ',"\n\r'):
-            raise ValueError(f"name must be a non-empty string without commas or quotes, got {self.name!r}")
+        check_name(self.name, "name")
         for name in ("height_m", "upper_arm_m", "forearm_m"):
             object.__setattr__(self, name, check_positive(getattr(self, name), name))
         d = as_float_array(self.target_distances_m, "target_distances_m")

@@ -20,6 +20,7 @@ from scipy.signal import lfilter
 
 from wsnlib._validation import check_positive, check_type
 from wsnlib.io.rss import COLUMNS
+from wsnlib.io.sidecar import check_name
 from wsnlib.loss import gilbert_elliott
 from wsnlib.sim.arm_motion import (
     ArmMotion,
@@ -165,8 +166,7 @@ def simulate_rss(
     channel = RadioChannel() if channel is None else channel
     check_type(motion, ArmMotion, "motion")
     check_type(user, User, "user")
-    if not isinstance(session, str) or not session or any(c in session for c in ',"\n\r'):
-        raise ValueError(f"session must be a non-empty string without commas or quotes, got {session!r}")
+    check_name(session, "session")
     rate = check_positive(packet_rate_hz, "packet_rate_hz")
     dt = 1.0 / rate
     tx_offset, rssi_offset = _radio_offsets(user, channel)
