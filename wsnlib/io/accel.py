@@ -313,19 +313,3 @@ def write_kinect(df: pd.DataFrame, path, metadata: dict | None = None, *, rate_h
 def read_kinect(path) -> tuple[pd.DataFrame, dict]:
     """:func:`read_samples` of a ``"kinect"`` table."""
     return read_samples(path, "kinect")
-
-
-__all__ = [
-    "FORMAT_NAME",
-    "FORMAT_VERSION",
-    "KEY_COLUMNS",
-    "KINDS",
-    "VALUE_COLUMNS",
-    "columns",
-    "read_acc",
-    "read_kinect",
-    "read_samples",
-    "write_acc",
-    "write_kinect",
-    "write_samples",
-]

@@ -385,14 +385,3 @@ def simulate_sunspot_acc(
         out = raw[np.searchsorted(window, np.arange(n_out), side="right") - 1]
     label = motion.kinematics(times, user).label
     return SunspotAcc(time_s=times, acc=out, label=label, raw_time_s=raw_time, raw_acc=raw)
-
-
-__all__ = [
-    "DOWNSAMPLE_METHODS",
-    "SunspotAcc",
-    "SunspotAccSpec",
-    "ideal_specific_force",
-    "output_times",
-    "segment_axis_in_device",
-    "simulate_sunspot_acc",
-]
