@@ -7,21 +7,20 @@ RSS table, the SunSPOT accelerometer, the Kinect model and the posture chain con
 
 import numpy as np
 import pytest
+from _sim_helpers import paper_user
 
 from wsnlib import quaternion as Q
 from wsnlib.arm_model import ArmGeometry, ArmKinematics
 from wsnlib.frames import STANDARD_GRAVITY
 from wsnlib.posture import PAPER_ARM_CHAIN, ArmChain, forward_chain, recursive_chain
-from wsnlib.sim.arm import ArmTruth, arm_kinematics, reach_and_flex
+from wsnlib.sim.arm import arm_kinematics, reach_and_flex
 from wsnlib.sim.arm_motion import concatenate, hold, movement
-from wsnlib.sim.campaign import arm_chain, simulate_kinect_stream
+from wsnlib.sim.campaign import simulate_kinect_stream
 from wsnlib.sim.imu import ideal_imu, simulate_imu
 from wsnlib.sim.optical import KinectModel
-from wsnlib.sim.radio_channel import RadioChannel
-from wsnlib.sim.radio_links import antenna_positions, link_budget
-from wsnlib.sim.radio_rss import simulate_rss
+from wsnlib.sim.radio import simulate_rss
+from wsnlib.sim.radio_channel import RadioChannel, antenna_positions, link_budget
 from wsnlib.sim.sunspot import SunspotAccSpec, ideal_specific_force, simulate_sunspot_acc
-from wsnlib.sim.users import paper_user
 
 FS = 200.0
 USER = paper_user()
@@ -47,13 +46,9 @@ def kin(request):
     return GENERATORS[request.param]()
 
 
-def test_one_type_under_every_old_name():
-    assert ArmTruth is ArmKinematics
-    from wsnlib.sim.body import ArmKinematics as BodyKinematics
-
-    assert BodyKinematics is ArmKinematics
+def test_one_type_for_both_papers():
     assert ArmChain is ArmGeometry
-    assert arm_chain(USER) == USER.geometry == PAPER_ARM_CHAIN
+    assert USER.geometry == PAPER_ARM_CHAIN
     assert isinstance(_paper002(), ArmKinematics) and isinstance(_paper001(), ArmKinematics)
 
 

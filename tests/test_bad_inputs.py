@@ -15,11 +15,13 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 import pytest  # noqa: E402
 
-from wsnlib import _files, accel_format, plotting  # noqa: E402
+from wsnlib import _files, plotting  # noqa: E402
 from wsnlib import quaternion as Q  # noqa: E402
-from wsnlib import rss as RSS  # noqa: E402
-from wsnlib.datasets import Recording, read_recording, sidecar_path, write_recording  # noqa: E402
-from wsnlib.fingerprint import KNNFingerprint, ProbabilisticKNN  # noqa: E402
+from wsnlib.io import accel  # noqa: E402
+from wsnlib.io import rss as RSS  # noqa: E402
+from wsnlib.io.recording import Recording, read_recording, write_recording  # noqa: E402
+from wsnlib.io.sidecar import sidecar_path  # noqa: E402
+from wsnlib.radio import KNNFingerprint, ProbabilisticKNN  # noqa: E402
 from wsnlib.radio import _checks as radio_checks  # noqa: E402
 
 # --------------------------------------------------------------------------------------------
@@ -220,12 +222,13 @@ def _recording(rng, n=40):
 
 @pytest.fixture(scope="module")
 def rss_table():
+    from wsnlib.sim import arm_motion as M
     from wsnlib.sim import body as B
     from wsnlib.sim import radio as R
 
     rng = np.random.default_rng(3)
     user = B.make_users(1, rng=rng)[0]
-    return R.simulate_rss(B.hold("P1", 2.0), user, rng=rng, session="training")
+    return R.simulate_rss(M.hold("P1", 2.0), user, rng=rng, session="training")
 
 
 def _acc_table(n=20):
@@ -240,7 +243,7 @@ def _writers(rng, rss_table, tmp_path):
     return {
         "recording": (write_recording(_recording(rng), tmp_path / "rec.csv"), read_recording),
         "rss": (RSS.write_rss(rss_table, tmp_path / "rss.csv", packet_rate_hz=30.0), RSS.read_rss),
-        "acc": (accel_format.write_acc(_acc_table(), tmp_path / "acc.csv", rate_hz=30.0), accel_format.read_acc),
+        "acc": (accel.write_acc(_acc_table(), tmp_path / "acc.csv", rate_hz=30.0), accel.read_acc),
     }
 
 

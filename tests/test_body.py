@@ -2,8 +2,11 @@ import dataclasses
 
 import numpy as np
 import pytest
+from _sim_helpers import paper_user
 
 from wsnlib import quaternion as Q
+from wsnlib import testbed as T
+from wsnlib.sim import arm_motion as M
 from wsnlib.sim import body as B
 
 X = np.array([1.0, 0.0, 0.0])
@@ -11,7 +14,7 @@ X = np.array([1.0, 0.0, 0.0])
 
 @pytest.fixture
 def user():
-    return B.paper_user()
+    return paper_user()
 
 
 # --------------------------------------------------------------------------------------------
@@ -21,38 +24,38 @@ def user():
 
 @pytest.mark.parametrize("posture", ["P1", "P2", "P3", "P4"])
 def test_paper_user_reproduces_table1(user, posture):
-    expected = np.array(B.TABLE1_POSITIONS_CM[posture]) / 100.0
+    expected = np.array(T.TABLE1_POSITIONS_CM[posture]) / 100.0
     np.testing.assert_allclose(user.target_positions(posture), expected, atol=1e-12)
 
 
 def test_p5_is_the_least_squares_straight_arm(user):
-    table = np.array(B.TABLE1_POSITIONS_CM["P5"]) / 100.0
+    table = np.array(T.TABLE1_POSITIONS_CM["P5"]) / 100.0
     ours = user.target_positions("P5")
     miss = np.linalg.norm(ours - table, axis=1)
     assert np.all(miss < 0.035)
     # No other horizontal straight arm fits Table 1's two P5 points better.
     for deg in np.linspace(30.0, 80.0, 201):
         u = np.array([-np.sin(np.radians(deg)), np.cos(np.radians(deg)), 0.0])
-        other = np.outer(B.PAPER_TARGET_DISTANCES_M, u)
+        other = np.outer(T.PAPER_TARGET_DISTANCES_M, u)
         assert np.sum((other - table) ** 2) >= np.sum((ours - table) ** 2) - 1e-12
 
 
-@pytest.mark.parametrize("posture", B.POSTURES)
+@pytest.mark.parametrize("posture", T.POSTURES)
 def test_posture_orientation_points_the_segment_x_axis_along_the_arm(posture):
-    u = B.posture_direction(posture)
+    u = T.posture_direction(posture)
     assert np.linalg.norm(u) == pytest.approx(1.0)
-    np.testing.assert_allclose(Q.rotate(B.posture_orientation(posture), X), u, atol=1e-12)
+    np.testing.assert_allclose(Q.rotate(M.posture_orientation(posture), X), u, atol=1e-12)
 
 
 def test_frame_signs_follow_table1():
-    assert B.posture_direction("P4")[0] > 0  # sideways = to the user's right = +x
-    assert B.posture_direction("P5")[0] < 0 < B.posture_direction("P5")[1]  # across the body, forward
-    assert B.posture_direction("P2")[2] > 0  # up = +z
+    assert T.posture_direction("P4")[0] > 0  # sideways = to the user's right = +x
+    assert T.posture_direction("P5")[0] < 0 < T.posture_direction("P5")[1]  # across the body, forward
+    assert T.posture_direction("P2")[2] > 0  # up = +z
 
 
 def test_unknown_posture_raises():
     with pytest.raises(ValueError, match="posture"):
-        B.posture_direction("P6")
+        T.posture_direction("P6")
 
 
 # --------------------------------------------------------------------------------------------
@@ -83,7 +86,7 @@ def test_make_users_is_deterministic_and_plausible():
 
 def test_anchor_layout():
     pos = B.nominal_anchor_positions(1.75)
-    worn = np.array([B.ANCHOR_WORN[a] for a in B.ANCHOR_NAMES])
+    worn = np.array([T.ANCHOR_WORN[a] for a in T.ANCHOR_NAMES])
     assert worn.tolist() == [True, False, False, True, False, True, True]  # paper 002, Fig. 4 caption
     dist = np.linalg.norm(pos, axis=1)
     assert np.all(dist[worn] < 0.6)
@@ -110,7 +113,7 @@ def test_moved_user_keeps_environment_and_moves_anchors_a_little():
 
 
 def test_user_validation():
-    user = B.paper_user()
+    user = paper_user()
     with pytest.raises(ValueError, match="target_distances_m"):
         dataclasses.replace(user, target_distances_m=(0.35, 0.40))
     with pytest.raises(ValueError, match="anchor_positions_m"):
@@ -131,17 +134,17 @@ MOVEMENT_ANGLES_DEG = {
 }
 
 
-@pytest.mark.parametrize("name", list(B.MOVEMENTS))
+@pytest.mark.parametrize("name", list(T.MOVEMENTS))
 def test_movement_endpoints_are_the_postures(user, name):
-    postures = B.MOVEMENTS[name]
-    motion = B.movement(name, 3.0)
+    postures = T.MOVEMENTS[name]
+    motion = M.movement(name, 3.0)
     kin = motion.sample(user, fs=30.0)
     assert kin.n_samples == 91
     np.testing.assert_allclose(kin.pos[:, 0], user.target_positions(postures[0]), atol=1e-12)
     np.testing.assert_allclose(kin.pos[:, -1], user.target_positions(postures[-1]), atol=1e-12)
     # The arm ends in the posture's own orientation (axial twist included).
-    assert Q.angle_between(motion.quat_end, B.posture_orientation(postures[-1])) < 1e-9
-    np.testing.assert_allclose(kin.quat[0, 0], B.posture_orientation(postures[0]), atol=1e-12)
+    assert Q.angle_between(motion.quat_end, M.posture_orientation(postures[-1])) < 1e-9
+    np.testing.assert_allclose(kin.quat[0, 0], M.posture_orientation(postures[0]), atol=1e-12)
     # Straight arm: both segments point the same way, targets at their distances.
     np.testing.assert_allclose(kin.directions[0], kin.directions[1])
     distances = np.array(user.target_distances_m)[:, None]
@@ -151,10 +154,10 @@ def test_movement_endpoints_are_the_postures(user, name):
         assert gaps.min() < 0.01
 
 
-@pytest.mark.parametrize("name", list(B.MOVEMENTS))
+@pytest.mark.parametrize("name", list(T.MOVEMENTS))
 def test_movement_has_constant_angular_speed(user, name):
     duration = 2.5
-    kin = B.movement(name, duration).sample(user, fs=30.0)
+    kin = M.movement(name, duration).sample(user, fs=30.0)
     u = kin.directions[0]
     steps = np.degrees(np.arccos(np.clip(np.sum(u[1:] * u[:-1], axis=-1), -1.0, 1.0)))
     total = MOVEMENT_ANGLES_DEG[name]
@@ -168,7 +171,7 @@ def test_arc_is_slerp_of_directions(user):
     rng = np.random.default_rng(0)
     a, b = rng.normal(size=3), rng.normal(size=3)
     a, b = a / np.linalg.norm(a), b / np.linalg.norm(b)
-    kin = B.arc(a, b, 2.0).sample(user, fs=50.0)
+    kin = M.arc(a, b, 2.0).sample(user, fs=50.0)
     omega = np.arccos(a @ b)
     mu = np.linspace(0.0, 1.0, kin.n_samples)[:, None]
     slerp = (np.sin((1 - mu) * omega) * a + np.sin(mu * omega) * b) / np.sin(omega)
@@ -177,13 +180,13 @@ def test_arc_is_slerp_of_directions(user):
 
 def test_arc_between_opposite_directions_needs_a_via():
     with pytest.raises(ValueError, match="via"):
-        B.arc("P1", "P2", 3.0)
-    B.arc("P1", "P2", 3.0, via="P3")
+        M.arc("P1", "P2", 3.0)
+    M.arc("P1", "P2", 3.0, via="P3")
 
 
 def test_velocity_and_acceleration_match_finite_differences(user):
     fs = 1000.0
-    kin = B.movement("horizontal_P4_P3_P5", 3.0).kinematics(np.arange(500, 2500) / fs, user)
+    kin = M.movement("horizontal_P4_P3_P5", 3.0).kinematics(np.arange(500, 2500) / fs, user)
     vel_fd = np.gradient(kin.pos, 1.0 / fs, axis=1)
     acc_fd = np.gradient(kin.vel, 1.0 / fs, axis=1)
     np.testing.assert_allclose(kin.vel[:, 1:-1], vel_fd[:, 1:-1], atol=1e-5)
@@ -192,7 +195,7 @@ def test_velocity_and_acceleration_match_finite_differences(user):
 
 def test_body_rate_integrates_to_the_orientation(user):
     fs = 200.0
-    kin = B.movement("lower_P2_P3_P1", 3.0).kinematics(np.arange(0, 590) / fs, user)
+    kin = M.movement("lower_P2_P3_P1", 3.0).kinematics(np.arange(0, 590) / fs, user)
     q = kin.quat[0, 0]
     for k in range(kin.n_samples - 1):
         q = Q.multiply(q, Q.from_rotation_vector(kin.gyr[0, k] / fs))
@@ -200,15 +203,15 @@ def test_body_rate_integrates_to_the_orientation(user):
 
 
 def test_transition_arrives_in_the_posture_orientation_and_concatenation_checks_continuity():
-    motion = B.concatenate([B.hold("P1", 1.0), B.transition("P1", "P2", 2.0), B.hold("P2", 1.0)])
+    motion = M.concatenate([M.hold("P1", 1.0), M.transition("P1", "P2", 2.0), M.hold("P2", 1.0)])
     assert motion.total_duration_s == pytest.approx(4.0)
-    assert Q.angle_between(motion.quat_end, B.posture_orientation("P2")) < 1e-9
+    assert Q.angle_between(motion.quat_end, M.posture_orientation("P2")) < 1e-9
     with pytest.raises(ValueError, match="starts"):
-        B.concatenate([B.hold("P1", 1.0), B.hold("P2", 1.0)])
+        M.concatenate([M.hold("P1", 1.0), M.hold("P2", 1.0)])
 
 
 def test_labels_follow_the_pieces(user):
-    motion = B.concatenate([B.hold("P2", 1.0), B.movement("lower_P2_P3_P1", 2.0), B.hold("P1", 1.0)])
+    motion = M.concatenate([M.hold("P2", 1.0), M.movement("lower_P2_P3_P1", 2.0), M.hold("P1", 1.0)])
     kin = motion.kinematics(np.array([0.5, 1.5, 2.5, 3.5]), user)
     assert kin.label.tolist() == ["P2", "lower_P2_P3_P1", "lower_P2_P3_P1", "P1"]
 
@@ -235,14 +238,14 @@ def test_chord_length_through_simple_solids():
 
 
 def test_body_solids_are_consistent_with_the_shoulder(user):
-    solids = {s.name: s for s in B.body_solids(user, B.posture_direction("P1"))}
+    solids = {s.name: s for s in B.body_solids(user, T.posture_direction("P1"))}
     assert set(solids) == {"torso", "legs", "neck", "head", "left_arm", "upper_arm", "forearm"}
     # The right shoulder joint is just outside the torso, the torso centre to its left.
     torso = solids["torso"]
     assert torso.base[0] < 0.0 < torso.base[0] + torso.radius + 0.05
     # Worn anchors sit on the body surface (within 2 cm outside a solid), not inside it.
-    for i, name in enumerate(B.ANCHOR_NAMES):
-        if not B.ANCHOR_WORN[name]:
+    for i, name in enumerate(T.ANCHOR_NAMES):
+        if not T.ANCHOR_WORN[name]:
             continue
         p = user.anchor_positions_m[i]
         outward = np.array([p[0] - torso.base[0], p[1], 0.0])

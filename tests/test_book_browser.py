@@ -20,7 +20,7 @@ import urllib.request
 import pytest
 from _chromium import headless_chromium
 
-from wsnlib import book, paths
+from wsnlib import batch_selection, book, paths
 
 pytestmark = pytest.mark.browser
 
@@ -101,7 +101,7 @@ def test_every_page_reachable_from_the_index_loads_cleanly(site, driver):
             notebook_shot = screenshots / page.replace(".html", ".png")
             driver.save_screenshot(str(notebook_shot))
     assert not problems, "\n".join(problems)
-    notebooks = {f"{book.reproduce.notebook_name(nb)[:-6]}.html" for nb in book.reproduce.list_batch()}
+    notebooks = {f"{batch_selection.notebook_name(nb)[:-6]}.html" for nb in batch_selection.list_batch()}
     assert notebooks <= seen, f"not reachable from the index: {sorted(notebooks - seen)}"
     assert {"references.html", "credits.html"} <= seen
     assert notebook_shot is not None and notebook_shot.stat().st_size > 0

@@ -14,13 +14,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from wsnlib import datasets, paths
+from wsnlib import paths
 from wsnlib import quaternion as Q
 from wsnlib.io import broad as broad_io
+from wsnlib.io import download
 
 TRIAL = "02_undisturbed_slow_rotation_B"
 TRIAL_FILE = f"{TRIAL}.mat"
-SOURCE_DIR = Path(os.environ.get(datasets.BROAD_DIR_ENV_VAR) or paths.ROOT.parent / "shared" / "data" / "broad")
+SOURCE_DIR = Path(os.environ.get(broad_io.BROAD_DIR_ENV_VAR) or paths.ROOT.parent / "shared" / "data" / "broad")
 
 needs_files = pytest.mark.skipif(
     not (SOURCE_DIR / TRIAL_FILE).exists() or not (SOURCE_DIR / "trials.json").exists(),
@@ -32,7 +33,7 @@ needs_files = pytest.mark.skipif(
 def trial():
     if not (SOURCE_DIR / TRIAL_FILE).exists():
         pytest.skip(f"BROAD files not found in {SOURCE_DIR}")
-    return datasets.load_broad(TRIAL, SOURCE_DIR, download=False)
+    return broad_io.load_broad(TRIAL, SOURCE_DIR, download=False)
 
 
 class CopyDownloader:
@@ -63,12 +64,12 @@ BLOB_ONLY = {13, 17, 19, 20, 22, 23, 37, 38, 39}  # trials whose SHA-256 the reg
 
 
 def test_registry_lists_all_39_trials_and_trials_json():
-    names = datasets.broad_trials()
+    names = broad_io.broad_trials()
     assert len(names) == 39 and names == sorted(names)
     assert [int(name[:2]) for name in names] == list(range(1, 40))
     assert names[0] == "01_undisturbed_slow_rotation_A" and names[1] == TRIAL and names[-1] == "39_disturbed_mixed"
-    assert set(datasets.BROAD_REGISTRY) == {f"{name}.mat" for name in names} | {"trials.json"}
-    for name, entry in datasets.BROAD_REGISTRY.items():
+    assert set(broad_io.BROAD_REGISTRY) == {f"{name}.mat" for name in names} | {"trials.json"}
+    for name, entry in broad_io.BROAD_REGISTRY.items():
         assert re.fullmatch(r"[0-9a-f]{40}", entry.git_blob_sha1), name
         if name.endswith(".mat") and int(name[:2]) in BLOB_ONLY:
             assert entry.sha256 is None, name
@@ -82,83 +83,83 @@ def test_registry_agrees_with_the_published_sums():
         pytest.skip(f"BROAD README.md / REGISTRY.tsv not found in {SOURCE_DIR}")
     published = dict((name, digest) for digest, name in re.findall(r"^([0-9a-f]{64})\s+(\S+)$",
                                                                    readme.read_text(), flags=re.M))
-    assert published == {name: e.sha256 for name, e in datasets.BROAD_REGISTRY.items() if e.sha256}
-    assert datasets.BROAD_COMMIT in readme.read_text()
+    assert published == {name: e.sha256 for name, e in broad_io.BROAD_REGISTRY.items() if e.sha256}
+    assert broad_io.BROAD_COMMIT in readme.read_text()
     rows = [line.split("\t") for line in registry.read_text().splitlines()[1:]]
-    assert {name: datasets.RegistryEntry(None if sha == "-" else sha, blob) for name, sha, blob in rows} == (
-        datasets.BROAD_REGISTRY
+    assert {name: download.RegistryEntry(None if sha == "-" else sha, blob) for name, sha, blob in rows} == (
+        broad_io.BROAD_REGISTRY
     )
 
 
 def test_present_trials_are_the_files_in_the_folder(tmp_path):
-    assert datasets.broad_trials(present_only=True, data_dir=tmp_path) == []
+    assert broad_io.broad_trials(present_only=True, data_dir=tmp_path) == []
     for name in ("13_undisturbed_slow_translation_with_breaks_A", "02_undisturbed_slow_rotation_B"):
         (tmp_path / f"{name}.mat").write_bytes(b"")
     (tmp_path / "99_not_a_trial.mat").write_bytes(b"")
     (tmp_path / "trials.json").write_bytes(b"{}")
-    assert datasets.broad_trials(present_only=True, data_dir=tmp_path) == [
+    assert broad_io.broad_trials(present_only=True, data_dir=tmp_path) == [
         "02_undisturbed_slow_rotation_B", "13_undisturbed_slow_translation_with_breaks_A"
     ]
     with pytest.raises(ValueError, match="present_only"):
-        datasets.broad_trials(present_only="yes")
+        broad_io.broad_trials(present_only="yes")
 
 
 @pytest.mark.skipif(not (SOURCE_DIR / "REGISTRY.tsv").exists(), reason=f"BROAD subset not found in {SOURCE_DIR}")
 def test_shared_folder_holds_seventeen_trials():
-    assert datasets.broad_trials(present_only=True, data_dir=SOURCE_DIR) == SHARED_TRIALS
+    assert broad_io.broad_trials(present_only=True, data_dir=SOURCE_DIR) == SHARED_TRIALS
 
 
 @pytest.mark.parametrize("spec", [2, np.int64(2), TRIAL, TRIAL_FILE])
 def test_trial_given_by_name_or_number(spec):
-    assert datasets._broad_trial_name(spec) == TRIAL
+    assert broad_io._broad_trial_name(spec) == TRIAL
 
 
 @pytest.mark.parametrize("spec", [1, 13, 39, "01_undisturbed_slow_rotation_A", "39_disturbed_mixed.mat"])
 def test_every_trial_of_the_dataset_is_known(spec, tmp_path):
-    name = datasets._broad_trial_name(spec)
+    name = broad_io._broad_trial_name(spec)
     with pytest.raises(FileNotFoundError, match=re.escape(str(tmp_path / f"{name}.mat"))):
-        datasets.load_broad(spec, tmp_path, download=False)
+        broad_io.load_broad(spec, tmp_path, download=False)
 
 
 @pytest.mark.parametrize("spec", [0, 40, 99, "02", "01_undisturbed_slow_rotation_B", True, 2.0, None])
 def test_unknown_trial_lists_the_known_ones(spec):
     with pytest.raises(ValueError, match="known trials: .*02_undisturbed_slow_rotation_B.*39_disturbed_mixed"):
-        datasets.load_broad(spec, download=False)
+        broad_io.load_broad(spec, download=False)
 
 
 def test_folder_resolution(tmp_path, monkeypatch):
-    monkeypatch.delenv(datasets.BROAD_DIR_ENV_VAR, raising=False)
-    assert datasets.broad_dir() == paths.ROOT / "data" / "raw" / "broad"
-    monkeypatch.setenv(datasets.BROAD_DIR_ENV_VAR, str(tmp_path / "env"))
-    assert datasets.broad_dir() == tmp_path / "env"
-    assert datasets.broad_dir(tmp_path / "arg") == tmp_path / "arg"
+    monkeypatch.delenv(broad_io.BROAD_DIR_ENV_VAR, raising=False)
+    assert broad_io.broad_dir() == paths.ROOT / "data" / "raw" / "broad"
+    monkeypatch.setenv(broad_io.BROAD_DIR_ENV_VAR, str(tmp_path / "env"))
+    assert broad_io.broad_dir() == tmp_path / "env"
+    assert broad_io.broad_dir(tmp_path / "arg") == tmp_path / "arg"
     assert not (tmp_path / "env").exists()  # resolving creates nothing
 
 
 def test_missing_file_without_download(tmp_path):
     with pytest.raises(FileNotFoundError, match=re.escape(str(tmp_path / TRIAL_FILE))):
-        datasets.load_broad(TRIAL, tmp_path, download=False)
+        broad_io.load_broad(TRIAL, tmp_path, download=False)
 
 
 def test_unknown_file_name():
     with pytest.raises(ValueError, match="unknown BROAD file"):
-        datasets.broad_file("40_undisturbed_slow_rotation_A.mat")
+        broad_io.broad_file("40_undisturbed_slow_rotation_A.mat")
 
 
 @needs_files
 def test_download_goes_to_the_pinned_url_and_is_verified(tmp_path, monkeypatch):
     folder = tmp_path / "new" / "broad"
-    monkeypatch.setenv(datasets.BROAD_DIR_ENV_VAR, str(folder))
+    monkeypatch.setenv(broad_io.BROAD_DIR_ENV_VAR, str(folder))
     fake = CopyDownloader()
-    loaded = datasets.load_broad(2, downloader=fake)
+    loaded = broad_io.load_broad(2, downloader=fake)
     assert fake.urls == [
-        f"https://raw.githubusercontent.com/dlaidig/broad/{datasets.BROAD_COMMIT}/data_mat/{TRIAL_FILE}"
+        f"https://raw.githubusercontent.com/dlaidig/broad/{broad_io.BROAD_COMMIT}/data_mat/{TRIAL_FILE}"
     ]
     assert (folder / TRIAL_FILE).read_bytes() == (SOURCE_DIR / TRIAL_FILE).read_bytes()
     assert loaded.name == TRIAL and loaded.n_samples == 53240
-    datasets.load_broad(2, downloader=fake)  # present now: no second download
+    broad_io.load_broad(2, downloader=fake)  # present now: no second download
     assert len(fake.urls) == 1
-    info = datasets.broad_trial_info(downloader=fake)
+    info = broad_io.broad_trial_info(downloader=fake)
     assert TRIAL in info["trials"] and len(fake.urls) == 2
 
 
@@ -167,8 +168,8 @@ def test_download_goes_to_the_pinned_url_and_is_verified(tmp_path, monkeypatch):
 def test_truncated_download_fails_and_leaves_nothing(tmp_path, name):
     fake = CopyDownloader(truncate=1000)
     with pytest.raises(ValueError, match=re.escape(name)) as info:
-        datasets.broad_file(name, tmp_path, downloader=fake)
-    assert datasets.BROAD_REGISTRY[name].sha256 in str(info.value)
+        broad_io.broad_file(name, tmp_path, downloader=fake)
+    assert broad_io.BROAD_REGISTRY[name].sha256 in str(info.value)
     assert list(tmp_path.iterdir()) == []  # neither the bad file nor pooch's temporary copy
 
 
@@ -177,7 +178,7 @@ def test_failed_connection_is_an_os_error_with_a_hint(tmp_path):
         raise ConnectionError("network unreachable")
 
     with pytest.raises(OSError, match="WSNLIB_BROAD_DIR"):
-        datasets.broad_file("trials.json", tmp_path, downloader=offline)
+        broad_io.broad_file("trials.json", tmp_path, downloader=offline)
     assert not (tmp_path / "trials.json").exists()
 
 
@@ -188,7 +189,7 @@ def test_failed_connection_is_an_os_error_with_a_hint(tmp_path):
 def test_git_blob_id_is_what_git_computes(tmp_path, content, blob_id):
     path = tmp_path / "file"
     path.write_bytes(content)
-    assert datasets.git_blob_sha1_of(path) == blob_id  # values of `git hash-object`
+    assert download.git_blob_sha1_of(path) == blob_id  # values of `git hash-object`
 
 
 BLOB_FILE = "99_blob_only_test.mat"
@@ -201,8 +202,8 @@ def blob_only_entry(monkeypatch, tmp_path):
     source = tmp_path / "source" / BLOB_FILE
     source.parent.mkdir()
     source.write_bytes(BLOB_CONTENT)
-    entry = datasets.RegistryEntry(sha256=None, git_blob_sha1=datasets.git_blob_sha1_of(source))
-    monkeypatch.setitem(datasets.BROAD_REGISTRY, BLOB_FILE, entry)
+    entry = download.RegistryEntry(sha256=None, git_blob_sha1=download.git_blob_sha1_of(source))
+    monkeypatch.setitem(broad_io.BROAD_REGISTRY, BLOB_FILE, entry)
     return entry
 
 
@@ -211,12 +212,12 @@ def test_blob_id_verifies_a_present_file(tmp_path, blob_only_entry):
     folder.mkdir()
     path = folder / BLOB_FILE
     path.write_bytes(BLOB_CONTENT)
-    assert datasets.broad_file(BLOB_FILE, folder, download=False) == path
+    assert broad_io.broad_file(BLOB_FILE, folder, download=False) == path
     path.write_bytes(BLOB_CONTENT[:-1] + b"!")  # same size, other content
     os.utime(path, ns=(path.stat().st_atime_ns, path.stat().st_mtime_ns + 10**9))
     with pytest.raises(ValueError, match="git blob id") as info:
-        datasets.broad_file(BLOB_FILE, folder, download=False)
-    assert blob_only_entry.git_blob_sha1 in str(info.value) and datasets.git_blob_sha1_of(path) in str(info.value)
+        broad_io.broad_file(BLOB_FILE, folder, download=False)
+    assert blob_only_entry.git_blob_sha1 in str(info.value) and download.git_blob_sha1_of(path) in str(info.value)
     assert str(path) in str(info.value)
 
 
@@ -230,13 +231,13 @@ def test_blob_id_verifies_a_download(tmp_path, blob_only_entry):
     served = []
     folder = tmp_path / "broad"
     with pytest.raises(ValueError, match="git blob id") as info:
-        datasets.broad_file(BLOB_FILE, folder, downloader=serve(BLOB_CONTENT[:100]))
+        broad_io.broad_file(BLOB_FILE, folder, downloader=serve(BLOB_CONTENT[:100]))
     assert blob_only_entry.git_blob_sha1 in str(info.value)
     assert list(folder.iterdir()) == []  # neither the file nor the partial download
-    path = datasets.broad_file(BLOB_FILE, folder, downloader=serve(BLOB_CONTENT))
+    path = broad_io.broad_file(BLOB_FILE, folder, downloader=serve(BLOB_CONTENT))
     assert path == folder / BLOB_FILE and path.read_bytes() == BLOB_CONTENT
     assert list(folder.iterdir()) == [path]
-    url = f"https://raw.githubusercontent.com/dlaidig/broad/{datasets.BROAD_COMMIT}/data_mat/{BLOB_FILE}"
+    url = f"https://raw.githubusercontent.com/dlaidig/broad/{broad_io.BROAD_COMMIT}/data_mat/{BLOB_FILE}"
     assert served == [url, url]
 
 
@@ -252,10 +253,10 @@ def test_corrupt_existing_file_is_refused_not_replaced(tmp_path, damage):
     path.write_bytes(bytes(data))
     fake = CopyDownloader()
     with pytest.raises(ValueError, match="SHA-256") as info:
-        datasets.load_broad(TRIAL, tmp_path, downloader=fake)
+        broad_io.load_broad(TRIAL, tmp_path, downloader=fake)
     message = str(info.value)
-    assert str(path) in message and datasets.BROAD_REGISTRY[TRIAL_FILE].sha256 in message
-    assert datasets.sha256_of(path) in message  # the actual hash too
+    assert str(path) in message and broad_io.BROAD_REGISTRY[TRIAL_FILE].sha256 in message
+    assert broad_io.sha256_of(path) in message  # the actual hash too
     assert fake.urls == [] and path.read_bytes() == bytes(data)
 
 
@@ -264,11 +265,11 @@ def test_hash_is_cached_per_path_size_and_mtime(tmp_path, monkeypatch):
     path = tmp_path / "trials.json"
     shutil.copyfile(SOURCE_DIR / "trials.json", path)
     calls = []
-    real = datasets.sha256_of
-    # patched where the code lives (wsnlib.datasets only re-exports it)
+    real = broad_io.sha256_of
+    # patched where broad_file reads it
     monkeypatch.setattr(broad_io, "sha256_of", lambda p: calls.append(p) or real(p))
-    datasets.broad_file("trials.json", tmp_path, download=False)
-    datasets.broad_file("trials.json", tmp_path, download=False)
+    broad_io.broad_file("trials.json", tmp_path, download=False)
+    broad_io.broad_file("trials.json", tmp_path, download=False)
     assert len(calls) == 1
     # a change after verification is caught: same size, new content and mtime
     original = path.read_bytes()
@@ -276,7 +277,7 @@ def test_hash_is_cached_per_path_size_and_mtime(tmp_path, monkeypatch):
     stat = path.stat()
     os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns + 10**9))
     with pytest.raises(ValueError, match="SHA-256"):
-        datasets.broad_file("trials.json", tmp_path, download=False)
+        broad_io.broad_file("trials.json", tmp_path, download=False)
 
 
 def test_trial_content(trial):

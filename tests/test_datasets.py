@@ -3,9 +3,9 @@ import json
 import numpy as np
 import pytest
 
-from wsnlib import datasets
 from wsnlib import quaternion as Q
-from wsnlib.datasets import Recording, read_recording, write_recording
+from wsnlib.io.recording import ALL_COLUMNS, UNITS, Recording, read_recording, write_recording
+from wsnlib.io.sidecar import sidecar_path
 
 
 def _recording(rng, n_samples=40, with_quat=True, nodes=("humerus", "forearm")):
@@ -42,11 +42,11 @@ def test_round_trip(tmp_path, rng):
     _assert_close(rec, back)
     assert back.metadata == {"generator": "test", "seed": 12345, "params": {"beta": 0.1}}
     header = path.read_text().splitlines()[0].split(",")
-    assert header == list(datasets.ALL_COLUMNS)
+    assert header == list(ALL_COLUMNS)
     assert len(path.read_text().splitlines()) == 1 + 2 * 40
     side = json.loads((tmp_path / "sub" / "rec.json").read_text())
     assert side["fs_hz"] == 50.0 and side["nodes"] == ["humerus", "forearm"]
-    assert side["units"] == datasets.UNITS and side["has_quaternions"] is True
+    assert side["units"] == UNITS and side["has_quaternions"] is True
 
 
 def test_rewrite_is_byte_identical(tmp_path, rng):
@@ -82,13 +82,13 @@ def test_read_without_sidecar_infers_fs_and_nodes(tmp_path, rng):
 def _hand_made(path):
     """Drop the row count and SHA-256 from the sidecar, as in a hand-converted file, so that
     the reader's checks of the CSV's content (not its integrity check) are what a test sees."""
-    side = datasets.sidecar_path(path)
+    side = sidecar_path(path)
     meta = json.loads(side.read_text())
     side.write_text(json.dumps({k: v for k, v in meta.items() if k not in ("csv_rows", "csv_sha256")}))
 
 
 def _rewrite(path, edit):
-    if datasets.sidecar_path(path).exists():
+    if sidecar_path(path).exists():
         _hand_made(path)
     lines = path.read_text().splitlines()
     lines = edit(lines)

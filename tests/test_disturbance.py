@@ -4,18 +4,20 @@ import dataclasses
 import os
 from pathlib import Path
 
+import _calibration as C
 import numpy as np
 import pytest
 
-from wsnlib import datasets, frames, paths
+from wsnlib import frames, paths
 from wsnlib import quaternion as Q
+from wsnlib.io import broad
 from wsnlib.loss import LossProfile
 from wsnlib.sim import disturbance as D
 from wsnlib.sim.arm import arm_kinematics, movement_set
 from wsnlib.sim.imu import ImuSpec, simulate_imu
 from wsnlib.sim.trials import arm_loss_trials
 
-BROAD_DIR = Path(os.environ.get(datasets.BROAD_DIR_ENV_VAR) or paths.ROOT.parent / "shared" / "data" / "broad")
+BROAD_DIR = Path(os.environ.get(broad.BROAD_DIR_ENV_VAR) or paths.ROOT.parent / "shared" / "data" / "broad")
 
 
 @pytest.fixture(scope="module")
@@ -117,14 +119,14 @@ def test_calibrated_simulator_matches_broad_within_tolerance():
                 D.BROAD_CALIBRATED[group], rng=np.random.default_rng(seed), n_repetitions=32)["total"])
             for stat in ("median", "p90"):
                 target = D.BROAD_TRIAD_ERROR_DEG[group]["total"][stat]
-                assert abs(stats[stat] / target - 1.0) < D.CALIBRATION_TOLERANCE, (seed, group, stat, stats)
+                assert abs(stats[stat] / target - 1.0) < C.CALIBRATION_TOLERANCE, (seed, group, stat, stats)
     clean = D.error_statistics(D.simulated_triad_errors(None, rng=np.random.default_rng(3), n_repetitions=4)["total"])
     assert clean["p90"] < 0.25 * D.BROAD_TRIAD_ERROR_DEG["undisturbed"]["total"]["median"]
 
 
 def test_calibrated_point_beats_its_grid_neighbours():
     grid = {"translation_acc_rms_m_s2": [1.3, 1.4, 1.6], "translation_acc_log_sd": [1.5], "magnetic_scale": [2.0]}
-    result = D.calibrate_disturbance("undisturbed", grid, n_repetitions=32)
+    result = C.calibrate_disturbance("undisturbed", grid, n_repetitions=32)
     assert result.loc[0, "translation_acc_rms_m_s2"] == D.UNDISTURBED_BROAD.translation_acc_rms_m_s2
     assert list(result["score"]) == sorted(result["score"])
 
@@ -150,14 +152,14 @@ def test_bad_arguments_raise(truth):
     with pytest.raises(ValueError, match="disturbance"):
         simulate_imu(truth, rng=np.random.default_rng(0), disturbance={"hard_iron_ut": 3})
     with pytest.raises(ValueError, match="group"):
-        D.calibrate_disturbance("windy", {"magnetic_scale": [1.0]})
+        C.calibrate_disturbance("windy", {"magnetic_scale": [1.0]})
     with pytest.raises(ValueError, match="grid"):
-        D.calibrate_disturbance("disturbed", {"wind_speed": [1.0]})
+        C.calibrate_disturbance("disturbed", {"wind_speed": [1.0]})
     with pytest.raises(ValueError, match="band_hz"):
         D.translation_motion(10, 50.0, 1.0, (21.0, 24.0), rng=np.random.default_rng(0))
     with pytest.raises(ValueError, match="trial_name"):
-        D.broad_group("01_slow_rotation")
-    assert D.broad_group("33_disturbed_attached_magnet_2cm") == "disturbed"
+        C.broad_group("01_slow_rotation")
+    assert C.broad_group("33_disturbed_attached_magnet_2cm") == "disturbed"
 
 
 def test_gravity_reference_unchanged():
@@ -165,11 +167,11 @@ def test_gravity_reference_unchanged():
     assert np.allclose(frames.gravity_specific_force_enu(frames.STANDARD_GRAVITY), [0, 0, frames.STANDARD_GRAVITY])
 
 
-@pytest.mark.skipif(not all((BROAD_DIR / f"{name}.mat").exists() for name in D.BROAD_CALIBRATION_TRIALS),
+@pytest.mark.skipif(not all((BROAD_DIR / f"{name}.mat").exists() for name in C.BROAD_CALIBRATION_TRIALS),
                     reason=f"the 17 BROAD trials are not all in {BROAD_DIR}")
 def test_recorded_broad_statistics_match_the_files():
-    errors = D.broad_triad_errors(D.BROAD_CALIBRATION_TRIALS, data_dir=BROAD_DIR)
-    stats = D.broad_triad_statistics(errors)
+    errors = C.broad_triad_errors(C.BROAD_CALIBRATION_TRIALS, data_dir=BROAD_DIR)
+    stats = C.broad_triad_statistics(errors)
     for group in D.BROAD_GROUPS:
         for kind in D.ERROR_KINDS:
             for stat in ("median", "p90"):

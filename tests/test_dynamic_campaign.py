@@ -3,15 +3,15 @@
 import numpy as np
 import pandas as pd
 import pytest
+from _sim_helpers import paper_user
 
-from wsnlib import accel_format
 from wsnlib import quaternion as Q
 from wsnlib.frames import STANDARD_GRAVITY
+from wsnlib.io import accel
 from wsnlib.posture import gravity_gate, pitch_from_acc
-from wsnlib.sim.body import POSTURES, hold, movement, paper_user, posture_direction
+from wsnlib.sim.arm_motion import hold, movement
 from wsnlib.sim.campaign import (
     DYNAMIC_SESSION,
-    arm_chain,
     movement_number,
     read_dynamic_campaign,
     simulate_campaign,
@@ -21,6 +21,7 @@ from wsnlib.sim.campaign import (
 )
 from wsnlib.sim.optical import KinectModel
 from wsnlib.sim.sunspot import SunspotAccSpec, ideal_specific_force, segment_axis_in_device, simulate_sunspot_acc
+from wsnlib.testbed import POSTURES, posture_direction
 
 G = STANDARD_GRAVITY
 
@@ -205,7 +206,7 @@ def test_every_rss_vector_has_an_earlier_or_simultaneous_sample(noisy):
             rows = (data.user == user.name) & (data.target == target)
             table = noisy.acc[(noisy.acc["user"] == user.name) & (noisy.acc["target"] == target)]
             index = np.searchsorted(table["time_s"].to_numpy(), data.time_s[rows], side="right") - 1
-            cols = list(accel_format.VALUE_COLUMNS["acc"])
+            cols = list(accel.VALUE_COLUMNS["acc"])
             np.testing.assert_array_equal(data.acc[rows], table[cols].to_numpy()[index])
             np.testing.assert_array_equal(data.target_index[rows], t)
 
@@ -233,15 +234,17 @@ def test_shapes_and_geometry(noisy):
         assert getattr(data, name).shape == (n, 3)
     for name in ("time_s", "acc_time_s", "kinect_time_s", "pitch_true_rad", "segment_length_m", "device_offset_m"):
         assert getattr(data, name).shape == (n,)
-    assert list(noisy.acc.columns) == list(accel_format.columns("acc"))
-    assert list(noisy.kinect.columns) == list(accel_format.columns("kinect"))
+    assert list(noisy.acc.columns) == list(accel.columns("acc"))
+    assert list(noisy.kinect.columns) == list(accel.columns("kinect"))
     assert noisy.acc.attrs["rate_hz"] == 30.0
     for user, motion, acc, kinect in zip(
         noisy.online_users, noisy.motions, noisy.acc_streams, noisy.kinect_streams, strict=True
     ):
-        chain = data.arm_chain(user.name)
-        assert chain == user.geometry == arm_chain(user)
+        chain = user.geometry
         assert chain.segment_lengths_m == (user.upper_arm_m, user.forearm_m)
+        rows = data.select(user=user.name)
+        np.testing.assert_array_equal(rows.segment_length_m, np.asarray(chain.segment_lengths_m)[rows.target_index])
+        np.testing.assert_array_equal(rows.device_offset_m, np.asarray(chain.device_offsets_m)[rows.target_index])
         k = int(np.floor(motion.total_duration_s * 30 + 1e-9)) + 1
         assert acc.acc.shape == (k, 2, 3) and kinect.targets.shape == (k, 2, 3)
         assert kinect.joints.shape == (k, 3, 3)
@@ -298,11 +301,11 @@ def test_csv_round_trip_is_byte_identical(noisy, tmp_path):
     pd.testing.assert_frame_equal(tables["acc"], noisy.acc, check_dtype=False)
     assert sidecars["acc"]["metadata"]["acc_spec"]["adc_bits"] == 10
     # Rewriting what was read gives the same bytes.
-    from wsnlib.rss import write_rss
+    from wsnlib.io.rss import write_rss
 
     rewritten = {
-        "acc": accel_format.write_acc(tables["acc"], tmp_path / "b" / "acc.csv", sidecars["acc"]["metadata"]),
-        "kinect": accel_format.write_kinect(
+        "acc": accel.write_acc(tables["acc"], tmp_path / "b" / "acc.csv", sidecars["acc"]["metadata"]),
+        "kinect": accel.write_kinect(
             tables["kinect"], tmp_path / "b" / "kinect.csv", sidecars["kinect"]["metadata"]
         ),
         "dynamic_rss": write_rss(
@@ -322,20 +325,20 @@ def test_sample_tables_are_validated(noisy, tmp_path):
     table = noisy.acc.head(6).copy()
     table.attrs = {}
     with pytest.raises(ValueError, match="rate_hz"):
-        accel_format.write_acc(table, tmp_path / "x.csv")
+        accel.write_acc(table, tmp_path / "x.csv")
     with pytest.raises(ValueError, match="no data rows"):
-        accel_format.write_acc(table.iloc[:0], tmp_path / "x.csv", rate_hz=30.0)
+        accel.write_acc(table.iloc[:0], tmp_path / "x.csv", rate_hz=30.0)
     with pytest.raises(ValueError, match="columns"):
-        accel_format.write_acc(table.drop(columns=["label"]), tmp_path / "x.csv", rate_hz=30.0)
+        accel.write_acc(table.drop(columns=["label"]), tmp_path / "x.csv", rate_hz=30.0)
     duplicated = pd.concat([table, table.iloc[:1]], ignore_index=True)
     with pytest.raises(ValueError, match="duplicate"):
-        accel_format.write_acc(duplicated, tmp_path / "x.csv", rate_hz=30.0)
+        accel.write_acc(duplicated, tmp_path / "x.csv", rate_hz=30.0)
     bad = table.copy()
     bad.loc[0, "acc_x_m_s2"] = np.nan
     with pytest.raises(ValueError, match="acc_x_m_s2"):
-        accel_format.write_acc(bad, tmp_path / "x.csv", rate_hz=30.0)
-    path = accel_format.write_acc(table, tmp_path / "ok.csv", rate_hz=30.0)
+        accel.write_acc(bad, tmp_path / "x.csv", rate_hz=30.0)
+    path = accel.write_acc(table, tmp_path / "ok.csv", rate_hz=30.0)
     with pytest.raises(ValueError, match="kinect"):
-        accel_format.read_kinect(path)
-    df, sidecar = accel_format.read_acc(path)
+        accel.read_kinect(path)
+    df, sidecar = accel.read_acc(path)
     assert sidecar["kind"] == "acc" and df.attrs == {"rate_hz": 30.0, "kind": "acc"}

@@ -5,8 +5,8 @@ import pytest
 
 from wsnlib import exercises, quaternion, tuning
 from wsnlib.exercises.orientation import _reference_gyro_interpolation
-from wsnlib.fingerprint import SHEPARD_EPS
 from wsnlib.orientation import madgwick_step, slerp_weight, triad
+from wsnlib.radio import SHEPARD_EPS
 
 
 def _rng():

@@ -385,23 +385,3 @@ def test_fit_predict_by_group_uses_each_groups_own_map():
     with pytest.raises(ValueError, match="groups"):
         fit_predict_by_group(KNNFingerprint(n_neighbors=1), X_train, y_train, groups_train, X, np.array(["a", "c"]))
 
-
-def test_old_path_re_exports_the_radio_package():
-    """``wsnlib.fingerprint`` (the old module) offers every public name of ``wsnlib.radio``, the same objects."""
-    import wsnlib.fingerprint
-    import wsnlib.radio
-
-    names = [name for name in wsnlib.radio.__all__ if name not in ("estimators", "grid")]
-    assert sorted(names) == sorted(wsnlib.fingerprint.__all__)
-    for name in names:
-        assert getattr(wsnlib.fingerprint, name) is getattr(wsnlib.radio, name), name
-
-
-def test_radio_modules_stay_readable():
-    """Files of one concern (issue 13): no module of the radio package beyond ~500 lines."""
-    from pathlib import Path
-
-    import wsnlib.radio
-
-    for path in Path(wsnlib.radio.__file__).parent.glob("*.py"):
-        assert len(path.read_text(encoding="utf-8").splitlines()) <= 500, path.name

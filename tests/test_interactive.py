@@ -104,6 +104,29 @@ def test_live_returns_an_undisplayed_widget_that_redraws(live, monkeypatch):
     assert all(isinstance(obj, Figure) for obj in shown) and len(shown) == 2
 
 
+def test_live_shows_the_message_of_a_setting_the_study_refuses(live, monkeypatch):
+    """A ValueError of compute (e.g. no anchor chosen) becomes a note on the panel, not a traceback."""
+    import IPython.display
+
+    shown = []
+    monkeypatch.setattr(IPython.display, "display", lambda *objs, **kw: shown.extend(objs))
+
+    def compute(anchors):
+        if not anchors:
+            raise ValueError("anchors must name at least one anchor")
+        return np.arange(len(anchors), dtype=float)
+
+    def draw(result, *, ax):
+        ax.plot(result, label="line")
+
+    choice = ipywidgets.SelectMultiple(options=["A1", "A2"], value=["A1"])
+    interactive.explore(draw, {"anchors": choice}, compute=compute)
+    assert shown[-1].axes[0].get_lines() and not shown[-1].axes[0].texts
+    choice.value = ()
+    ax = shown[-1].axes[0]
+    assert not ax.get_lines() and "at least one anchor" in ax.texts[0].get_text()
+
+
 @pytest.mark.parametrize("knobs", [
     {},
     [("a", [1, 2])],

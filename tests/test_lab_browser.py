@@ -30,11 +30,11 @@ import nbformat
 import pytest
 from _chromium import headless_chromium
 
-from wsnlib import paths, reproduce
+from wsnlib import batch_selection, paths
 
 pytestmark = pytest.mark.lab
 
-NOTEBOOKS = reproduce.list_notebooks()
+NOTEBOOKS = batch_selection.list_notebooks()
 WIDGET_NOTEBOOK = "01_loss_effects.ipynb"
 RUN_TIMEOUT_S = 300  # per notebook (quick mode takes seconds to a minute)
 

@@ -16,13 +16,13 @@ import sys
 import nbformat
 import pytest
 
-from wsnlib import paths, reproduce
+from wsnlib import batch_manifest, batch_selection, paths
 
-NOTEBOOKS = reproduce.list_notebooks()
-EVERY_NOTEBOOK = reproduce.list_batch()  # the notebooks and the solutions notebooks
+NOTEBOOKS = batch_selection.list_notebooks()
+EVERY_NOTEBOOK = batch_selection.list_batch()  # the notebooks and the solutions notebooks
 
 
-@pytest.mark.parametrize("notebook", EVERY_NOTEBOOK, ids=reproduce.notebook_name)
+@pytest.mark.parametrize("notebook", EVERY_NOTEBOOK, ids=batch_selection.notebook_name)
 def test_notebook_is_committed_without_outputs(notebook):
     nb = nbformat.read(notebook, as_version=4)
     for cell in nb.cells:
@@ -31,7 +31,7 @@ def test_notebook_is_committed_without_outputs(notebook):
             assert cell.execution_count is None, f"{notebook.name}: a code cell has an execution count"
 
 
-@pytest.mark.parametrize("notebook", EVERY_NOTEBOOK, ids=reproduce.notebook_name)
+@pytest.mark.parametrize("notebook", EVERY_NOTEBOOK, ids=batch_selection.notebook_name)
 def test_notebook_has_a_parameters_cell_with_quick_and_seed(notebook):
     nb = nbformat.read(notebook, as_version=4)
     tagged = [c for c in nb.cells if "parameters" in c.metadata.get("tags", [])]
@@ -42,7 +42,7 @@ def test_notebook_has_a_parameters_cell_with_quick_and_seed(notebook):
     assert "seed" in names and isinstance(names["seed"], int)
 
 
-@pytest.mark.parametrize("notebook", EVERY_NOTEBOOK, ids=reproduce.notebook_name)
+@pytest.mark.parametrize("notebook", EVERY_NOTEBOOK, ids=batch_selection.notebook_name)
 def test_parameters_cell_lines_papermill_can_read(notebook):
     """papermill reads a parameters cell line by line and warns on a line with two '=' (e.g. in a comment)."""
     nb = nbformat.read(notebook, as_version=4)
@@ -80,10 +80,10 @@ def quick_batch(tmp_path_factory):
 def test_batch_runs_in_quick_mode_and_is_reproducible(quick_batch):
     (run1, first), (_, second) = quick_batch
     ran = [entry["notebook"] for entry in first["notebooks"]]
-    assert ran == [reproduce.notebook_name(nb) for nb in EVERY_NOTEBOOK]
+    assert ran == [batch_selection.notebook_name(nb) for nb in EVERY_NOTEBOOK]
     for entry in first["notebooks"]:
         assert entry["status"] == "ok", entry
-        if entry["notebook"].startswith(f"{reproduce.SOLUTIONS}/"):
+        if entry["notebook"].startswith(f"{batch_selection.SOLUTIONS}/"):
             continue  # a solutions notebook may write nothing
         assert entry["outputs"], f"{entry['notebook']} wrote no figure or table"
         kinds = {o["path"].split("/")[0] for o in entry["outputs"]}
@@ -93,7 +93,7 @@ def test_batch_runs_in_quick_mode_and_is_reproducible(quick_batch):
     # The manifest's list is complete: nothing in data/processed/ escaped it.
     listed = {p for p in hashes[0] if p.startswith("data/processed/")}
     on_disk = {f"data/processed/{p.name}" for p in (run1 / "data" / "processed").iterdir()
-               if p.name != reproduce.MANIFEST_NAME}
+               if p.name != batch_manifest.MANIFEST_NAME}
     assert listed == on_disk
 
 
@@ -125,7 +125,7 @@ def test_executed_notebooks_show_no_warning_stderr_or_path_list(quick_batch):
     (run1, _), _ = quick_batch
     problems = []
     for notebook in EVERY_NOTEBOOK:
-        executed = nbformat.read(run1 / "build" / "executed" / reproduce.notebook_name(notebook), as_version=4)
+        executed = nbformat.read(run1 / "build" / "executed" / batch_selection.notebook_name(notebook), as_version=4)
         for index, cell in enumerate(executed.cells):
             if cell.cell_type != "code":
                 continue
@@ -166,7 +166,7 @@ def test_stated_quick_run_times_match_the_batch(quick_batch):
     for _, manifest in quick_batch:
         for entry in manifest["notebooks"]:
             measured[entry["notebook"]] = min(entry["seconds"], measured.get(entry["notebook"], float("inf")))
-    statements = {reproduce.notebook_name(nb): _stated_run_time(nb) for nb in EVERY_NOTEBOOK}
+    statements = {batch_selection.notebook_name(nb): _stated_run_time(nb) for nb in EVERY_NOTEBOOK}
     missing = [name for name, statement in statements.items() if statement is None]
     assert not missing, f"no measured run time in the first cell of {missing}"
     stated = {name: float(statement["quick"]) for name, statement in statements.items()}

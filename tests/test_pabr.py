@@ -16,9 +16,9 @@ import pandas as pd
 import pooch
 import pytest
 
-from wsnlib import datasets, pabr, paths
-from wsnlib.fingerprint import KNNFingerprint
-from wsnlib.io import pabr_download
+from wsnlib import paths
+from wsnlib.io import download, pabr
+from wsnlib.radio import KNNFingerprint
 
 SOURCE_DIR = Path(os.environ.get(pabr.PABR_DIR_ENV_VAR) or paths.ROOT.parent / "shared" / "data" / "pabr")
 HAVE_SHARED = (SOURCE_DIR / "cnf" / "tetam.dev").is_file() and (SOURCE_DIR / "hst" / "set_1").is_dir()
@@ -170,12 +170,12 @@ def test_vectors_by_packet_blocks(tiny):
     vec = pabr.pabr_vectors(fp, window_packets=2)
     # point 0: sensor10 (-70, -72, -74) -> one block of 2; sensor11 (-80, -81, -82) -> one block
     # point 1: sensor10 (-60, -62) -> one block; sensor12 (-50, -52) -> one block
-    assert vec.receivers == ("sensor10", "sensor11", "sensor12")
+    assert vec.anchors == ("sensor10", "sensor11", "sensor12")
     np.testing.assert_allclose(vec.rss, [[-71.0, -80.5, np.nan], [-61.0, np.nan, -51.0]])
-    np.testing.assert_array_equal(vec.counts, [[2, 2, 0], [2, 0, 2]])
-    np.testing.assert_allclose(vec.positions, [[0.16, 2.19, 1.85], [10.36, 0.28, 1.85]])
-    np.testing.assert_array_equal(vec.groups, [0, 1])
-    np.testing.assert_array_equal(vec.windows, [0, 0])
+    np.testing.assert_array_equal(vec.n_readings, [[2, 2, 0], [2, 0, 2]])
+    np.testing.assert_allclose(vec.position, [[0.16, 2.19, 1.85], [10.36, 0.28, 1.85]])
+    np.testing.assert_array_equal(vec.label, [0, 1])
+    np.testing.assert_array_equal(vec.window, [0, 0])
     assert len(vec) == 2
     ones = pabr.pabr_vectors(fp, window_packets=1, fill=-100.0)
     np.testing.assert_allclose(ones.rss[:3, 0], [-70.0, -72.0, -74.0])
@@ -190,13 +190,13 @@ def test_vectors_by_time_windows_on_a_track(tiny):
     vec = pabr.pabr_vectors(tr, window_s=1.0)
     # packets at 10.0 (s10), 10.4 (s11) | 11.2 (s10) | 12.1 (s12); the invalid one at 11.5 is gone
     np.testing.assert_allclose(vec.rss, [[-70.0, -80.0, np.nan], [-72.0, np.nan, np.nan], [np.nan, np.nan, -90.0]])
-    np.testing.assert_allclose(vec.positions[:, 0], [1.1, 1.4, 1.8])
-    np.testing.assert_allclose(vec.times, [10.4, 11.2, 12.1])  # the window's last packet: when it is available
-    np.testing.assert_array_equal(vec.windows, [0, 1, 2])
-    assert list(vec.groups) == ["walk"] * 3
+    np.testing.assert_allclose(vec.position[:, 0], [1.1, 1.4, 1.8])
+    np.testing.assert_allclose(vec.time_s, [10.4, 11.2, 12.1])  # the window's last packet: when it is available
+    np.testing.assert_array_equal(vec.window, [0, 1, 2])
+    assert list(vec.label) == ["walk"] * 3
     wide = pabr.pabr_vectors(tr, window_s=5.0, fill=-100.0)
     np.testing.assert_allclose(wide.rss, [[-71.0, -80.0, -90.0]])
-    np.testing.assert_array_equal(wide.counts, [[2, 1, 1]])
+    np.testing.assert_array_equal(wide.n_readings, [[2, 1, 1]])
 
 
 def test_vectors_errors(tiny):
@@ -214,7 +214,7 @@ def test_vectors_errors(tiny):
     with pytest.raises(ValueError, match="lacks the column"):
         pabr.pabr_vectors(fp.drop(columns="rssi"), window_packets=1)
     empty = pabr.pabr_vectors(fp, window_packets=10)
-    assert empty.rss.shape == (0, 3) and empty.positions.shape == (0, 3)
+    assert empty.rss.shape == (0, 3) and empty.position.shape == (0, 3)
 
 
 # ------------------------------------------------------------------ the shared subset
@@ -261,7 +261,7 @@ def test_shared_tracks():
     assert len(tr) + tr.attrs["n_dropped_invalid_rssi"] == tr.attrs["n_packets_read"] > 500
     assert tr["x"].between(0, 21).all() and tr["y"].between(0, 18).all()
     vec = pabr.pabr_vectors(tr, window_s=2.0)
-    assert vec.rss.shape[1] == 12 and np.all(np.diff(vec.times) > 0)
+    assert vec.rss.shape[1] == 12 and np.all(np.diff(vec.time_s) > 0)
 
 
 @needs_shared
@@ -269,8 +269,8 @@ def test_shared_knn_sanity(shared):
     train = pabr.pabr_vectors(shared["set_1"], window_packets=10)
     test = pabr.pabr_vectors(shared["set_2"], window_packets=10, fill=-100.0, min_receivers=12)
     assert train.rss.shape[1] == 12 and not np.isnan(test.rss).any()
-    est = KNNFingerprint(n_neighbors=3).fit(train.rss, train.positions)
-    err = np.linalg.norm(est.predict(test.rss) - test.positions, axis=1)
+    est = KNNFingerprint(n_neighbors=3).fit(train.rss, train.position)
+    err = np.linalg.norm(est.predict(test.rss) - test.position, axis=1)
     assert np.median(err) < 4.0  # 20 m x 18 m area; a year between the two sets
     assert isinstance(shared["set_1"], pd.DataFrame)
 
@@ -372,12 +372,12 @@ def test_vectors_of_a_point_share_its_exact_position(tiny):
     fp = pabr.load_pabr_fingerprints("set_1", tiny, download=False)
     vec = pabr.pabr_vectors(fp, window_s=1.0)
     assert len(vec) == 2
-    np.testing.assert_array_equal(vec.positions, [[0.19, 0.7, 1.85]] * 2)  # exact, not 0.18999999999999997
-    est = KNNFingerprint(n_neighbors=1).fit(vec.rss, vec.positions)
+    np.testing.assert_array_equal(vec.position, [[0.19, 0.7, 1.85]] * 2)  # exact, not 0.18999999999999997
+    est = KNNFingerprint(n_neighbors=1).fit(vec.rss, vec.position)
     assert est.positions_.shape == (1, 3)  # one fingerprint per point
     # tracks keep the mean ground truth of the window's packets
     tr = pabr.load_pabr_tracks("walk", tiny)
-    np.testing.assert_allclose(pabr.pabr_vectors(tr, window_s=1.0).positions[0], [1.1, 2.0, 1.8])
+    np.testing.assert_allclose(pabr.pabr_vectors(tr, window_s=1.0).position[0], [1.1, 2.0, 1.8])
 
 
 def test_training_map_leaves_missing_readings_out(tiny):
@@ -389,16 +389,16 @@ def test_training_map_leaves_missing_readings_out(tiny):
     fp = pabr.load_pabr_fingerprints("set_1", tiny, download=False)
     train = pabr.pabr_vectors(fp, window_s=1.0)
     assert np.isnan(train.rss[1:3, 1]).all()  # windows 1 and 2 of point 0: sensor11 missing
-    est = KNNFingerprint(n_neighbors=1).fit(train.rss, train.positions)
+    est = KNNFingerprint(n_neighbors=1).fit(train.rss, train.position)
     point0 = np.flatnonzero(np.all(est.positions_ == [0.16, 2.19, 1.85], axis=1))[0]
     np.testing.assert_allclose(est.radio_map_[point0, :2], [-72.0, -81.0])  # not (-81 - 200) / 3
     np.testing.assert_array_equal(est.n_readings_[point0, :2], [3, 1])
     # window="point": one vector per point, each receiver's mean over all its packets
     per_point = pabr.pabr_vectors(fp, window="point")
     np.testing.assert_allclose(per_point.rss, [[-72.0, -81.0, np.nan], [-61.0, np.nan, -51.0]])
-    np.testing.assert_array_equal(per_point.counts, [[6, 2, 0], [2, 0, 2]])
-    np.testing.assert_array_equal(per_point.windows, [0, 0])
-    np.testing.assert_array_equal(per_point.positions, [[0.16, 2.19, 1.85], [10.36, 0.28, 1.85]])
+    np.testing.assert_array_equal(per_point.n_readings, [[6, 2, 0], [2, 0, 2]])
+    np.testing.assert_array_equal(per_point.window, [0, 0])
+    np.testing.assert_array_equal(per_point.position, [[0.16, 2.19, 1.85], [10.36, 0.28, 1.85]])
     with pytest.raises(ValueError, match="exactly one"):
         pabr.pabr_vectors(fp, window="point", window_s=1.0)
     with pytest.raises(ValueError, match="window must be 'point'"):
@@ -411,7 +411,7 @@ def test_training_map_leaves_missing_readings_out(tiny):
 def test_shared_map_has_one_fingerprint_per_point(shared):
     train = pabr.pabr_vectors(shared["set_1"], window_packets=10)
     assert np.isnan(train.rss).any()  # missing stays missing in a training map
-    est = KNNFingerprint(n_neighbors=3).fit(train.rss, train.positions)
+    est = KNNFingerprint(n_neighbors=3).fit(train.rss, train.position)
     assert est.positions_.shape == (81, 3)
     per_point = pabr.pabr_vectors(shared["set_1"], window="point")
     assert len(per_point) == 81 and not np.isnan(per_point.rss).any()
@@ -438,12 +438,11 @@ def tiny_registry(tiny, monkeypatch):
     """The registry pointed at the tiny copy's files (their SHA-256), as if it were the dataset."""
     (tiny / "LICENSE.md").write_text("CC0\n")
     registry = {
-        f.relative_to(tiny).as_posix(): datasets.RegistryEntry(sha256=hashlib.sha256(f.read_bytes()).hexdigest())
+        f.relative_to(tiny).as_posix(): download.RegistryEntry(sha256=hashlib.sha256(f.read_bytes()).hexdigest())
         for f in tiny.rglob("*")
         if f.is_file() and f.name != "README.md"
     }
-    # patched where the code reads it (wsnlib.io.pabr and wsnlib.pabr only re-export it)
-    monkeypatch.setattr(pabr_download, "PABR_REGISTRY", registry)
+    monkeypatch.setattr(pabr, "PABR_REGISTRY", registry)
     return registry
 
 

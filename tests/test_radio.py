@@ -3,12 +3,17 @@ import dataclasses
 import numpy as np
 import pandas as pd
 import pytest
+from _sim_helpers import paper_user, posture_mean_rss
 from scipy.stats import spearmanr
 
+from wsnlib import testbed as T
+from wsnlib.io import rss as RSS
+from wsnlib.sim import arm_motion as M
 from wsnlib.sim import body as B
 from wsnlib.sim import radio as R
+from wsnlib.sim import radio_channel as C
 
-QUIET = dataclasses.replace(R.RadioChannel(), slow_sigma_db=0.0, interference_fraction=0.0, rssi_noise_db=0.0)
+QUIET = dataclasses.replace(C.RadioChannel(), slow_sigma_db=0.0, interference_fraction=0.0, rssi_noise_db=0.0)
 
 
 @pytest.fixture(scope="module")
@@ -24,8 +29,8 @@ def training(users):
 @pytest.fixture(scope="module")
 def static_run():
     """Two minutes holding P3, without slow shadowing, interference and read noise."""
-    user = B.paper_user(environment_seed=3)
-    return R.simulate_rss(B.hold("P3", 120.0), user, rng=np.random.default_rng(5), channel=QUIET)
+    user = paper_user(environment_seed=3)
+    return R.simulate_rss(M.hold("P3", 120.0), user, rng=np.random.default_rng(5), channel=QUIET)
 
 
 def _acf(x, lag):
@@ -39,7 +44,7 @@ def _acf(x, lag):
 
 
 def _user_with_anchors(a1, a2):
-    user = B.paper_user()
+    user = paper_user()
     anchors = np.array(user.anchor_positions_m)
     anchors[0] = a1  # A1: worn → on-body link
     anchors[1] = a2  # A2: room → off-body link
@@ -51,11 +56,11 @@ def test_link_through_the_torso_is_nlos_and_shadowed():
     # body at the same height: the link crosses the forearm, the torso and the left arm.
     through = np.array([-0.60, 0.0, -0.425])
     user = _user_with_anchors(through, through)
-    kin = B.hold("P1", 1.0).kinematics(np.array([0.5]), user)
-    lb = R.link_budget(kin, user, target=1)
+    kin = M.hold("P1", 1.0).kinematics(np.array([0.5]), user)
+    lb = C.link_budget(kin, user, target=1)
     assert lb.nlos[0, 0] and lb.nlos[0, 1]
     assert lb.chord_m[0, 0] > 0.30
-    ch = R.RadioChannel()
+    ch = C.RadioChannel()
     d = lb.distance_m[0, 0]
     onbody_cap = ch.onbody_nlos.mean_db(d) - ch.onbody_los.mean_db(d)
     assert lb.body_loss_db[0, 0] == pytest.approx(onbody_cap)  # fully shadowed: the NLOS fit
@@ -68,39 +73,39 @@ def test_link_in_free_space_has_no_body_loss():
     # Arm down, an anchor straight in front of the forearm node: nothing in between.
     free = np.array([0.05, 1.0, -0.425])
     user = _user_with_anchors(free, free)
-    kin = B.hold("P1", 1.0).kinematics(np.array([0.5]), user)
-    lb = R.link_budget(kin, user, target=1)
+    kin = M.hold("P1", 1.0).kinematics(np.array([0.5]), user)
+    lb = C.link_budget(kin, user, target=1)
     assert not lb.nlos[0, 0] and not lb.nlos[0, 1]
     assert lb.body_loss_db[0, 0] == 0.0 and lb.body_loss_db[0, 1] == 0.0
-    assert lb.k_factor_db[0, 0] == pytest.approx(R.RadioChannel().fading_k_onbody_los_db)
-    np.testing.assert_allclose(lb.path_loss_db[0, 1], R.OFFBODY.mean_db(lb.distance_m[0, 1]))
+    assert lb.k_factor_db[0, 0] == pytest.approx(C.RadioChannel().fading_k_onbody_los_db)
+    np.testing.assert_allclose(lb.path_loss_db[0, 1], C.OFFBODY.mean_db(lb.distance_m[0, 1]))
 
 
 def test_dipole_gain_is_maximal_broadside_and_minimal_along_the_axis():
     axis = np.array([0.0, 0.0, 1.0])
     angles = np.radians(np.linspace(0.0, 90.0, 91))
     links = np.stack([np.sin(angles), np.zeros_like(angles), np.cos(angles)], axis=-1)
-    gain = R.dipole_gain_db(links, axis, peak_dbi=0.0, floor_db=-10.0)
+    gain = C.dipole_gain_db(links, axis, peak_dbi=0.0, floor_db=-10.0)
     assert gain[0] == pytest.approx(-10.0)
     assert gain[-1] == pytest.approx(0.0)
     assert np.all(np.diff(gain) >= 0.0)
-    assert R.dipole_gain_db([0.0, 0.0, -3.0], axis) == pytest.approx(-10.0)  # both ways along the axis
+    assert C.dipole_gain_db([0.0, 0.0, -3.0], axis) == pytest.approx(-10.0)  # both ways along the axis
 
 
 def test_antenna_gain_follows_the_arm_segment(users):
     user = users[0]
-    ups = R.link_budget(B.hold("P2", 1.0).kinematics(np.array([0.5]), user), user, 0)
-    fwd = R.link_budget(B.hold("P3", 1.0).kinematics(np.array([0.5]), user), user, 0)
+    ups = C.link_budget(M.hold("P2", 1.0).kinematics(np.array([0.5]), user), user, 0)
+    fwd = C.link_budget(M.hold("P3", 1.0).kinematics(np.array([0.5]), user), user, 0)
     assert not np.allclose(ups.gain_target_db, fwd.gain_target_db)
     # Arm up: the segment (antenna axis) is vertical, so the gain towards a room anchor level
     # with the node is near the broadside maximum; arm forward: the anchor straight ahead
     # (A5, 2.5 m in front) is close to the axis.
-    a5 = B.ANCHOR_NAMES.index("A5")
+    a5 = T.ANCHOR_NAMES.index("A5")
     assert fwd.gain_target_db[0, a5] < ups.gain_target_db[0, a5] - 3.0
 
 
 def test_short_unshadowed_onbody_links_beat_the_farthest_room_anchor():
-    ch = R.RadioChannel()
+    ch = C.RadioChannel()
     far_room = ch.offbody.mean_db(2.8)  # A5 is ~2.8 m from the shoulder
     assert ch.onbody_los.mean_db(0.25) < far_room
     assert ch.onbody_nlos.mean_db(0.40) > far_room  # … but a shadowed one does not
@@ -109,10 +114,10 @@ def test_short_unshadowed_onbody_links_beat_the_farthest_room_anchor():
 def test_closer_anchors_usually_read_higher(users):
     distance, power, worn = [], [], []
     for user in users:
-        for posture in B.POSTURES:
-            kin = B.hold(posture, 1.0).kinematics(np.array([0.5]), user)
+        for posture in T.POSTURES:
+            kin = M.hold(posture, 1.0).kinematics(np.array([0.5]), user)
             for target in (0, 1):
-                lb = R.link_budget(kin, user, target)
+                lb = C.link_budget(kin, user, target)
                 distance.extend(lb.distance_m[0])
                 power.extend(lb.mean_rx_dbm[0])
                 worn.extend(lb.worn)
@@ -151,7 +156,7 @@ def test_static_run_fading_spread_and_correlation_time(static_run):
     expected = np.std(R.rician_fading_db(7.0, R.gauss_markov(200_000, 0.5, rng=np.random.default_rng(2),
                                                                complex_valued=True)))
     rate = 30.0
-    rho = np.exp(-1.0 / rate / R.RadioChannel().coherence_time_s)
+    rho = np.exp(-1.0 / rate / C.RadioChannel().coherence_time_s)
     for (target, anchor), rows in static_run.groupby(["target", "anchor"]):
         x = rows["rss_dbm"].to_numpy()
         if anchor in ("A2", "A3", "A5"):  # off-body links: K = 7 dB
@@ -173,12 +178,12 @@ def test_loss_fraction(static_run):
 
 
 def test_readings_below_sensitivity_are_lost():
-    user = B.paper_user(environment_seed=4)
-    channel = dataclasses.replace(R.RadioChannel().ideal(), sensitivity_dbm=-70.0)
-    df = R.simulate_rss(B.hold("P1", 5.0), user, rng=np.random.default_rng(0), channel=channel)
+    user = paper_user(environment_seed=4)
+    channel = dataclasses.replace(C.RadioChannel().ideal(), sensitivity_dbm=-70.0)
+    df = R.simulate_rss(M.hold("P1", 5.0), user, rng=np.random.default_rng(0), channel=channel)
     assert df["rss_dbm"].min() >= -70
-    kin = B.hold("P1", 5.0).kinematics(np.array([1.0]), user)
-    weak = (R.link_budget(kin, user, 0, channel).mean_rx_dbm[0] < -70.5).sum()
+    kin = M.hold("P1", 5.0).kinematics(np.array([1.0]), user)
+    weak = (C.link_budget(kin, user, 0, channel).mean_rx_dbm[0] < -70.5).sum()
     assert weak > 0 and df[df["target"] == "T1"]["anchor"].nunique() == 7 - weak
 
 
@@ -188,20 +193,20 @@ def test_readings_below_sensitivity_are_lost():
 
 
 def test_simulate_rss_is_deterministic_and_integer(users):
-    motion = B.movement("raise_P1_P3", 3.0)
+    motion = M.movement("raise_P1_P3", 3.0)
     a = R.simulate_rss(motion, users[1], rng=np.random.default_rng(8))
     b = R.simulate_rss(motion, users[1], rng=np.random.default_rng(8))
     c = R.simulate_rss(motion, users[1], rng=np.random.default_rng(9))
     pd.testing.assert_frame_equal(a, b)
     assert not a["rss_dbm"].equals(c["rss_dbm"])
-    assert list(a.columns) == list(R.RSS_COLUMNS)
+    assert list(a.columns) == list(RSS.COLUMNS)
     assert a["rss_dbm"].dtype == np.int64
     assert a["time_s"].is_monotonic_increasing
     assert a.attrs["packet_rate_hz"] == 30.0
 
 
 def test_training_session_structure(training, users):
-    assert sorted(training["label"].unique()) == list(B.POSTURES)
+    assert sorted(training["label"].unique()) == list(T.POSTURES)
     packets = training.groupby(["target", "label"])["time_s"].nunique()
     assert np.all((packets > 850) & (packets <= 900))  # ~30 s at 30 packets/s, 1 % lost
     assert training.groupby("target")["time_s"].apply(lambda t: np.median(np.diff(np.unique(t)))).between(
@@ -218,11 +223,11 @@ def test_training_session_structure(training, users):
 
 
 def test_mean_rss_depends_on_posture_and_target(training):
-    t1 = R.posture_mean_rss(training, "T1")
-    t2 = R.posture_mean_rss(training, "T2")
+    t1 = posture_mean_rss(training, "T1")
+    t2 = posture_mean_rss(training, "T2")
     for table in (t1, t2):
-        for i, a in enumerate(B.POSTURES):
-            for b in B.POSTURES[i + 1 :]:
+        for i, a in enumerate(T.POSTURES):
+            for b in T.POSTURES[i + 1 :]:
                 diff = (table[a] - table[b]).abs().dropna()
                 assert diff.sum() > 10.0, (a, b)
     assert ((t1 - t2).abs().sum() > 10.0).sum() >= 4
@@ -239,13 +244,13 @@ def test_online_static_session_on_another_day(users, training):
     later = users[0].moved(rng)
     online = R.online_static_session(later, rng=rng)
     assert set(online["session"]) == {"online_static"}
-    assert sorted(online["label"].unique()) == list(B.POSTURES)
+    assert sorted(online["label"].unique()) == list(T.POSTURES)
     # The same posture reads more alike on both days than different postures do.
     hits = 0
     for target in ("T1", "T2"):
-        train_mean = R.posture_mean_rss(training, target).fillna(-100.0)
-        online_mean = R.posture_mean_rss(online, target).fillna(-100.0)
-        for posture in B.POSTURES:
+        train_mean = posture_mean_rss(training, target).fillna(-100.0)
+        online_mean = posture_mean_rss(online, target).fillna(-100.0)
+        for posture in T.POSTURES:
             dist = (train_mean.sub(online_mean[posture], axis=0)).abs().sum()
             hits += dist.idxmin() == posture
     assert hits >= 8
@@ -256,7 +261,7 @@ def test_online_dynamic_session(users):
     later = users[2].moved(rng)
     df = R.online_dynamic_session(later, rng=rng)
     movements = [lab for lab in dict.fromkeys(df["label"]) if lab.startswith("M")]
-    names = list(B.MOVEMENTS)
+    names = list(T.MOVEMENTS)
     assert movements == [R.movement_label(k + 1, names[k % 4]) for k in range(8)]
     t1 = df[df["target"] == "T1"]
     for label in movements:
@@ -271,7 +276,7 @@ def test_online_dynamic_session(users):
 
 
 def test_concat_rss_merges_anchor_positions(users, training):
-    other = R.simulate_rss(B.hold("P1", 2.0), users[1], rng=np.random.default_rng(1), session="extra")
+    other = R.simulate_rss(M.hold("P1", 2.0), users[1], rng=np.random.default_rng(1), session="extra")
     both = R.concat_rss([training, other])
     assert set(both.attrs["anchor_positions_m"]) == {users[0].name, users[1].name}
     assert len(both) == len(training) + len(other)

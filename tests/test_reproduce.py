@@ -8,7 +8,7 @@ import time
 import nbformat
 import pytest
 
-from wsnlib import paths, reproduce
+from wsnlib import batch_selection, paths, reproduce
 
 
 def _write_notebook(path, *sources):
@@ -26,14 +26,14 @@ def _write_notebook(path, *sources):
 @pytest.mark.parametrize(("text", "value"), [("3", 3), ("0.5", 0.5), ("True", True),
                                              ("[1, 2]", [1, 2]), ("madgwick", "madgwick")])
 def test_parse_value(text, value):
-    assert reproduce.parse_value(text) == value
+    assert batch_selection.parse_value(text) == value
 
 
 def test_notebooks_are_listed_in_order():
-    found = reproduce.list_notebooks()
+    found = batch_selection.list_notebooks()
     assert found, "no numbered notebooks found"
     assert [nb.name for nb in found] == sorted(nb.name for nb in found)
-    assert reproduce.list_notebooks("no-such-notebook") == []
+    assert batch_selection.list_notebooks("no-such-notebook") == []
 
 
 def test_solutions_run_after_the_notebooks_with_their_own_entries(output_dir, tmp_path, monkeypatch):
@@ -47,9 +47,9 @@ def test_solutions_run_after_the_notebooks_with_their_own_entries(output_dir, tm
     monkeypatch.setattr(paths, "NOTEBOOKS", nb_dir)
     monkeypatch.delenv("WSNLIB_BATCH", raising=False)
 
-    assert [reproduce.notebook_name(nb) for nb in reproduce.list_batch("01")] == [
+    assert [batch_selection.notebook_name(nb) for nb in batch_selection.list_batch("01")] == [
         "01_first.ipynb", "solutions/01_first_solutions.ipynb"]
-    assert [reproduce.notebook_name(nb) for nb in reproduce.list_batch("solutions")] == [
+    assert [batch_selection.notebook_name(nb) for nb in batch_selection.list_batch("solutions")] == [
         "solutions/01_first_solutions.ipynb"]
 
     assert reproduce.main(["--quick"]) == 0
@@ -199,8 +199,8 @@ def test_unknown_parameters_and_an_empty_only_are_refused(output_dir, tmp_path, 
         reproduce.main(["--quick", "--cell-timeout", "0"])
     assert "--cell-timeout" in capsys.readouterr().err
 
-    assert reproduce.notebook_parameters(nb_dir / "01_first.ipynb") == ["quick", "seed"]
-    reproduce.check_parameters(reproduce.list_batch(), {"seed": 3})  # a known name passes
+    assert batch_selection.notebook_parameters(nb_dir / "01_first.ipynb") == ["quick", "seed"]
+    batch_selection.check_parameters(batch_selection.list_batch(), {"seed": 3})  # a known name passes
 
 
 def _save(name, sleep_s=0.0):

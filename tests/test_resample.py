@@ -5,12 +5,13 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from wsnlib import datasets, paths, resample
+from wsnlib import paths
 from wsnlib import quaternion as Q
+from wsnlib.io import broad, resample
 
 FS_IN = 2000 / 7  # BROAD
 FS_OUT = 50.0
-SOURCE_DIR = Path(os.environ.get(datasets.BROAD_DIR_ENV_VAR) or paths.ROOT.parent / "shared" / "data" / "broad")
+SOURCE_DIR = Path(os.environ.get(broad.BROAD_DIR_ENV_VAR) or paths.ROOT.parent / "shared" / "data" / "broad")
 
 
 def _times(n, fs):
@@ -170,10 +171,10 @@ def test_mask_takes_the_nearest_input_sample(rng):
 def test_resample_broad_keeps_everything_on_one_grid():
     if not (SOURCE_DIR / "02_undisturbed_slow_rotation_B.mat").exists():
         pytest.skip(f"BROAD files not found in {SOURCE_DIR}")
-    trial = datasets.load_broad(2, SOURCE_DIR, download=False)
+    trial = broad.load_broad(2, SOURCE_DIR, download=False)
     low = resample.resample_broad(trial)
     n_out = 9317
-    assert isinstance(low, datasets.BroadTrial) and low.name == trial.name and low.fs == 50.0
+    assert isinstance(low, broad.BroadTrial) and low.name == trial.name and low.fs == 50.0
     np.testing.assert_allclose(low.time_s, np.arange(n_out) / 50.0)
     for name, width in (("gyr", 3), ("acc", 3), ("mag", 3), ("quat_ref", 4)):
         assert getattr(low, name).shape == (n_out, width)

@@ -4,7 +4,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from wsnlib import rss as RSS
+from wsnlib import testbed as T
+from wsnlib.io import rss as RSS
+from wsnlib.io.sidecar import sidecar_path
+from wsnlib.sim import arm_motion as M
 from wsnlib.sim import body as B
 from wsnlib.sim import radio as R
 
@@ -13,9 +16,9 @@ from wsnlib.sim import radio as R
 def table():
     rng = np.random.default_rng(21)
     user = B.make_users(1, rng=rng)[0]
-    motion = B.concatenate([B.hold("P1", 2.0), B.movement("raise_P1_P3", 2.0), B.hold("P3", 2.0)])
+    motion = M.concatenate([M.hold("P1", 2.0), M.movement("raise_P1_P3", 2.0), M.hold("P3", 2.0)])
     a = R.simulate_rss(motion, user, rng=rng, session="training")
-    b = R.simulate_rss(B.hold("P4", 1.0), user.moved(rng), rng=rng, session="online_static")
+    b = R.simulate_rss(M.hold("P4", 1.0), user.moved(rng), rng=rng, session="online_static")
     return R.concat_rss([a, b])
 
 
@@ -40,18 +43,14 @@ def test_round_trip_and_byte_identical_rewrite(table, tmp_path):
     for column in RSS.TEXT_COLUMNS:
         assert df[column].tolist() == table[column].tolist()
     assert sidecar["packet_rate_hz"] == 30.0
-    assert sidecar["anchors"] == list(B.ANCHOR_NAMES) and sidecar["targets"] == list(B.TARGET_NAMES)
+    assert sidecar["anchors"] == list(T.ANCHOR_NAMES) and sidecar["targets"] == list(T.TARGET_NAMES)
     assert sidecar["metadata"] == {"seed": 21, "note": "test"}
     assert set(sidecar["anchor_positions_m"][table["user"].iloc[0]]) == {"training", "online_static"}
     second = RSS.write_rss(df, tmp_path / "b.csv", sidecar["metadata"])
     assert first.read_bytes() == second.read_bytes()
-    assert RSS.sidecar_path(first).read_bytes() == RSS.sidecar_path(second).read_bytes()
+    assert sidecar_path(first).read_bytes() == sidecar_path(second).read_bytes()
     again = _write(table, tmp_path / "c.csv")
     assert again.read_bytes() == first.read_bytes()
-
-
-def test_simulator_columns_are_the_format_columns():
-    assert R.RSS_COLUMNS == RSS.COLUMNS
 
 
 def test_csv_text_format(table, tmp_path):
@@ -86,7 +85,7 @@ def test_writer_sorts_rows_and_needs_a_packet_rate(table, tmp_path):
 def _hand_made(path):
     """Drop the row count and SHA-256 from the sidecar, as in a hand-converted file, so that
     the reader's checks of the CSV's content (not its integrity check) are what a test sees."""
-    side = RSS.sidecar_path(path)
+    side = sidecar_path(path)
     meta = json.loads(side.read_text())
     side.write_text(json.dumps({k: v for k, v in meta.items() if k not in ("csv_rows", "csv_sha256")}))
     return path
@@ -152,7 +151,7 @@ def test_bad_structure(table, tmp_path):
 
 def test_bad_sidecar(table, tmp_path):
     path = _write(table, tmp_path / "s.csv")
-    side = RSS.sidecar_path(path)
+    side = sidecar_path(path)
     meta = json.loads(side.read_text())
     side.write_text(json.dumps({**meta, "format_version": 2}))
     with pytest.raises(ValueError, match="format_version"):

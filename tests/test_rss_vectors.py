@@ -57,7 +57,6 @@ def both(**window):
 
 
 def test_both_paths_give_the_one_type():
-    assert pabr_io.PabrVectors is RssVectors and rss_io.RssVectors is RssVectors
     simulated, pabr = both(window_s=1.0)
     assert type(simulated) is RssVectors and type(pabr) is RssVectors
     assert simulated.anchors == pabr.anchors == ANCHORS
@@ -137,13 +136,10 @@ def test_packet_windows_keep_or_drop_the_short_last_block():
     np.testing.assert_array_equal(pabr.rss, [[-60.5, np.nan, np.nan]])
 
 
-def test_old_field_names_are_read_only_aliases():
+def test_map_key_and_select():
     vectors = both(window_s=1.0)[1]
-    assert vectors.positions is vectors.position and vectors.times is vectors.time_s
-    assert vectors.receivers is vectors.anchors and vectors.counts is vectors.n_readings
-    assert vectors.groups is vectors.label and vectors.windows is vectors.window
-    with pytest.raises(AttributeError):
-        vectors.positions = np.zeros((len(vectors), 3))
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        vectors.position = np.zeros((len(vectors), 3))
     np.testing.assert_array_equal(vectors.map_key, ["PABR/beacon"] * len(vectors))
     assert len(vectors.select(label=1)) == 1
 

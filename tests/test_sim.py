@@ -6,14 +6,13 @@ from scipy.spatial.transform import Rotation
 
 from wsnlib import frames
 from wsnlib import quaternion as Q
-from wsnlib.datasets import Recording
+from wsnlib.arm_model import ArmGeometry
+from wsnlib.io.recording import Recording
 from wsnlib.sim import (
-    ArmGeometry,
     ArmTrajectory,
     ImuSpec,
     arm_extension,
     arm_kinematics,
-    from_joint_angles,
     ideal_imu,
     minimum_jerk,
     movement_set,
@@ -166,17 +165,6 @@ def test_linear_acceleration_matches_finite_difference_of_positions(make):
     )
 
 
-def test_from_joint_angles_spline_derivatives():
-    exact = _wavy_trajectory(200.0, duration_s=3.0)
-    fitted = from_joint_angles(exact.t, *exact.angles.T)
-    assert fitted.fs == pytest.approx(200.0)
-    inner = slice(20, -20)  # spline end conditions are less accurate
-    np.testing.assert_allclose(fitted.rates[inner], exact.rates[inner], atol=1e-6)
-    np.testing.assert_allclose(fitted.accelerations[inner], exact.accelerations[inner], atol=1e-4)
-    constant = from_joint_angles(exact.t, pitch=0.3)
-    assert np.all(constant.pitch == 0.3) and np.allclose(constant.rates, 0.0)
-
-
 def test_minimum_jerk_profile():
     t = np.linspace(0.0, 4.0, 401)
     s, ds, dds = minimum_jerk(t, 1.0, 2.0)
@@ -194,9 +182,6 @@ def test_minimum_jerk_profile():
         (lambda: arm_extension(rise_s=0.0), "rise_s"),
         (lambda: arm_extension(start_s=-1.0), "start_s"),
         (lambda: pitch_ramp(pitch_end_deg=120.0), "pitch_end_deg"),
-        (lambda: from_joint_angles([0.0, 0.1, 0.3, 0.4, 0.5, 0.6]), "uniformly"),
-        (lambda: from_joint_angles(np.arange(10) * 0.02, pitch=np.zeros(9)), "pitch"),
-        (lambda: from_joint_angles(np.arange(10) * 0.02, heading=np.full(10, np.nan)), "heading"),
         (lambda: ArmGeometry((0.0, 0.25), (0.0, 0.1)), "segment_lengths_m"),
         (lambda: ArmGeometry.from_node_points(0.3, 0.25, (0.1, 0.0, 0.0), (0.1, 0.0)), "forearm_node_m"),
         (lambda: ArmGeometry((0.3, 0.25), (0.1, 0.1), ((0.0, 0.0),)), "device_normal_offsets_m"),

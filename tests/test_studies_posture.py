@@ -1,10 +1,8 @@
-"""wsnlib.studies.posture: paper 002's posture study (formerly wsnlib.posture_study)."""
+"""wsnlib.studies.posture: paper 002's posture study."""
 
 import numpy as np
 import pytest
 
-import wsnlib.posture_study
-import wsnlib.studies.posture
 from wsnlib.sim.campaign import simulate_dynamic_campaign
 from wsnlib.studies.posture import study_inputs
 
@@ -180,8 +178,3 @@ def test_selected_errors_chain_target2_from_the_elbow_of_target1(campaign):
                                                  selection[selection["target"] == 2].drop(columns="target"))
     assert np.abs(shoulder_start["pe_m"] - chain["T2"]["pe_m"]).max() > 1e-3
 
-
-def test_old_module_re_exports_the_same_objects():
-    for name in wsnlib.studies.posture.__all__:
-        assert getattr(wsnlib.posture_study, name) is getattr(wsnlib.studies.posture, name)
-    assert sorted(wsnlib.posture_study.__all__) == sorted(wsnlib.studies.posture.__all__)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import numbers
 
 import numpy as np
 
@@ -76,3 +77,28 @@ def as_bool_mask(value, name: str, shape: tuple[int, ...]) -> np.ndarray:
         return np.broadcast_to(arr, shape)
     except ValueError as exc:
         raise ValueError(f"{name} has shape {arr.shape}, which does not fit {shape}") from exc
+
+
+def check_rng(rng) -> np.random.Generator:
+    """Return ``rng`` unless it is not a :class:`numpy.random.Generator` (``ValueError``): every
+    random draw of the library comes from a generator the caller passes in."""
+    if not isinstance(rng, np.random.Generator):
+        raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+    return rng
+
+
+def check_count(value, name: str, minimum: int = 1) -> int:
+    """Return ``value`` as an ``int``, raising ``ValueError`` unless it is an integer (not a
+    bool) of at least ``minimum``."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
+        what = {0: "a non-negative integer", 1: "a positive integer"}.get(minimum, f"an integer >= {minimum}")
+        raise ValueError(f"{name} must be {what}, got {value!r}")
+    return int(value)
+
+
+def check_type(value, cls: type, name: str):
+    """Return ``value``, raising ``ValueError`` naming ``name`` unless it is an instance of ``cls``."""
+    if not isinstance(value, cls):
+        article = "an" if cls.__name__[0] in "AEIOU" else "a"
+        raise ValueError(f"{name} must be {article} {cls.__name__}, got {type(value).__name__}")
+    return value

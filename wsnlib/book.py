@@ -38,7 +38,7 @@ from pathlib import Path
 
 import nbformat
 
-from wsnlib import paths, reproduce
+from wsnlib import batch_selection, paths
 
 #: The two papers, in our words, and how to cite them.
 PAPERS = (
@@ -83,7 +83,7 @@ REFERENCES = (
     ("E. Reusens, W. Joseph, B. Latré, B. Braem, G. Vermeeren, E. Tanghe, L. Martens, I. Moerman, "
      'C. Blondia, "Characterization of on-body communication channel and energy efficient topology design '
      'for wireless body area networks", <i>IEEE Transactions on Information Technology in Biomedicine</i> '
-     "13(6):933–945, 2009 (on-body path loss used by the simulated radio, <code>wsnlib.sim.radio</code>).",
+     "13(6):933–945, 2009 (on-body path loss of the simulated radio channel, <code>wsnlib.sim.radio_channel</code>).",
      "Reusens"),
     ('Š. Obdržálek et al., "Accuracy and robustness of Kinect pose estimation in the context of coaching '
      'of elderly population", IEEE EMBC 2012, pp. 1188–1193 (the Kinect-like baseline, '
@@ -156,7 +156,7 @@ class Page:
 
     @property
     def is_solutions(self) -> bool:
-        return self.href.startswith(f"{reproduce.SOLUTIONS}/")
+        return self.href.startswith(f"{batch_selection.SOLUTIONS}/")
 
 
 def executed_folder() -> Path:
@@ -176,8 +176,8 @@ def collect_pages(executed_dir: Path | None = None) -> list[Page]:
     if not executed_dir.is_dir():
         raise BookError(f"{executed_dir} does not exist: {hint}")
     pages, problems = [], []
-    for source in reproduce.list_batch():
-        name = reproduce.notebook_name(source)
+    for source in batch_selection.list_batch():
+        name = batch_selection.notebook_name(source)
         page = Page(source, executed_dir / name, name[: -len(".ipynb")] + ".html")
         problem = _execution_problem(page.executed)
         if problem:

@@ -7,7 +7,9 @@ values and a function of :mod:`wsnlib.plotting` (``draw``) that draws it on a ma
 are shown:
 
 * in a live kernel, an :class:`ipywidgets.interactive` panel — a slider or a drop-down per
-  knob — whose output area is redrawn (``draw`` called again) whenever a knob moves;
+  knob — whose output area is redrawn (``draw`` called again) whenever a knob moves; knob
+  values the study refuses with ``ValueError`` (e.g. no anchor chosen) show its message in
+  place of the panel;
 * in the batch (environment variable ``WSNLIB_BATCH=1``, set by :mod:`wsnlib.reproduce`
   for the kernel), a static small-multiples figure over a few knob settings, returned so the
   notebook can save it with :func:`wsnlib.plotting.savefig`.
@@ -34,6 +36,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from matplotlib.figure import Figure
+
+from wsnlib._validation import check_count
 
 #: Environment variable that marks an unattended (batch) run; "1" means batch.
 BATCH_ENV_VAR = "WSNLIB_BATCH"
@@ -134,8 +138,7 @@ def explore(draw: Callable, knobs: Mapping, *, compute: Callable | None = None, 
             raise TypeError(f"compute must be callable as compute(**values), got {type(compute).__name__}")
         draw = _computed_panel(compute, draw)
     parsed = _with_start(_parse_knobs(knobs), start)
-    if isinstance(ncols, bool) or not isinstance(ncols, numbers.Integral) or ncols < 1:
-        raise ValueError(f"ncols must be a positive integer, got {ncols!r}")
+    check_count(ncols, "ncols")
     settings = _static_settings(parsed, static)
     if in_batch():
         return _static_figure(draw, parsed, settings, int(ncols), sharey)
@@ -356,7 +359,14 @@ def _live_panel(draw, knobs):
 
     def redraw(**values):
         fig = Figure(figsize=LIVE_SIZE, layout="constrained")
-        _draw_panel(draw, knobs, fig.subplots(), values)
+        ax = fig.subplots()
+        try:
+            _draw_panel(draw, knobs, ax, values)
+        except ValueError as error:  # knob values the study refuses (e.g. no anchor chosen): say so
+            ax.clear()
+            ax.set_axis_off()
+            ax.text(0.5, 0.5, "\n".join(textwrap.wrap(str(error), _TITLE_WIDTH)), transform=ax.transAxes,
+                    ha="center", va="center")
         display(fig)
 
     return ipywidgets.interactive(redraw, **{knob.name: _widget(knob) for knob in knobs})

@@ -48,7 +48,7 @@ import math
 import numpy as np
 
 from wsnlib import fixed_order, frames
-from wsnlib._validation import as_float_array, check_nonnegative, check_nonzero_norm, check_positive
+from wsnlib._validation import as_float_array, check_count, check_nonnegative, check_nonzero_norm, check_positive
 from wsnlib.arm_model import ArmGeometry
 from wsnlib.metrics import SEGMENT_AXIS
 
@@ -203,8 +203,7 @@ def _lowpass(acc: np.ndarray, fs, cutoff_hz, order) -> np.ndarray:
     cutoff_hz = check_positive(cutoff_hz, "cutoff_hz")
     if cutoff_hz >= fs / 2.0:
         raise ValueError(f"cutoff_hz must be below the Nyquist frequency fs/2 = {fs / 2.0:g} Hz, got {cutoff_hz!r}")
-    if isinstance(order, bool) or not isinstance(order, int | np.integer) or order < 1:
-        raise ValueError(f"order must be a positive integer, got {order!r}")
+    check_count(order, "order")
     # Second-order sections: the (b, a) polynomial form loses the filter to rounding at high
     # orders or low cut-offs (order 8 at 0.05 Hz is unstable in it); cascaded biquads are not.
     sos = signal.butter(int(order), cutoff_hz, btype="low", fs=fs, output="sos")

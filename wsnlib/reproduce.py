@@ -60,8 +60,7 @@ The manifest holds run times, so it is the one file in ``data/processed/`` that 
 between two runs; reproducibility is judged on the hashes it lists.
 
 This module runs the kernels; which notebooks and parameters is :mod:`wsnlib.batch_selection`,
-the manifest and output bookkeeping :mod:`wsnlib.batch_manifest` (their public names are
-re-exported here).
+the manifest and output bookkeeping :mod:`wsnlib.batch_manifest`.
 """
 
 from __future__ import annotations
@@ -79,9 +78,8 @@ from pathlib import Path
 
 from wsnlib import paths
 from wsnlib._files import WRITTEN_LOG_ENV
-from wsnlib.batch_manifest import (  # noqa: F401
-    MANIFEST_NAME,
-    STALE_FOLDER,
+from wsnlib._validation import check_count
+from wsnlib.batch_manifest import (
     describe_outputs,
     failing_cell,
     files_written_since,
@@ -91,16 +89,7 @@ from wsnlib.batch_manifest import (  # noqa: F401
     manifest_path,
     write_manifest,
 )
-from wsnlib.batch_selection import (  # noqa: F401
-    SOLUTIONS,
-    check_parameters,
-    list_batch,
-    list_notebooks,
-    list_solutions,
-    notebook_name,
-    notebook_parameters,
-    parse_value,
-)
+from wsnlib.batch_selection import check_parameters, list_batch, notebook_name, parse_value
 
 #: Default limit (s) on the run time of one cell: generous (the slowest cell of a full,
 #: non-quick run takes minutes), it only stops a batch that would otherwise hang forever.
@@ -186,8 +175,7 @@ def run(notebooks: list[Path], parameters: dict, quick: bool, kernel: str = path
     Returns 0 if all ran, 1 at the first failure or cell timeout, 128 + the signal number
     when SIGINT or SIGTERM stopped the batch.
     """
-    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
-        raise ValueError(f"jobs must be a positive integer, got {jobs!r}")
+    check_count(jobs, "jobs")
     socket_folder = Path(tempfile.mkdtemp(prefix="wsnlib-kernel-"))
     try:
         with _batch_environment(), _signals_interrupt():

@@ -1,7 +1,7 @@
 """The testbed of paper 002 (Giuberti et al.): names, Table 1, postures and movements.
 
-Constants shared by the simulators (:mod:`wsnlib.sim`), the file formats (:mod:`wsnlib.rss`,
-:mod:`wsnlib.accel_format`) and the studies, so that a file format never has to import a
+Constants shared by the simulators (:mod:`wsnlib.sim`), the file formats (:mod:`wsnlib.io.rss`,
+:mod:`wsnlib.io.accel`) and the studies, so that a file format never has to import a
 simulator.  Positions and directions are in the shoulder frame of :mod:`wsnlib.sim.body`
 (origin at the right shoulder joint, x to the user's right, y forward, z up), Table 1 in
 centimetres as printed, distances in metres.  Where a comment says "module docstring", it is

@@ -62,7 +62,7 @@ def check_shepard_knn(student_function, *, rng: np.random.Generator, n_cases: in
 
     return _run_cases("shepard_knn", student_function, draw, n_cases=n_cases, atol=atol,
                       hint="distances over all anchors (Euclidean: sqrt of the summed squares), keep "
-                      "the k smallest, weights 1/(d**power + wsnlib.fingerprint.SHEPARD_EPS) "
+                      "the k smallest, weights 1/(d**power + wsnlib.radio.SHEPARD_EPS) "
                       "divided by their sum")
 
 

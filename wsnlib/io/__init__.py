@@ -3,25 +3,21 @@
 Every module here depends only on the core (numpy, pandas, scipy, :mod:`wsnlib.paths`,
 :mod:`wsnlib.quaternion`, :mod:`wsnlib.testbed` and the private helpers), never on
 :mod:`wsnlib.sim`, :mod:`wsnlib.orientation` or the studies; the simulators import from here,
-not the other way round (``tests/test_io_layer.py`` checks it).
+not the other way round (``tests/test_layers.py`` checks it).
 
 * :mod:`wsnlib.io.recording`: IMU recordings (:class:`~wsnlib.io.recording.Recording`) and their
   CSV + JSON format;
 * :mod:`wsnlib.io.sidecar`: the sidecar writer/reader every CSV + JSON format here shares;
-* :mod:`wsnlib.io.rss`: RSS recordings (paper 002) and the fingerprint vectors built from them
-  (the long table's columns and checks: :mod:`wsnlib.io.rss_table`);
+* :mod:`wsnlib.io.rss`: RSS recordings (paper 002), the long table's columns and checks, and
+  the fingerprint vectors built from them;
 * :mod:`wsnlib.io.accel`: accelerometer and Kinect sample tables (paper 002);
 * :mod:`wsnlib.io.broad`: the BROAD benchmark trials (registry, verified download, loader);
-* :mod:`wsnlib.io.pabr`: the PABR BLE RSSI dataset, the public path of
-  :mod:`~wsnlib.io.pabr_download` (registry, verified download), :mod:`~wsnlib.io.pabr_loaders`
-  (parsing) and :mod:`~wsnlib.io.pabr_windowing` (vectors);
+* :mod:`wsnlib.io.pabr`: the PABR BLE RSSI dataset (registry, verified download, parsing,
+  vectors);
 * :mod:`wsnlib.io.vectors`: the one RSS vector type (:class:`~wsnlib.io.vectors.RssVectors`)
   and the one windowing function both RSS paths (``rss``, ``pabr``) build their vectors with;
 * :mod:`wsnlib.io.download`: the verified download both dataset loaders share;
 * :mod:`wsnlib.io.resample`: rate conversion of recordings (e.g. BROAD's 285.7 Hz to 50 Hz).
-
-The old module paths (``wsnlib.datasets``, ``wsnlib.rss``, ``wsnlib.accel_format``,
-``wsnlib.pabr``, ``wsnlib.resample``) re-export the same objects.
 """
 
 from wsnlib.io import accel, broad, download, pabr, recording, resample, rss, vectors

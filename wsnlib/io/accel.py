@@ -69,11 +69,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from wsnlib._validation import check_positive
-from wsnlib.io.recording import (
+from wsnlib._validation import check_positive, check_type
+from wsnlib.io.sidecar import (
+    check_names,
     check_sidecar_units,
     finite_column,
     load_sidecar,
+    name_column,
     sidecar_path,
     write_table_with_sidecar,
 )
@@ -124,18 +126,6 @@ def _check_kind(kind) -> str:
     return kind
 
 
-def _check_targets(targets) -> tuple[str, ...]:
-    if isinstance(targets, str):
-        raise ValueError("targets must be a list of names, not a single string")
-    targets = tuple(targets)
-    if not targets or len(set(targets)) != len(targets):
-        raise ValueError(f"targets must be a non-empty list of unique names, got {list(targets)}")
-    for t in targets:
-        if not isinstance(t, str) or not t or t != t.strip() or any(c in t for c in ',"\n\r'):
-            raise ValueError(f"target names must be non-empty strings without commas or quotes, got {t!r}")
-    return targets
-
-
 def _validate(df, kind: str, targets, where: str) -> pd.DataFrame:
     """Check and normalise a sample table; errors name ``where`` and the column."""
     if not isinstance(df, pd.DataFrame):
@@ -153,15 +143,7 @@ def _validate(df, kind: str, targets, where: str) -> pd.DataFrame:
     for column in ("time_s",) + VALUE_COLUMNS[kind]:
         out[column] = finite_column(df, column, where)
     for column in TEXT_COLUMNS:
-        values = df[column].to_numpy(dtype=object)
-        codes, uniques = pd.factorize(values, use_na_sentinel=False)
-        for code, value in enumerate(uniques):
-            if not isinstance(value, str) or not value or value != value.strip() or any(c in value for c in ',"\n\r'):
-                row = int(np.argmax(codes == code))
-                raise ValueError(
-                    f"{where}: column {column!r} has an empty or invalid name {value!r} at data row {row + 1}"
-                )
-        out[column] = values
+        out[column] = name_column(df, column, where)
     stray = sorted(set(out["target"]) - set(targets))
     if stray:
         raise ValueError(f"{where}: column 'target' has target(s) {stray} not in the sidecar's targets {list(targets)}")
@@ -237,15 +219,13 @@ def write_samples(
     path = Path(path)
     if path.suffix.lower() == ".json":
         raise ValueError(f"path must name the CSV file, not the sidecar: {path}")
-    targets = _check_targets(targets)
+    targets = check_names(targets, "targets")
     where = f"{kind} table for {path}"
     rate = rate_hz if rate_hz is not None else (getattr(df, "attrs", {}) or {}).get("rate_hz")
     if rate is None:
         raise ValueError(f"{where}: rate_hz is required (argument or df.attrs['rate_hz'])")
     rate = check_positive(rate, "rate_hz")
-    metadata = {} if metadata is None else metadata
-    if not isinstance(metadata, dict):
-        raise ValueError(f"metadata must be a dict, got {type(metadata).__name__}")
+    metadata = check_type({} if metadata is None else metadata, dict, "metadata")
     frame = _sort(_validate(df, kind, targets, where), targets)
     _check_order(frame, targets, where)
     for column in ("time_s",) + VALUE_COLUMNS[kind]:
@@ -300,7 +280,7 @@ def read_samples(path, kind: str | None = None) -> tuple[pd.DataFrame, dict]:
     check_sidecar_units(meta, UNITS[meta["kind"]], side)
     try:
         meta["rate_hz"] = check_positive(meta.get("rate_hz"), "rate_hz")
-        meta["targets"] = list(_check_targets(meta.get("targets", ())))
+        meta["targets"] = list(check_names(meta.get("targets", ()), "targets"))
     except ValueError as exc:
         raise ValueError(f"{side}: {exc}") from exc
     if not isinstance(meta.setdefault("metadata", {}), dict):
@@ -333,19 +313,3 @@ def write_kinect(df: pd.DataFrame, path, metadata: dict | None = None, *, rate_h
 def read_kinect(path) -> tuple[pd.DataFrame, dict]:
     """:func:`read_samples` of a ``"kinect"`` table."""
     return read_samples(path, "kinect")
-
-
-__all__ = [
-    "FORMAT_NAME",
-    "FORMAT_VERSION",
-    "KEY_COLUMNS",
-    "KINDS",
-    "VALUE_COLUMNS",
-    "columns",
-    "read_acc",
-    "read_kinect",
-    "read_samples",
-    "write_acc",
-    "write_kinect",
-    "write_samples",
-]

@@ -59,8 +59,7 @@ first sample, and uses empty metadata.
 
 The signal conventions are those of :mod:`wsnlib` (see ``wsnlib/__init__.py``).
 
-The BROAD loader that used to share this module is :mod:`wsnlib.io.broad`; the sidecar machinery
-all CSV + JSON formats share is :mod:`wsnlib.io.sidecar` (re-exported here, its old home).
+The sidecar machinery all CSV + JSON formats share is :mod:`wsnlib.io.sidecar`.
 """
 
 
@@ -73,12 +72,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from wsnlib._validation import as_float_array, check_positive
-
-# The CSV + JSON sidecar machinery lives in wsnlib.io.sidecar; re-exported here (old home).
-from wsnlib.io.sidecar import (  # noqa: F401
-    CSV_ROWS_KEY,
-    CSV_SHA256_KEY,
+from wsnlib._validation import as_float_array, check_positive, check_type
+from wsnlib.io.sidecar import (
+    check_name,
     check_sidecar_units,
     finite_column,
     load_sidecar,
@@ -166,7 +162,7 @@ class Recording:
         if not self.nodes:
             raise ValueError("nodes must name at least one node")
         for name in self.nodes:
-            _check_node_name(name)
+            check_name(name, "node name")
         if len(set(self.nodes)) != len(self.nodes):
             raise ValueError(f"nodes must be unique, got {self.nodes}")
         shape = (len(self.nodes), self.time_s.size)
@@ -196,15 +192,6 @@ class Recording:
             raise ValueError(f"node {node!r} is not in this recording {self.nodes}") from None
 
 
-def _check_node_name(name) -> None:
-    if not isinstance(name, str) or not name.strip():
-        raise ValueError(f"node names must be non-empty strings, got {name!r}")
-    if name != name.strip() or any(c in name for c in ',"\n\r'):
-        raise ValueError(
-            f"node name {name!r} must not contain commas, quotes, line breaks or surrounding spaces"
-        )
-
-
 def write_recording(recording: Recording, path) -> Path:
     """Write ``recording`` as ``path`` (CSV) plus the sidecar ``path.with_suffix('.json')``.
 
@@ -224,8 +211,7 @@ def write_recording(recording: Recording, path) -> Path:
     ValueError
         If ``path`` ends in ``.json`` or the metadata is not JSON serialisable.
     """
-    if not isinstance(recording, Recording):
-        raise ValueError(f"recording must be a Recording, got {type(recording).__name__}")
+    check_type(recording, Recording, "recording")
     path = Path(path)
     if path.suffix.lower() == ".json":
         raise ValueError(f"path must name the CSV file, not the sidecar: {path}")
@@ -273,15 +259,7 @@ def _read_sidecar(path: Path) -> dict | None:
         raise ValueError(f"{side}: {exc}") from exc
     if not isinstance(meta["nodes"], list) or not meta["nodes"]:
         raise ValueError(f"{side}: 'nodes' must be a non-empty list of node names")
-    units = meta["units"]
-    if not isinstance(units, dict):
-        raise ValueError(f"{side}: 'units' must be an object")
-    for key, unit in UNITS.items():
-        if units.get(key) != unit:
-            raise ValueError(
-                f"{side}: units[{key!r}] must be {unit!r} (convert the data first), "
-                f"got {units.get(key)!r}"
-            )
+    check_sidecar_units(meta, UNITS, side)
     if not isinstance(meta.get("metadata", {}), dict):
         raise ValueError(f"{side}: 'metadata' must be an object")
     return meta
@@ -357,7 +335,7 @@ def read_recording(path) -> Recording:
         nodes = tuple(meta["nodes"])
         for name in nodes:
             try:
-                _check_node_name(name)
+                check_name(name, "node name")
             except ValueError as exc:
                 raise ValueError(f"{sidecar_path(path)}: {exc}") from exc
         stray = sorted(set(node_col) - set(nodes))

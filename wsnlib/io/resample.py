@@ -207,7 +207,7 @@ def resample_broad(trial: BroadTrial, fs_out: float = 50.0) -> BroadTrial:
     fs_in = trial.fs
     fs_out = check_positive(fs_out, "fs_out")
     note = (
-        f"[wsnlib] Resampled from {fs_in:.9g} Hz to {fs_out:g} Hz by wsnlib.resample "
+        f"[wsnlib] Resampled from {fs_in:.9g} Hz to {fs_out:g} Hz by wsnlib.io.resample "
         f"(IMU: anti-alias FIR + polyphase; opt_quat: SLERP, NaN kept; movement: nearest sample)."
     )
     return dataclasses.replace(

@@ -52,16 +52,18 @@ Packets received by no anchor leave no row (a lost reading is an absent row, not
   (a truncated or edited CSV is refused; a hand-made sidecar may leave both out).
 
 Written with sorted keys and two-space indent; both files are written atomically.  The
-sidecar is required.  The table's columns and the checks the writer and reader apply live in
-:mod:`wsnlib.io.rss_table`; the sidecar machinery in :mod:`wsnlib.io.sidecar`.
+sidecar is required; its machinery is :mod:`wsnlib.io.sidecar`.  The writer and the reader
+apply the same checks to the table (:func:`validate_table`: columns, types, names, values;
+:func:`check_rows`: order, uniqueness, per-packet consistency); errors name the file or
+table, the column and the data row.
 
 Fingerprint vectors
 -------------------
 :func:`rss_vectors` turns the long table into one vector of the anchors' RSS per packet of a
 target (or per window of ``window_packets`` consecutive packets, of ``window_s`` seconds, or
 per posture hold), with NaN where an anchor reported nothing, and the vector's label and true
-position.  It is a thin wrapper: the vector type (:class:`~wsnlib.io.vectors.RssVectors`,
-re-exported here) and the windowing (:func:`~wsnlib.io.vectors.window_readings`) are those of
+position.  It is a thin wrapper: the vector type (:class:`~wsnlib.io.vectors.RssVectors`)
+and the windowing (:func:`~wsnlib.io.vectors.window_readings`) are those of
 :mod:`wsnlib.io.vectors`, shared with the PABR loader.  The fingerprint estimators take NaN
 in training vectors as a missing reading but refuse it online; ``fill="last"`` carries each
 anchor's previous reading forward within the session (a causal hold, as an online system
@@ -71,29 +73,19 @@ would), and a constant floor fills what was never received.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from wsnlib._validation import check_positive
-
-# The table's columns and checks live in wsnlib.io.rss_table; the column constants are
-# re-exported here (part of the format).
-from wsnlib.io.rss_table import (  # noqa: F401
-    COLUMNS,
-    FLOAT_COLUMNS,
-    RSS_RANGE_DBM,
-    TEXT_COLUMNS,
-    block_order,
-    check_names,
-    check_rows,
-    sort_rows,
-    validate_table,
-)
+from wsnlib._validation import check_positive, check_type
 from wsnlib.io.sidecar import (
+    check_names,
     check_sidecar_units,
+    finite_column,
     load_sidecar,
+    name_column,
     sidecar_path,
     write_table_with_sidecar,
 )
@@ -107,7 +99,7 @@ FORMAT_VERSION = 1
 FLOAT_FORMAT = "%.6f"
 
 #: Default floor (dBm) for anchors that never reported: the CC2420's sensitivity (−95 dBm,
-#: see :mod:`wsnlib.sim.radio`).
+#: see :mod:`wsnlib.sim.radio_channel`).
 DEFAULT_FLOOR_DBM = -95.0
 
 UNITS = {"time": "s", "rss": "dBm", "position": "m"}
@@ -117,6 +109,140 @@ FRAME = (
     "y forward, z up (right-handed; ENU for a user facing north). Paper 002 (Giuberti et al.), "
     "Table 1 and footnote 4."
 )
+
+
+# --------------------------------------------------------------------------------------------
+# The long table: columns and the checks every reader and writer applies
+# --------------------------------------------------------------------------------------------
+
+#: CSV columns, in order.
+COLUMNS: tuple[str, ...] = ("time_s", "user", "session", "target", "anchor", "rss_dbm", "label", "x_m", "y_m", "z_m")
+TEXT_COLUMNS: tuple[str, ...] = ("user", "session", "target", "anchor", "label")
+FLOAT_COLUMNS: tuple[str, ...] = ("time_s", "x_m", "y_m", "z_m")
+
+#: Plausible range of an IEEE 802.15.4 RSS report (dBm): the CC2420's RSSI register is an
+#: 8-bit signed value with an offset of about −45 dB, so readings lie far inside it.
+RSS_RANGE_DBM: tuple[int, int] = (-128, 20)
+
+_INT_RE = re.compile(r"^-?\d+$")
+
+
+def validate_table(df: pd.DataFrame, anchors, targets, where: str) -> pd.DataFrame:
+    """Check and normalise a long RSS table; errors name ``where`` and the column."""
+    if not isinstance(df, pd.DataFrame):
+        raise ValueError(f"{where}: expected a pandas DataFrame, got {type(df).__name__}")
+    columns = list(df.columns)
+    missing = [c for c in COLUMNS if c not in columns]
+    if missing:
+        raise ValueError(f"{where}: missing column(s) {missing}; expected {list(COLUMNS)}")
+    unknown = [c for c in columns if c not in COLUMNS]
+    if unknown:
+        raise ValueError(f"{where}: unknown column(s) {unknown}; expected {list(COLUMNS)}")
+    if columns != list(COLUMNS):
+        raise ValueError(f"{where}: columns must be in the order {list(COLUMNS)}, got {columns}")
+    if len(df) == 0:
+        raise ValueError(f"{where}: has no data rows")
+    out = {}
+    for column in FLOAT_COLUMNS:
+        out[column] = finite_column(df, column, where)
+    rss = df["rss_dbm"]
+    if rss.dtype == object:
+        text = rss.astype(str)
+        bad = ~text.str.match(_INT_RE)
+        if bad.any():
+            row = int(np.argmax(bad.to_numpy()))
+            raise ValueError(
+                f"{where}: column 'rss_dbm' must hold integers, got {rss.iloc[row]!r} at data row {row + 1}"
+            )
+        rss_values = text.astype(np.int64).to_numpy()
+    elif pd.api.types.is_integer_dtype(rss.dtype):
+        rss_values = rss.to_numpy(dtype=np.int64)
+    else:
+        values = pd.to_numeric(rss, errors="coerce").to_numpy(dtype=float)
+        bad = ~np.isfinite(values) | (values != np.round(values))
+        if np.any(bad):
+            row = int(np.argmax(bad))
+            raise ValueError(
+                f"{where}: column 'rss_dbm' must hold integers, got {rss.iloc[row]!r} at data row {row + 1}"
+            )
+        rss_values = values.astype(np.int64)
+    lo, hi = RSS_RANGE_DBM
+    bad = (rss_values < lo) | (rss_values > hi)
+    if np.any(bad):
+        row = int(np.argmax(bad))
+        raise ValueError(
+            f"{where}: column 'rss_dbm' value {rss_values[row]} at data row {row + 1} is outside [{lo}, {hi}] dBm"
+        )
+    out["rss_dbm"] = rss_values
+    for column in TEXT_COLUMNS:
+        out[column] = name_column(df, column, where)
+    for column, allowed, what in (("anchor", anchors, "anchors"), ("target", targets, "targets")):
+        stray = sorted(set(out[column]) - set(allowed))
+        if stray:
+            raise ValueError(
+                f"{where}: column {column!r} has {what[:-1]}(s) {stray} not in the sidecar's {what} {list(allowed)}"
+            )
+    frame = pd.DataFrame({c: out[c] for c in COLUMNS})
+    return frame
+
+
+def block_order(frame: pd.DataFrame) -> np.ndarray:
+    """Block index per row: (user, session) pairs numbered in order of first appearance."""
+    keys = frame["user"].astype(str) + "\x1f" + frame["session"].astype(str)
+    codes, _ = pd.factorize(keys, sort=False)
+    return codes
+
+
+def sort_rows(frame: pd.DataFrame, anchors, targets) -> pd.DataFrame:
+    """Rows in file order: (user, session) blocks in order of appearance, then time, target, anchor."""
+    block = block_order(frame)
+    t_rank = frame["target"].map({t: i for i, t in enumerate(targets)}).to_numpy()
+    a_rank = frame["anchor"].map({a: i for i, a in enumerate(anchors)}).to_numpy()
+    order = np.lexsort((a_rank, t_rank, frame["time_s"].to_numpy(), block))
+    return frame.iloc[order].reset_index(drop=True)
+
+
+def check_rows(frame: pd.DataFrame, anchors, targets, where: str) -> None:
+    """Order, uniqueness and per-packet consistency of an already sorted-or-not table."""
+    block = block_order(frame)
+    if np.any(np.diff(block) < 0):
+        row = int(np.argmax(np.diff(block) < 0)) + 1
+        raise ValueError(
+            f"{where}: column 'session': rows of each (user, session) must be contiguous; data row {row + 1} "
+            f"returns to an earlier block"
+        )
+    t_rank = frame["target"].map({t: i for i, t in enumerate(targets)}).to_numpy()
+    a_rank = frame["anchor"].map({a: i for i, a in enumerate(anchors)}).to_numpy()
+    time = frame["time_s"].to_numpy()
+    key = np.stack([block, time, t_rank, a_rank], axis=1)
+    same_block = block[1:] == block[:-1]
+    step = key[1:] - key[:-1]
+    # Lexicographic comparison of consecutive rows within a block.
+    first_nonzero = np.argmax(step[:, 1:] != 0, axis=1)
+    sign = np.sign(step[np.arange(len(step)), 1 + first_nonzero])
+    all_zero = ~np.any(step[:, 1:] != 0, axis=1)
+    bad_order = same_block & ~all_zero & (sign < 0)
+    if np.any(bad_order):
+        row = int(np.argmax(bad_order)) + 1
+        raise ValueError(
+            f"{where}: column 'time_s': rows must be ordered by time, target, anchor within each (user, session); "
+            f"data row {row + 1} is out of order"
+        )
+    dup = same_block & all_zero
+    if np.any(dup):
+        row = int(np.argmax(dup)) + 1
+        raise ValueError(
+            f"{where}: column 'anchor': duplicate report of one packet by one anchor at data row {row + 1}"
+        )
+    packet = same_block & (step[:, 1] == 0) & (step[:, 2] == 0)
+    for column in ("label", "x_m", "y_m", "z_m"):
+        values = frame[column].to_numpy()
+        differs = packet & (values[1:] != values[:-1])
+        if np.any(differs):
+            row = int(np.argmax(differs)) + 1
+            raise ValueError(
+                f"{where}: column {column!r} differs between rows of the same packet at data row {row + 1}"
+            )
 
 
 # --------------------------------------------------------------------------------------------
@@ -175,9 +301,7 @@ def write_rss(
     rate = check_positive(rate, "packet_rate_hz")
     positions = anchor_positions_m if anchor_positions_m is not None else attrs.get("anchor_positions_m", {})
     positions = _check_positions(positions, anchors, where)
-    metadata = {} if metadata is None else metadata
-    if not isinstance(metadata, dict):
-        raise ValueError(f"metadata must be a dict, got {type(metadata).__name__}")
+    metadata = check_type({} if metadata is None else metadata, dict, "metadata")
 
     frame = sort_rows(validate_table(df, anchors, targets, where), anchors, targets)
     check_rows(frame, anchors, targets, where)

@@ -6,6 +6,9 @@ define their columns and sidecar keys; this module writes both files byte-reprod
 atomically (:func:`write_table_with_sidecar`), and reads and checks a sidecar
 (:func:`load_sidecar`: format name and version, and the CSV's row count and SHA-256 —
 :data:`CSV_ROWS_KEY`, :data:`CSV_SHA256_KEY` — so a truncated or edited CSV is refused).
+The checks every format applies to its columns live here too: numbers (:func:`finite_column`)
+and names (:func:`check_name`, :func:`check_names`, :func:`name_column`: non-empty, without
+commas, quotes, line breaks or surrounding spaces).
 """
 
 from __future__ import annotations
@@ -102,6 +105,41 @@ def finite_column(frame, column: str, where) -> np.ndarray:
             f"{where}: column {column!r} has a non-numeric or non-finite value "
             f"{frame[column].iloc[row]!r} at data row {row + 1}"
         )
+    return values
+
+
+def check_name(value, what: str) -> str:
+    """``value`` if it is a usable name (non-empty, no commas, quotes or surrounding spaces), else ``ValueError``."""
+    if not isinstance(value, str) or not value or value != value.strip() or any(c in value for c in ',"\n\r'):
+        raise ValueError(
+            f"{what} must be a non-empty string without commas, quotes or surrounding spaces, got {value!r}"
+        )
+    return value
+
+
+def check_names(values, what: str) -> tuple[str, ...]:
+    """``values`` as a tuple of unique usable names (at least one), else ``ValueError`` naming ``what``."""
+    if isinstance(values, str):
+        raise ValueError(f"{what} must be a list of names, not a single string")
+    values = tuple(values)
+    if not values:
+        raise ValueError(f"{what} must name at least one entry")
+    for v in values:
+        check_name(v, f"entries of {what}")
+    if len(set(values)) != len(values):
+        raise ValueError(f"{what} must be unique, got {list(values)}")
+    return values
+
+
+def name_column(frame, column: str, where) -> np.ndarray:
+    """Column ``column`` of a read table as names (object array): each a non-empty string without
+    commas, quotes, line breaks or surrounding spaces, or ``ValueError`` naming file, column and row."""
+    values = frame[column].to_numpy(dtype=object)
+    codes, uniques = pd.factorize(values, use_na_sentinel=False)
+    for code, value in enumerate(uniques):  # check each distinct name once
+        if not isinstance(value, str) or not value or any(c in value for c in ',"\n\r') or value != value.strip():
+            row = int(np.argmax(codes == code))
+            raise ValueError(f"{where}: column {column!r} has an empty or invalid name {value!r} at data row {row + 1}")
     return values
 
 

@@ -4,9 +4,7 @@ readings into windows.
 Both data paths build their vectors here: the simulated / CSV RSS recordings
 (:func:`wsnlib.io.rss.rss_vectors`) and the PABR BLE dataset
 (:func:`wsnlib.io.pabr.pabr_vectors`) turn their tables into a *readings* table and call
-:func:`window_readings`, which returns :class:`RssVectors`.  The old names
-``PabrVectors`` (:mod:`wsnlib.io.pabr`) and ``RssVectors`` (:mod:`wsnlib.io.rss`) are this
-same class.
+:func:`window_readings`, which returns :class:`RssVectors`.
 
 Readings, points and windows
 ----------------------------
@@ -53,6 +51,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from wsnlib._validation import check_count, check_positive
+
 #: Columns of a readings table (input of :func:`window_readings`); ``packet`` is optional.
 READING_COLUMNS: tuple[str, ...] = ("user", "session", "target", "label", "anchor", "rss_dbm", "time_s",
                                     "x_m", "y_m", "z_m")
@@ -94,9 +94,6 @@ class RssVectors:
         one anchor).
     anchors : tuple of str
         Column order of ``rss`` and ``n_readings``.
-
-    Old field names (read-only, for scripts written against ``PabrVectors``): ``positions``,
-    ``times``, ``receivers``, ``counts``, ``groups`` (= ``label``), ``windows``.
     """
 
     rss: np.ndarray
@@ -146,14 +143,6 @@ class RssVectors:
             anchors=self.anchors,
         )
 
-    # Old names of PabrVectors, read-only.
-    positions = property(lambda self: self.position, doc="Old name of :attr:`position`.")
-    times = property(lambda self: self.time_s, doc="Old name of :attr:`time_s`.")
-    receivers = property(lambda self: self.anchors, doc="Old name of :attr:`anchors`.")
-    counts = property(lambda self: self.n_readings, doc="Old name of :attr:`n_readings`.")
-    groups = property(lambda self: self.label, doc="Old name of :attr:`label` (PABR: point number or track).")
-    windows = property(lambda self: self.window, doc="Old name of :attr:`window`.")
-
 
 def _point_codes(readings: pd.DataFrame) -> np.ndarray:
     """Point index per reading: runs of consecutive rows with equal (user, session, target,
@@ -171,16 +160,10 @@ def _check_window(window_packets, window_s, window) -> None:
     if sum(arg is not None for arg in (window_packets, window_s, window)) != 1:
         raise ValueError("give exactly one of window_packets (packets per window), window_s (seconds) and "
                          "window='point'")
-    if window_packets is not None and (isinstance(window_packets, bool)
-                                       or not isinstance(window_packets, numbers.Integral) or window_packets < 1):
-        raise ValueError(f"window_packets must be a positive integer, got {window_packets!r}")
+    if window_packets is not None:
+        check_count(window_packets, "window_packets")
     if window_s is not None:
-        try:
-            seconds = float(window_s)
-        except (TypeError, ValueError):
-            seconds = float("nan")
-        if not np.isfinite(seconds) or seconds <= 0:
-            raise ValueError(f"window_s must be a positive number of seconds, got {window_s!r}")
+        check_positive(window_s, "window_s")
     if window is not None and window != "point":
         raise ValueError(f"window must be 'point' (one vector per point), got {window!r}")
 
@@ -249,8 +232,7 @@ def window_readings(
     """
     _check_window(window_packets, window_s, window)
     fill_value = _check_fill(fill, floor_dbm)
-    if isinstance(min_anchors, bool) or not isinstance(min_anchors, numbers.Integral) or min_anchors < 1:
-        raise ValueError(f"min_anchors must be a positive integer, got {min_anchors!r}")
+    check_count(min_anchors, "min_anchors")
     anchors = tuple(anchors)
     missing = [c for c in READING_COLUMNS if c not in readings.columns]
     if missing:

@@ -23,7 +23,7 @@ Modules, in the order they build on each other:
   (:func:`union_of_subsets`) and :func:`paper_tables`, which searches target 1, derives
   the elbows and searches target 2 (the T1 → T2 coupling);
 * :mod:`.regret` — beyond the paper: how optimistic the in-sample tables are
-  (:func:`selection_regret`, :func:`coupled_selection_regret`, :func:`held_out_gap`).
+  (:func:`selection_regret`, :func:`coupled_selection_regret`).
 
 Everything public is importable from ``wsnlib.optimize`` directly.
 
@@ -45,7 +45,6 @@ from wsnlib.optimize.regret import (
     REGRET_COLUMNS,
     SPLITS,
     coupled_selection_regret,
-    held_out_gap,
     selection_regret,
 )
 from wsnlib.optimize.selection import (
@@ -83,7 +82,6 @@ __all__ = [
     "evaluate_selection",
     "evaluate_setting",
     "format_subset",
-    "held_out_gap",
     "paper_tables",
     "parse_subset",
     "proximal_from_selection",

@@ -25,7 +25,7 @@ import pandas as pd
 from sklearn.base import clone
 from sklearn.utils.validation import check_is_fitted
 
-from wsnlib._validation import as_float_array
+from wsnlib._validation import as_float_array, check_count
 from wsnlib.posture import ArmChain
 from wsnlib.radio import METRICS, KNNFingerprint, ProbabilisticKNN, anchor_subsets
 
@@ -192,8 +192,7 @@ class Setting:
     def __post_init__(self):
         _check_approach(self.approach)
         object.__setattr__(self, "anchors", parse_subset(self.anchors))
-        if isinstance(self.k, bool) or not isinstance(self.k, numbers.Integral) or self.k < 1:
-            raise ValueError(f"k must be a positive integer, got {self.k!r}")
+        check_count(self.k, "k")
         p_s = None if self.p_s is None or pd.isna(self.p_s) else self.p_s
         if self.approach == "deterministic":
             if self.metric not in METRICS:
@@ -249,7 +248,7 @@ class SearchData:
     Parameters
     ----------
     online_rss : array_like, shape (n, A)
-        Online vectors (dBm), complete (no NaN; fill first, see :mod:`wsnlib.fingerprint`).
+        Online vectors (dBm), complete (no NaN; fill first, see :mod:`wsnlib.radio`).
     movement : array_like of int, shape (n,)
         Movement index of each row (1..8 in the paper).  The rows of one movement must be
         contiguous and in time order (the held heading of eq. (8) runs along them).

@@ -56,6 +56,7 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
+from wsnlib._validation import check_type
 from wsnlib.optimize.data import (
     APPROACHES,
     SearchData,
@@ -346,9 +347,7 @@ def search(data, *, approaches=APPROACHES, estimate: str = "hybrid", grid: Searc
     """
     approaches = _check_approaches(approaches)
     estimate = _check_estimate(estimate)
-    grid = SearchGrid() if grid is None else grid
-    if not isinstance(grid, SearchGrid):
-        raise ValueError(f"grid must be a SearchGrid, got {type(grid).__name__}")
+    grid = check_type(SearchGrid() if grid is None else grid, SearchGrid, "grid")
     labels, users = _as_users(data)
     users = [u.fitted(approaches) for u in users]
     proximals = [{a: u.proximal[None] for a in approaches} for u in users]
@@ -366,10 +365,8 @@ def evaluate_setting(data: SearchData, setting: Setting, *, estimate: str = "hyb
         ``"joints"`` (n, 3) distal joint of eq. (10) (hybrid only, else NaN); ``"pe_m"`` (n,)
         the Euclidean error per sample (m) — its mean per movement is the table's PE.
     """
-    if not isinstance(setting, Setting):
-        raise ValueError(f"setting must be a Setting, got {type(setting).__name__}")
-    if not isinstance(data, SearchData):
-        raise ValueError(f"data must be a SearchData, got {type(data).__name__}")
+    check_type(setting, Setting, "setting")
+    check_type(data, SearchData, "data")
     estimate = _check_estimate(estimate)
     data = data.fitted(setting.approach)
     mask = setting.mask(data.n_anchors)

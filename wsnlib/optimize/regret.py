@@ -8,8 +8,7 @@ data and scored on another:
   leave-one-user-out), regret against the test data's own best, optimism against the
   in-sample figure, standard errors over users;
 * :func:`coupled_selection_regret`: the same for both targets, target 2's elbow (eq. (10))
-  chosen on the selection data only (no leak from target 1's all-data choice);
-* :func:`held_out_gap`: the earlier single-fold version, kept for comparison.
+  chosen on the selection data only (no leak from target 1's all-data choice).
 """
 
 from __future__ import annotations
@@ -19,6 +18,7 @@ import dataclasses
 import numpy as np
 import pandas as pd
 
+from wsnlib._validation import check_type
 from wsnlib.optimize.data import APPROACHES, SearchGrid, _check_approaches, _paired_users, format_subset
 from wsnlib.optimize.engine import DEFAULT_CHUNK_ELEMENTS, _search
 from wsnlib.optimize.selection import _argbest, _Cube, _cubes, _setting_record, proximal_from_selection
@@ -26,102 +26,6 @@ from wsnlib.optimize.selection import _argbest, _Cube, _cubes, _setting_record, 
 # --------------------------------------------------------------------------------------
 # Beyond the paper: how optimistic is picking the best of thousands of settings?
 # --------------------------------------------------------------------------------------
-
-
-def held_out_gap(results: pd.DataFrame, *, first=(1, 2, 3, 4), second=(5, 6, 7, 8),
-                 by_fold: bool = False) -> pd.DataFrame:
-    """In-sample vs out-of-sample PE of the selected settings (not in the paper), one fold per split.
-
-    Superseded by :func:`selection_regret` (both repetition folds, regret against the test
-    data's own best, standard errors) and :func:`coupled_selection_regret` (target 2 without
-    the leak described below); kept for comparison.  Its ``gap_cm`` compares in-sample PE on
-    one half with out-of-sample PE on the *other* half in a single unswapped fold, so a harder
-    first half makes it negative.
-
-    Two splits, each with the global (Table 3) and the per-movement (Table 2) selection:
-
-    * ``"repetition"``: select on movements ``first`` (the first repetition of the
-      sequence) and score on ``second`` (the repetition); per movement, ``first[i]``'s
-      setting is scored on ``second[i]``.  Users averaged as in the paper.
-    * ``"leave-one-user-out"``: select on all users but one (their average), score on the
-      held-out user; every user in turn (needs a ``user`` column and ≥ 2 users).
-
-    Parameters
-    ----------
-    results : DataFrame
-        From :func:`search` (per user), one target.  For target 2 the elbow comes from
-        target 1's setting, itself chosen on all the data; this function does not redo that.
-    first, second : sequences of movement labels, equal length
-    by_fold : bool
-        Return one row per fold (a held-out user) instead of the mean over folds.
-
-    Returns
-    -------
-    pandas.DataFrame
-        Rows ``(approach, split, selection)`` [``fold``]; columns ``in_sample_cm`` (the
-        minimised PE on the selection data), ``out_of_sample_cm`` (the chosen setting on the
-        test data), ``gap_cm`` (out − in, the optimism), ``oracle_cm`` (best setting chosen on
-        the test data itself), ``grid_mean_cm`` (mean over all settings on the test data, what
-        a setting picked at random would give), ``n_folds``.
-    """
-    first, second = tuple(first), tuple(second)
-    if len(first) != len(second) or not first:
-        raise ValueError(f"first and second must be non-empty and of equal length, got {first} and {second}")
-    if set(first) & set(second):
-        raise ValueError(f"first and second overlap: {sorted(set(first) & set(second))}")
-    rows = []
-    for approach, cube in _cubes(results).items():
-        mov_index = {m: i for i, m in enumerate(cube.movements.tolist())}
-        missing = [m for m in first + second if m not in mov_index]
-        if missing:
-            raise ValueError(f"results have no movement {missing} (have {cube.movements.tolist()})")
-        fi = np.array([mov_index[m] for m in first])
-        si = np.array([mov_index[m] for m in second])
-        mean = cube.user_mean()
-        rows += _gap_rows(approach, "repetition", "global", "movements " + format_subset(first),
-                          mean[:, fi], mean[:, si])
-        rows += _gap_rows(approach, "repetition", "per_movement", "movements " + format_subset(first),
-                          mean[:, fi], mean[:, si], paired=True)
-        if "user" in results.columns and cube.users.size >= 2:
-            everyone = np.arange(cube.users.size)
-            for u, label in enumerate(cube.users):
-                train = cube.user_mean(np.delete(everyone, u))
-                test = cube.pe[..., u]
-                for selection in ("global", "per_movement"):
-                    rows += _gap_rows(approach, "leave-one-user-out", selection, f"user {label}", train, test,
-                                      paired=selection == "per_movement")
-    folds = pd.DataFrame(rows)
-    if by_fold:
-        return folds.set_index(["approach", "split", "selection", "fold"])
-    keys = ["approach", "split", "selection"]
-    summary = folds.groupby(keys, sort=False)[["in_sample_cm", "out_of_sample_cm", "gap_cm", "oracle_cm",
-                                              "grid_mean_cm"]].mean()
-    summary["n_folds"] = folds.groupby(keys, sort=False).size()
-    return summary
-
-
-def _gap_rows(approach, split, selection, fold, train: np.ndarray, test: np.ndarray, paired: bool = False) -> list:
-    """One fold: ``train``/``test`` are (C, M′) PE arrays over the same or paired movements."""
-    if paired:  # per movement: column j of train selects for column j of test
-        picks = [_argbest(train[:, j]) for j in range(train.shape[1])]
-        cols = [j for j in range(train.shape[1]) if not np.isnan(test[picks[j], j])]
-        if not cols:
-            return []
-        in_sample = np.mean([train[picks[j], j] for j in cols])
-        out = np.mean([test[picks[j], j] for j in cols])
-        oracle = np.mean([np.nanmin(test[:, j]) for j in cols])
-        grid_mean = np.mean([np.nanmean(test[:, j]) for j in cols])
-    else:
-        train_g = _Cube.movement_mean(train)
-        test_g = _Cube.movement_mean(test)
-        if np.all(np.isnan(test_g)):
-            return []
-        pick = _argbest(train_g)
-        in_sample, out = train_g[pick], test_g[pick]
-        oracle, grid_mean = np.nanmin(test_g), np.nanmean(test_g)
-    return [{"approach": approach, "split": split, "selection": selection, "fold": fold,
-             "in_sample_cm": float(in_sample), "out_of_sample_cm": float(out), "gap_cm": float(out - in_sample),
-             "oracle_cm": float(oracle), "grid_mean_cm": float(grid_mean)}]
 
 
 # --------------------------------------------------------------------------------------
@@ -287,8 +191,7 @@ def selection_regret(results: pd.DataFrame, *, first=(1, 2, 3, 4), second=(5, 6,
 
     With swapped folds, the mean in-sample PE equals the mean oracle PE (each half is once
     selection data and once test data), so averaged over both repetition folds the optimism
-    equals the regret and is ≥ 0; what one unswapped fold reports (:func:`held_out_gap`) is
-    not.
+    equals the regret and is ≥ 0; what one unswapped fold reports is not.
 
     Units are users: each user's values are averaged over the folds it is tested in (two for
     the repetition split, one for leave-one-user-out); the summary gives their mean and the
@@ -373,9 +276,7 @@ def coupled_selection_regret(target1, target2, *, approaches=APPROACHES, grid: S
         ``target`` column with ``by_unit``.
     """
     approaches = _check_approaches(approaches)
-    grid = SearchGrid() if grid is None else grid
-    if not isinstance(grid, SearchGrid):
-        raise ValueError(f"grid must be a SearchGrid, got {type(grid).__name__}")
+    grid = check_type(SearchGrid() if grid is None else grid, SearchGrid, "grid")
     first, second = _check_halves(first, second)
     splits = _check_splits(splits)
     labels1, users1, users2 = _paired_users(target1, target2)

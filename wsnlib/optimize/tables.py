@@ -192,13 +192,6 @@ class PaperTables:
     table3: pd.DataFrame
     deployable: pd.DataFrame
 
-    def average_pe(self) -> pd.DataFrame:
-        """The tables' last rows: mean PE (cm) over both targets' rows, per approach and table."""
-        out = {}
-        for name, sel in (("Table 2", self.selection2), ("Table 3", self.selection3)):
-            out[name] = sel.groupby("approach", sort=False)["pe_cm"].mean()
-        return pd.DataFrame(out)
-
 
 def paper_tables(target1, target2, *, approaches=APPROACHES, estimate: str = "hybrid",
                  grid: SearchGrid | None = None, progress: bool = False,

@@ -15,8 +15,7 @@ Modules
 The RSS vectors these estimators take are built by :func:`wsnlib.io.vectors.window_readings`
 (through :func:`wsnlib.io.rss.rss_vectors` for the simulated/CSV recordings and
 :func:`wsnlib.io.pabr.pabr_vectors` for PABR), one type for both,
-:class:`wsnlib.io.vectors.RssVectors`.  The old module :mod:`wsnlib.fingerprint` re-exports
-every name here.
+:class:`wsnlib.io.vectors.RssVectors`.
 
 Paper 002 (M. Giuberti, M. Martalò, G. Ferrari, "A hybrid radio/accelerometric approach to
 arm posture recognition"), Section 3.1, eqs. (1)–(4), and the Parzen-window / Gaussian

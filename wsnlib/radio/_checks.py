@@ -7,11 +7,9 @@ entry point receives it.  The conventions are in the :mod:`wsnlib.radio` docstri
 
 from __future__ import annotations
 
-import numbers
-
 import numpy as np
 
-from wsnlib._validation import check_positive
+from wsnlib._validation import check_count, check_positive
 
 METRICS = ("euclidean", "manhattan")
 PMF_METHODS = ("histogram", "parzen", "gmm")
@@ -31,8 +29,7 @@ RSS_RANGE_DBM: tuple[float, float] = (-130.0, 20.0)
 
 
 def _check_n_neighbors(n_neighbors, n_fingerprints: int | None = None) -> int:
-    if isinstance(n_neighbors, bool) or not isinstance(n_neighbors, numbers.Integral) or n_neighbors < 1:
-        raise ValueError(f"n_neighbors must be a positive integer, got {n_neighbors!r}")
+    check_count(n_neighbors, "n_neighbors")
     if n_fingerprints is not None and n_neighbors > n_fingerprints:
         raise ValueError(
             f"n_neighbors={n_neighbors} is larger than the number of fingerprint positions ({n_fingerprints})"

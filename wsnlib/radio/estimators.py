@@ -17,7 +17,7 @@ from scipy.special import logsumexp, ndtr
 from sklearn.base import BaseEstimator
 from sklearn.utils.validation import check_is_fitted
 
-from wsnlib._validation import check_nonnegative, check_positive
+from wsnlib._validation import check_count, check_nonnegative, check_positive
 from wsnlib.radio import _checks
 from wsnlib.radio._checks import (
     PMF_METHODS,
@@ -267,8 +267,7 @@ class ProbabilisticKNN(_FingerprintEstimator):
             check_positive(self.bandwidth_db, "bandwidth_db")
         check_positive(self.min_bandwidth_db, "min_bandwidth_db")
         nc = self.n_components
-        if isinstance(nc, bool) or not isinstance(nc, numbers.Integral) or nc < 1:
-            raise ValueError(f"n_components must be a positive integer, got {nc!r}")
+        check_count(nc, "n_components")
         margin = self.grid_margin_db
         if isinstance(margin, bool) or not isinstance(margin, numbers.Integral):
             raise ValueError(f"grid_margin_db must be a non-negative integer, got {margin!r}")

@@ -13,11 +13,11 @@ the :mod:`wsnlib.radio` docstring.
 from __future__ import annotations
 
 import itertools
-import numbers
 
 import numpy as np
 from scipy.special import logsumexp
 
+from wsnlib._validation import check_count
 from wsnlib.radio import _checks
 from wsnlib.radio._checks import (
     _as_subset_masks,
@@ -47,8 +47,7 @@ def anchor_subsets(n_anchors: int, sizes=None) -> np.ndarray:
     ndarray of bool, shape (S, n_anchors)
         Ordered by size, then lexicographically by anchor indices.
     """
-    if isinstance(n_anchors, bool) or not isinstance(n_anchors, numbers.Integral) or n_anchors < 1:
-        raise ValueError(f"n_anchors must be a positive integer, got {n_anchors!r}")
+    check_count(n_anchors, "n_anchors")
     sizes = range(1, n_anchors + 1) if sizes is None else sorted(set(int(s) for s in sizes))
     if any(s < 1 or s > n_anchors for s in sizes):
         raise ValueError(f"sizes must lie in 1..{n_anchors}, got {list(sizes)}")

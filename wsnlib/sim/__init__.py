@@ -1,22 +1,27 @@
-"""Simulation of the paper's two-node arm set-up: kinematics (:mod:`.arm`) and IMUs (:mod:`.imu`).
+"""Simulation of both papers' set-ups; this package gathers the public names of its modules.
 
-Typical use::
+Paper 001's two-node arm: joint-angle trajectories and their exact kinematics (:mod:`.arm`),
+and the IMU sensors (:mod:`.imu`; disturbances calibrated against BROAD in
+:mod:`.disturbance`, Monte Carlo trials with packet loss in :mod:`.trials`)::
 
     rng = np.random.default_rng(seed)
     trajectory = arm_extension(fs=50.0)
     truth = arm_kinematics(trajectory)                  # ArmKinematics: quat (2, T, 4), gyr, pos, acc_lin …
     gyr, acc, mag = simulate_imu(truth, rng=rng, n_runs=100)   # each (100, 2, T, 3)
-    recording = simulate_recording(trajectory, rng=rng)        # wsnlib.datasets.Recording
+    recording = simulate_recording(trajectory, rng=rng)        # wsnlib.io.recording.Recording
 
 See the module docstrings for the body-frame convention and the datasheet sources.
 
-Both papers share one arm model, :mod:`wsnlib.arm_model` (:class:`ArmGeometry`,
-:class:`ArmKinematics` in the layout ``(node, T, C)``): paper 001's joint-angle trajectories
-(:mod:`.arm`) and paper 002's straight-arm motions (:mod:`.arm_motion`) both produce it.
+Both papers share one arm model, :mod:`wsnlib.arm_model` (:class:`~wsnlib.arm_model.ArmGeometry`,
+:class:`~wsnlib.arm_model.ArmKinematics` in the layout ``(node, T, C)``): paper 001's
+joint-angle trajectories (:mod:`.arm`) and paper 002's straight-arm motions (:mod:`.arm_motion`)
+both produce it.
 
-Paper 002's radio testbed (:mod:`.users`, :mod:`.arm_motion`, :mod:`.body_solids` — overview in
-:mod:`.body` — and the radio in :mod:`.radio_channel`, :mod:`.radio_links`, :mod:`.radio_rss`,
-:mod:`.radio_sessions`, re-exported by :mod:`.radio`)::
+Paper 002's radio testbed: the users and their bodies (:mod:`.body`), the arm's postures and
+movements (:mod:`.arm_motion`), the radio channel and link budget (:mod:`.radio_channel`), the
+RSS recordings and sessions (:mod:`.radio`), the SunSPOT accelerometer (:mod:`.sunspot`), the
+Kinect and the paper's hand-derived reference (:mod:`.optical`) and whole campaigns
+(:mod:`.campaign`)::
 
     users = make_users(5, rng=rng)
     train = training_session(users[0], rng=rng)                     # long RSS table
@@ -24,98 +29,32 @@ Paper 002's radio testbed (:mod:`.users`, :mod:`.arm_motion`, :mod:`.body_solids
     kin = movement("lower_P2_P3_P1", 3.0).sample(users[0], fs=50.0)  # ArmKinematics
 """
 
-from wsnlib.arm_model import ArmKinematics
 from wsnlib.sim.arm import (
-    ANGLE_NAMES,
-    JOINT_NAMES,
-    NODE_NAMES,
-    ArmGeometry,
     ArmTrajectory,
-    ArmTruth,
     arm_extension,
     arm_kinematics,
-    from_joint_angles,
     minimum_jerk,
     movement_set,
     pitch_ramp,
     reach_and_flex,
 )
-from wsnlib.sim.body import (
-    ANCHOR_NAMES,
-    MOVEMENTS,
-    POSTURE_DIRECTIONS,
-    POSTURES,
-    TABLE1_POSITIONS_CM,
-    TARGET_NAMES,
-    ArmMotion,
-    BodyShape,
-    User,
-    arc,
-    concatenate,
-    hold,
-    make_users,
-    movement,
-    paper_user,
-    posture_direction,
-    transition,
-    user_from_height,
-)
+from wsnlib.sim.arm_motion import ArmMotion, arc, concatenate, hold, movement, transition
+from wsnlib.sim.body import BodyShape, User, make_users, user_from_height
 from wsnlib.sim.imu import ImuSamples, ImuSpec, ideal_imu, simulate_imu, simulate_recording
 from wsnlib.sim.radio import (
-    RadioChannel,
     concat_rss,
-    link_budget,
     online_dynamic_session,
     online_static_session,
     simulate_rss,
     static_session,
     training_session,
 )
+from wsnlib.sim.radio_channel import RadioChannel, link_budget
 
 __all__ = [
-    "ANCHOR_NAMES",
-    "MOVEMENTS",
-    "POSTURE_DIRECTIONS",
-    "POSTURES",
-    "TABLE1_POSITIONS_CM",
-    "TARGET_NAMES",
-    "ArmKinematics",
-    "ArmMotion",
-    "BodyShape",
-    "RadioChannel",
-    "User",
-    "arc",
-    "concat_rss",
-    "concatenate",
-    "hold",
-    "link_budget",
-    "make_users",
-    "movement",
-    "online_dynamic_session",
-    "online_static_session",
-    "paper_user",
-    "posture_direction",
-    "simulate_rss",
-    "static_session",
-    "training_session",
-    "transition",
-    "user_from_height",
-    "ANGLE_NAMES",
-    "JOINT_NAMES",
-    "NODE_NAMES",
-    "ArmGeometry",
-    "ArmTrajectory",
-    "ArmTruth",
-    "ImuSamples",
-    "ImuSpec",
-    "arm_extension",
-    "arm_kinematics",
-    "from_joint_angles",
-    "ideal_imu",
-    "minimum_jerk",
-    "movement_set",
-    "pitch_ramp",
-    "reach_and_flex",
-    "simulate_imu",
-    "simulate_recording",
+    "ArmMotion", "ArmTrajectory", "BodyShape", "ImuSamples", "ImuSpec", "RadioChannel", "User", "arc",
+    "arm_extension", "arm_kinematics", "concat_rss", "concatenate", "hold", "ideal_imu", "link_budget", "make_users",
+    "minimum_jerk", "movement", "movement_set", "online_dynamic_session", "online_static_session", "pitch_ramp",
+    "reach_and_flex", "simulate_imu", "simulate_recording", "simulate_rss", "static_session", "training_session",
+    "transition", "user_from_height",
 ]

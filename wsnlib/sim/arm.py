@@ -48,8 +48,7 @@ body-frame angular accelerations ``ω̇_A``, ``ω̇_B``, eq. (1) of paper 001
 
 and the acceleration of a point fixed at ``r`` in a body frame rotating about a fixed point is
 ``R (ω̇ × r + ω × (ω × r))``.  Joint-angle rates and accelerations come from the trajectory
-generators in closed form (minimum-jerk and linear profiles), or from a quintic spline fitted
-to sampled angles in :func:`from_joint_angles`.
+generators in closed form (minimum-jerk and linear profiles).
 
 Sources
 -------
@@ -65,47 +64,343 @@ Sources
   figure; the book itself was not re-read for this module.  The node mounting points are
   assumptions (see :meth:`wsnlib.arm_model.ArmGeometry.paper001`).
 
-The geometry (:class:`wsnlib.arm_model.ArmGeometry`) and the kinematics this module computes
-(:class:`wsnlib.arm_model.ArmKinematics`, layout ``(node, T, C)``; former name ``ArmTruth``)
-live in :mod:`wsnlib.arm_model`, shared with paper 002's simulators and the posture chain;
-the joint-angle trajectories and their generators (:class:`ArmTrajectory`,
-:func:`arm_extension`, …) live in :mod:`wsnlib.sim.arm_trajectory`; this module computes
-:func:`arm_kinematics` and re-exports both under their old names.
+An :class:`ArmTrajectory` holds the four joint angles with their first and second time
+derivatives; the generators (:func:`arm_extension`, :func:`pitch_ramp`,
+:func:`reach_and_flex`, :func:`movement_set`) build them and :func:`arm_kinematics` turns one
+into the ground truth of both nodes.  The geometry (:class:`wsnlib.arm_model.ArmGeometry`) and
+the kinematics (:class:`wsnlib.arm_model.ArmKinematics`, layout ``(node, T, C)``) live in
+:mod:`wsnlib.arm_model`, shared with paper 002's simulators and the posture chain.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 import numpy as np
 
 from wsnlib import quaternion as Q
+from wsnlib._validation import as_float_array, check_nonnegative, check_positive, check_type
+from wsnlib.arm_model import NODE_NAMES, Q_REFERENCE, ArmGeometry, ArmKinematics
 
-# The arm's geometry and kinematics live in wsnlib.arm_model (shared with paper 002's
-# simulators and the posture chain); re-exported here under their former names.
-from wsnlib.arm_model import (  # noqa: F401
-    DEFAULT_BODY_HEIGHT_M,
-    FOREARM_FRACTION,
-    JOINT_NAMES,
-    NODE_NAMES,
-    Q_REFERENCE,
-    UPPER_ARM_FRACTION,
-    ArmGeometry,
-    ArmKinematics,
-)
+# --------------------------------------------------------------------------------------------
+# Joint-angle trajectories
+# --------------------------------------------------------------------------------------------
 
-# The joint-angle trajectories live in wsnlib.sim.arm_trajectory; re-exported (old path).
-from wsnlib.sim.arm_trajectory import (  # noqa: F401
-    ANGLE_NAMES,
-    ArmTrajectory,
-    arm_extension,
-    from_joint_angles,
-    minimum_jerk,
-    movement_set,
-    pitch_ramp,
-    reach_and_flex,
-)
 
-#: Former name of :class:`wsnlib.arm_model.ArmKinematics` (the ground truth of both nodes).
-ArmTruth = ArmKinematics
+@dataclass(frozen=True)
+class ArmTrajectory:
+    """Joint angles of the arm over time, with their first and second time derivatives.
+
+    Build one with :func:`arm_extension`, :func:`pitch_ramp` or :func:`reach_and_flex`
+    rather than by hand (the constructor checks shapes, not that ``rates`` really is the
+    derivative of ``angles``).
+
+    Attributes
+    ----------
+    fs : float
+        Sampling rate (Hz).
+    t : numpy.ndarray, shape (T,)
+        Sample times (s), ``t[k] = t[0] + k / fs``.
+    angles : numpy.ndarray, shape (T, 4)
+        Joint angles (rad) in the order heading, pitch, axial, elbow flexion (defined in the
+        module docstring).
+    rates : numpy.ndarray, shape (T, 4)
+        Their time derivatives (rad/s).
+    accelerations : numpy.ndarray, shape (T, 4)
+        Their second time derivatives (rad/s²).
+    metadata : dict
+        Provenance (generator name and parameters), JSON-serialisable; copied into the
+        recording sidecar by :func:`wsnlib.sim.imu.simulate_recording`.
+    """
+
+    fs: float
+    t: np.ndarray
+    angles: np.ndarray
+    rates: np.ndarray
+    accelerations: np.ndarray
+    metadata: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        fs = check_positive(self.fs, "fs")
+        t = as_float_array(self.t, "t")
+        if t.ndim != 1 or t.size < 2:
+            raise ValueError(f"t must be a 1-D array of at least 2 samples, got shape {t.shape}")
+        object.__setattr__(self, "fs", fs)
+        object.__setattr__(self, "t", t)
+        for name in ("angles", "rates", "accelerations"):
+            arr = as_float_array(getattr(self, name), name, last_dim=4)
+            if arr.shape != (t.size, 4):
+                raise ValueError(f"{name} must have shape ({t.size}, 4), got {arr.shape}")
+            object.__setattr__(self, name, arr)
+        if not isinstance(self.metadata, dict):
+            raise ValueError(f"metadata must be a dict, got {type(self.metadata).__name__}")
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples T."""
+        return self.t.size
+
+    @property
+    def heading(self) -> np.ndarray:
+        """Heading ψ (rad), shape (T,)."""
+        return self.angles[:, 0]
+
+    @property
+    def pitch(self) -> np.ndarray:
+        """Humerus pitch θ (rad), shape (T,)."""
+        return self.angles[:, 1]
+
+    @property
+    def axial(self) -> np.ndarray:
+        """Humeral axial rotation (rad), shape (T,)."""
+        return self.angles[:, 2]
+
+    @property
+    def elbow_flexion(self) -> np.ndarray:
+        """Elbow flexion β (rad), shape (T,)."""
+        return self.angles[:, 3]
+
+
+def _time_axis(fs: float, duration_s: float) -> tuple[float, np.ndarray]:
+    fs = check_positive(fs, "fs")
+    duration = check_positive(duration_s, "duration_s")
+    n = int(round(duration * fs))
+    if n < 2:
+        raise ValueError(f"duration_s * fs must give at least 2 samples, got {duration * fs:g}")
+    return fs, np.arange(n) / fs
+
+
+def minimum_jerk(t, start_s: float, rise_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Minimum-jerk transition 0 → 1 (Flash & Hogan 1985) and its derivatives.
+
+    ``s(τ) = 10τ³ − 15τ⁴ + 6τ⁵`` with ``τ = (t − start_s) / rise_s`` clipped to [0, 1]:
+    0 before ``start_s``, 1 after ``start_s + rise_s``, with zero velocity and acceleration at
+    both ends.
+
+    Parameters
+    ----------
+    t : array_like, shape (T,)
+        Times (s).
+    start_s : float
+        Start of the transition (s).
+    rise_s : float
+        Duration of the transition (s), > 0.
+
+    Returns
+    -------
+    s, ds, dds : numpy.ndarray, shape (T,)
+        Profile (1), its first (1/s) and second (1/s²) time derivative.
+    """
+    t = as_float_array(t, "t", min_ndim=0)
+    rise = check_positive(rise_s, "rise_s")
+    start = float(start_s)
+    tau = np.clip((t - start) / rise, 0.0, 1.0)
+    s = tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
+    ds = 30.0 * tau**2 * (1.0 - tau) ** 2 / rise
+    dds = 60.0 * tau * (1.0 - tau) * (1.0 - 2.0 * tau) / rise**2
+    return s, ds, dds
+
+
+def _constant(value: float, n: int) -> np.ndarray:
+    return np.full(n, float(value))
+
+
+def arm_extension(
+    fs: float = 50.0,
+    duration_s: float = 6.0,
+    start_s: float = 1.0,
+    rise_s: float = 2.0,
+    pitch_start_deg: float = -90.0,
+    pitch_end_deg: float = 0.0,
+    heading_deg: float = 0.0,
+    axial_deg: float = 0.0,
+) -> ArmTrajectory:
+    """The paper's "90° arm extension": the straight arm rises from rest, then rests again.
+
+    Humerus and forearm move jointly aligned (elbow flexion 0 throughout).  The humerus
+    pitch is ``pitch_start_deg`` until ``start_s``, follows a minimum-jerk profile to
+    ``pitch_end_deg`` over ``rise_s`` seconds, then stays there until ``duration_s``.
+
+    Parameters
+    ----------
+    fs : float
+        Sampling rate (Hz); the paper's IMU samples at 50 Hz.
+    duration_s : float
+        Length of the trajectory (s); ``round(duration_s · fs)`` samples from t = 0.
+    start_s, rise_s : float
+        Start (s) and duration (s) of the raise.  With the defaults (1 s, 2 s at 50 Hz) the
+        paper's loss "right after 80 samples" (1.6 s) falls in the middle of the movement.
+    pitch_start_deg, pitch_end_deg : float
+        Humerus (and forearm) pitch before and after the raise (degrees); the default −90° →
+        0° is the arm hanging down, raised forward to horizontal.
+    heading_deg : float
+        Heading ψ of the arm (degrees, module docstring), constant.
+    axial_deg : float
+        Humeral axial rotation (degrees), constant.
+
+    Returns
+    -------
+    ArmTrajectory
+    """
+    fs, t = _time_axis(fs, duration_s)
+    check_nonnegative(start_s, "start_s")
+    check_positive(rise_s, "rise_s")
+    s, ds, dds = minimum_jerk(t, start_s, rise_s)
+    span = np.radians(float(pitch_end_deg) - float(pitch_start_deg))
+    n = t.size
+    angles = np.stack(
+        [
+            _constant(np.radians(heading_deg), n),
+            np.radians(float(pitch_start_deg)) + span * s,
+            _constant(np.radians(axial_deg), n),
+            np.zeros(n),
+        ],
+        axis=-1,
+    )
+    rates = np.stack([np.zeros(n), span * ds, np.zeros(n), np.zeros(n)], axis=-1)
+    accelerations = np.stack([np.zeros(n), span * dds, np.zeros(n), np.zeros(n)], axis=-1)
+    metadata = {
+        "generator": "wsnlib.sim.arm.arm_extension",
+        "fs": fs,
+        "duration_s": float(duration_s),
+        "start_s": float(start_s),
+        "rise_s": float(rise_s),
+        "pitch_start_deg": float(pitch_start_deg),
+        "pitch_end_deg": float(pitch_end_deg),
+        "heading_deg": float(heading_deg),
+        "axial_deg": float(axial_deg),
+    }
+    return ArmTrajectory(fs, t, angles, rates, accelerations, metadata)
+
+
+def pitch_ramp(
+    fs: float = 50.0,
+    duration_s: float = 60.0,
+    pitch_start_deg: float = -60.0,
+    pitch_end_deg: float = 60.0,
+    heading_deg: float = 0.0,
+    axial_deg: float = 0.0,
+) -> ArmTrajectory:
+    """Humerus pitch growing linearly with time, forearm aligned (paper 001, Fig. 2).
+
+    The pitch goes from ``pitch_start_deg`` at t = 0 to ``pitch_end_deg`` at the last sample,
+    at the constant rate ``(pitch_end − pitch_start) / ((T − 1) / fs)``; angular acceleration
+    is zero throughout.
+
+    Parameters
+    ----------
+    fs : float
+        Sampling rate (Hz).
+    duration_s : float
+        Length (s); ``round(duration_s · fs)`` samples.
+    pitch_start_deg, pitch_end_deg : float
+        Pitch at the first and last sample (degrees), within [−90, 90].
+    heading_deg, axial_deg : float
+        Constant heading and humeral axial rotation (degrees).
+
+    Returns
+    -------
+    ArmTrajectory
+    """
+    fs, t = _time_axis(fs, duration_s)
+    for name, value in (("pitch_start_deg", pitch_start_deg), ("pitch_end_deg", pitch_end_deg)):
+        if not -90.0 <= float(value) <= 90.0:
+            raise ValueError(f"{name} must lie in [-90, 90] degrees, got {value!r}")
+    n = t.size
+    rate = np.radians(float(pitch_end_deg) - float(pitch_start_deg)) / t[-1]
+    angles = np.stack(
+        [
+            _constant(np.radians(heading_deg), n),
+            np.radians(float(pitch_start_deg)) + rate * t,
+            _constant(np.radians(axial_deg), n),
+            np.zeros(n),
+        ],
+        axis=-1,
+    )
+    rates = np.zeros((n, 4))
+    rates[:, 1] = rate
+    metadata = {
+        "generator": "wsnlib.sim.arm.pitch_ramp",
+        "fs": fs,
+        "duration_s": float(duration_s),
+        "pitch_start_deg": float(pitch_start_deg),
+        "pitch_end_deg": float(pitch_end_deg),
+        "heading_deg": float(heading_deg),
+        "axial_deg": float(axial_deg),
+    }
+    return ArmTrajectory(fs, t, angles, rates, np.zeros((n, 4)), metadata)
+
+
+def reach_and_flex(
+    fs: float = 50.0,
+    duration_s: float = 6.0,
+    start_s: float = 1.0,
+    rise_s: float = 2.5,
+    pitch_end_deg: float = -20.0,
+    heading_end_deg: float = 30.0,
+    elbow_end_deg: float = 90.0,
+) -> ArmTrajectory:
+    """A three-joint movement: the arm rises and swings sideways while the elbow flexes.
+
+    From hanging (pitch −90°, heading 0°, elbow straight) to ``pitch_end_deg``,
+    ``heading_end_deg`` and ``elbow_end_deg`` of flexion, all joints following one
+    minimum-jerk profile over ``rise_s`` seconds — roughly bringing a hand towards the mouth.
+    Unlike the arm extension, the elbow angle is not 0, and the heading changes.
+
+    Parameters
+    ----------
+    fs, duration_s, start_s, rise_s : float
+        As in :func:`arm_extension`.
+    pitch_end_deg, heading_end_deg, elbow_end_deg : float
+        Final humerus pitch, heading and elbow flexion (degrees).
+
+    Returns
+    -------
+    ArmTrajectory
+        Closed-form angles, rates and accelerations.
+    """
+    fs, t = _time_axis(fs, duration_s)
+    check_nonnegative(start_s, "start_s")
+    check_positive(rise_s, "rise_s")
+    s, ds, dds = minimum_jerk(t, start_s, rise_s)
+    start = np.radians([0.0, -90.0, 0.0, 0.0])
+    span = np.radians([float(heading_end_deg), float(pitch_end_deg) + 90.0, 0.0, float(elbow_end_deg)])
+    angles = start + s[:, None] * span
+    rates = ds[:, None] * span
+    accelerations = dds[:, None] * span
+    metadata = {
+        "generator": "wsnlib.sim.arm.reach_and_flex",
+        "fs": fs,
+        "duration_s": float(duration_s),
+        "start_s": float(start_s),
+        "rise_s": float(rise_s),
+        "pitch_end_deg": float(pitch_end_deg),
+        "heading_end_deg": float(heading_end_deg),
+        "elbow_end_deg": float(elbow_end_deg),
+    }
+    return ArmTrajectory(fs, t, angles, rates, accelerations, metadata)
+
+
+def movement_set(fs: float = 50.0, duration_s: float = 8.0, start_s: float = 1.0) -> dict[str, ArmTrajectory]:
+    """Movements of equal length at different speeds, for Monte Carlo studies.
+
+    Three 90° arm extensions (raise in 1.5 s, 3 s and 5 s: fast, medium and slow; peak
+    angular rates ≈ 112, 56 and 34 °/s) and one :func:`reach_and_flex` (2.5 s).  Every
+    movement starts at ``start_s`` and all have ``round(duration_s · fs)`` samples, so their
+    IMU signals stack into one batch.
+
+    Returns
+    -------
+    dict[str, ArmTrajectory]
+        Name → trajectory, in a fixed order.
+    """
+    return {
+        "extension fast": arm_extension(fs, duration_s, start_s, rise_s=1.5),
+        "extension medium": arm_extension(fs, duration_s, start_s, rise_s=3.0),
+        "extension slow": arm_extension(fs, duration_s, start_s, rise_s=5.0),
+        "reach and flex": reach_and_flex(fs, duration_s, start_s, rise_s=2.5),
+    }
+
 
 _X = np.array([1.0, 0.0, 0.0])
 _Y = np.array([0.0, 1.0, 0.0])
@@ -160,11 +455,8 @@ def arm_kinematics(trajectory: ArmTrajectory, geometry: ArmGeometry | None = Non
         mounting-point position/velocity/linear acceleration ``(2, T, 3)`` (earth frame),
         joint centres ``(3, T, 3)``.  All derivatives are analytic (module docstring).
     """
-    if not isinstance(trajectory, ArmTrajectory):
-        raise ValueError(f"trajectory must be an ArmTrajectory, got {type(trajectory).__name__}")
-    geometry = ArmGeometry.paper001() if geometry is None else geometry
-    if not isinstance(geometry, ArmGeometry):
-        raise ValueError(f"geometry must be an ArmGeometry, got {type(geometry).__name__}")
+    check_type(trajectory, ArmTrajectory, "trajectory")
+    geometry = check_type(ArmGeometry.paper001() if geometry is None else geometry, ArmGeometry, "geometry")
     ang, rate, acc = trajectory.angles, trajectory.rates, trajectory.accelerations
     n = trajectory.n_samples
 

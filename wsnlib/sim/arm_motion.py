@@ -1,12 +1,54 @@
 """Motions of paper 002's straight arm: pieces of constant-speed rotation about fixed axes.
 
-Postures, the four transitional movements and why the motion is built from constant-speed
-great-circle pieces are described in :mod:`wsnlib.sim.body` (sections "Postures" and
-"Movements").  :meth:`ArmMotion.kinematics` evaluates a motion for a user (or any two-segment
+:meth:`ArmMotion.kinematics` evaluates a motion for a user (or any two-segment
 :class:`wsnlib.arm_model.ArmGeometry`) into the package's one kinematics type,
 :class:`wsnlib.arm_model.ArmKinematics` (layout ``(node, T, C)``), which the radio, the
 SunSPOT accelerometer, the Kinect model, the IMU simulator and the posture chain consume.
-Shoulder frame (x right, y forward, z up), metres, seconds, radians.
+Shoulder frame (x right, y forward, z up; :mod:`wsnlib.sim.body`), metres, seconds, radians.
+
+Postures (paper 002, Table 1)
+-----------------------------
+The arm is straight in every posture, so both targets lie on one ray from the shoulder, at
+``d1`` (T1) and ``d2`` (T2) along the arm direction ``u``:
+
+====  =============================  =========================================
+P1    arm down                       u = (0, 0, −1)
+P2    arm up                         u = (0, 0, +1)
+P3    forward, horizontal            u = (0, +1, 0)
+P4    sideways (right), horizontal   u = (+1, 0, 0)
+P5    across the body, horizontal    u = (−sin 56.7°, cos 56.7°, 0)
+====  =============================  =========================================
+
+Table 1's P5 entries, T1 (−11, 11, 0) cm and T2 (−34, 21, 0) cm, are not collinear with the
+shoulder (45° and 58° across the body; T2 is 40 cm from the shoulder, not 42.5 cm), so no
+straight arm passes through both.  We take the straight arm that fits both points in least
+squares, ``u ∝ d1·T1 + d2·T2`` (56.7° across the body), which misses the table by 3.2 cm
+(T1) and 2.7 cm (T2).  :data:`TABLE1_POSITIONS_CM` keeps the table verbatim.
+
+Segment (node) frames follow :mod:`wsnlib.arm_model`: body x along the segment (distal), body
+z "dorsal" (up when the arm points forward palm down), body y = z × x.  A posture's
+orientation is ``R_z(ψ) ⊗ q_ref ⊗ R_y(−θ)`` with heading ψ and pitch θ of ``u`` (ψ = 0 for
+the vertical postures), i.e. each posture is P3 turned rigidly about the vertical (P4, P5) or
+the lateral axis (P1, P2).  Moving the arm along the paper's movements reproduces exactly
+these orientations at the end points (tested).
+
+Movements (paper 002, Sec. 4.1 and Fig. 5)
+------------------------------------------
+Four transitional movements, each at constant angular speed (the paper's users were asked to
+move "at constant speed", 2–4 s per movement), each a rotation of the straight arm about one
+fixed axis through the shoulder:
+
+* ``lower_P2_P3_P1``: from P2 down through P3 to P1 (180° about −x);
+* ``horizontal_P4_P3_P5``: from P4 through P3 to P5 (146.7° about +z);
+* ``raise_P1_P3``: from P1 up to P3 (90° about −x);
+* ``horizontal_P3_P4``: from P3 to P4 (90° about −z).
+
+:func:`arc` builds any constant-speed great-circle arc between two directions (SLERP of the
+directions), optionally through a via-point (two great-circle pieces at the same angular
+speed; the angular velocity jumps at the via-point unless both pieces share the axis, as in
+the paper's movements).  Angular acceleration is zero inside every piece; the steps of the
+angular velocity at the start and end of a constant-speed movement are idealised away (a
+real arm needs some 100 ms to get up to speed).
 """
 
 from __future__ import annotations
@@ -19,7 +61,8 @@ from wsnlib import fixed_order
 from wsnlib import quaternion as Q
 from wsnlib._validation import as_float_array, check_nonnegative, check_positive
 from wsnlib.arm_model import Q_REFERENCE, ArmGeometry, ArmKinematics
-from wsnlib.sim.users import User
+from wsnlib.io.sidecar import check_name
+from wsnlib.sim.body import User
 from wsnlib.testbed import MOVEMENTS, TRANSITION_LABEL, posture_direction
 
 
@@ -104,8 +147,7 @@ class ArmMotion:
         if np.any(self.duration_s <= 0.0) or np.any(self.speed < 0.0):
             raise ValueError("durations must be > 0 and speeds >= 0")
         for label in self.labels:
-            if not isinstance(label, str) or not label or any(c in label for c in ',"\n\r'):
-                raise ValueError(f"labels must be non-empty strings without commas or quotes, got {label!r}")
+            check_name(label, "labels")
         object.__setattr__(self, "labels", tuple(self.labels))
 
     @property
@@ -118,11 +160,6 @@ class ArmMotion:
         """Orientation (4,) at the end of the motion."""
         angle = self.speed[-1] * self.duration_s[-1]
         return Q.multiply(Q.from_axis_angle(self.axis[-1], angle), self.quat_start[-1])
-
-    @property
-    def direction_end(self) -> np.ndarray:
-        """Arm direction (3,) at the end of the motion."""
-        return Q.rotate(self.quat_end, [1.0, 0.0, 0.0])
 
     def then(self, other: ArmMotion) -> ArmMotion:
         """This motion followed by ``other`` (shifted in time to start at this one's end).

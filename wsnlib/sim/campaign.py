@@ -12,48 +12,43 @@ RSS packets, each target's 30 Hz accelerometer stream (:mod:`wsnlib.sim.sunspot`
 Kinect's estimate of the target positions (:mod:`wsnlib.sim.optical`) and the ground truth,
 plus :class:`DynamicData`, the same aligned per RSS vector.
 
-The pieces live in their own modules, re-exported here (old path):
-:mod:`wsnlib.sim.dynamic_data` (the clock, the long accelerometer and Kinect tables, the
-alignment :func:`align_dynamic` and :class:`DynamicData`) and :mod:`wsnlib.sim.kinect_stream`
-(the Kinect's view of one user, :func:`simulate_kinect_stream`).  This module simulates the
-campaigns, memoises the notebooks' one (:func:`dynamic_campaign`) and writes / reads its files
-(:func:`write_dynamic_campaign`, :func:`read_dynamic_campaign`).
+The Kinect's view of one user is :func:`simulate_kinect_stream` (camera placement, frames at
+30 fps, reported joints, the target positions derived from them); the long accelerometer and
+Kinect tables are :func:`acc_table` and :func:`kinect_table`.  :func:`dynamic_campaign`
+memoises the notebooks' campaign; :func:`write_dynamic_campaign` and
+:func:`read_dynamic_campaign` write and read its files, and real logs converted to the same
+files give the same :class:`DynamicData`.
+
+Clock and alignment (:func:`align_dynamic`)
+-------------------------------------------
+Time 0 is the start of the session for every stream.  RSS packets of T1 leave at about
+``k/30`` s and those of T2 half a period later (:func:`wsnlib.sim.radio.packet_times`, with
+jitter); the accelerometer samples are stamped ``k/30`` s (the end of the 1/30 s window they
+average) and the Kinect frames ``k/30`` s.  Each RSS vector (one per packet and target,
+``rss_vectors(window_packets=1, fill="last")``) is paired with the **latest** accelerometer
+sample and the latest Kinect frame at or before its time stamp, never a later one: what an
+online system has when the packet arrives.  All time stamps are rounded to 1 µs, so the
+pairing is the same after a CSV round trip.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from wsnlib.arm_model import ArmGeometry
-from wsnlib.io import accel as accel_format
+from wsnlib._validation import check_count, check_type
+from wsnlib.io import accel
 from wsnlib.io import rss as rss_format
 from wsnlib.posture import ArmChain
 from wsnlib.sim.arm_motion import ArmMotion
-
-# Re-exported here (their old home): the dynamic session's data model and the Kinect stream.
-from wsnlib.sim.dynamic_data import (  # noqa: F401
-    DYNAMIC_SESSION,
-    DynamicData,
-    acc_table,
-    align_dynamic,
-    concat_sample_tables,
-    kinect_table,
-    movement_number,
-)
-from wsnlib.sim.kinect_model import PAPER_CAMERA_DISTANCE_M, KinectModel
-from wsnlib.sim.kinect_stream import (  # noqa: F401
-    CAMERA_HEIGHT_175_M,
-    KinectStream,
-    kinect_camera,
-    simulate_kinect_stream,
-)
+from wsnlib.sim.body import User, make_users
+from wsnlib.sim.optical import PAPER_CAMERA_DISTANCE_M, KinectModel, kinect_target_positions, simulate_kinect
 from wsnlib.sim.radio import (
-    RadioChannel,
     concat_rss,
     online_dynamic_motion,
     online_dynamic_session,
@@ -61,8 +56,9 @@ from wsnlib.sim.radio import (
     simulate_rss,
     training_session,
 )
-from wsnlib.sim.sunspot import SunspotAcc, SunspotAccSpec, simulate_sunspot_acc
-from wsnlib.sim.users import User, make_users
+from wsnlib.sim.radio_channel import RadioChannel
+from wsnlib.sim.sunspot import SunspotAcc, SunspotAccSpec, output_times, simulate_sunspot_acc
+from wsnlib.testbed import TARGET_NAMES
 
 
 @dataclass(frozen=True)
@@ -72,7 +68,7 @@ class Campaign:
     Attributes
     ----------
     rss : pandas.DataFrame
-        Long RSS table (schema of :mod:`wsnlib.rss`), every user and session.
+        Long RSS table (schema of :mod:`wsnlib.io.rss`), every user and session.
     users : tuple of User
         The users as trained (day 1).
     online_users : tuple of User
@@ -104,9 +100,7 @@ def simulate_campaign(n_users: int = 5, *, rng: np.random.Generator, hold_s: flo
     -------
     Campaign
     """
-    if not isinstance(n_users, int | np.integer) or n_users < 1:
-        raise ValueError(f"n_users must be a positive integer, got {n_users!r}")
-    users = make_users(n_users, rng=rng)
+    users = make_users(check_count(n_users, "n_users"), rng=rng)
     frames, online_users = [], []
     for user in users:
         frames.append(training_session(user, rng=rng, hold_s=hold_s))
@@ -119,15 +113,350 @@ def simulate_campaign(n_users: int = 5, *, rng: np.random.Generator, hold_s: flo
 
 
 # --------------------------------------------------------------------------------------------
-# The online dynamic session with accelerometers and a Kinect, on one clock (the data model
-# and the alignment: wsnlib.sim.dynamic_data)
+# The Kinect's view of one user in one session
 # --------------------------------------------------------------------------------------------
 
 
-def arm_chain(user: User) -> ArmGeometry:
-    """``user.geometry``: kept for old scripts; the user's arm is :attr:`wsnlib.sim.users.User.geometry`
-    (an :class:`wsnlib.arm_model.ArmGeometry`, which is :class:`wsnlib.posture.ArmChain`)."""
-    return user.geometry
+#: Height of the Kinect relative to the shoulder for a 1.75 m user (m): chest height, the
+#: level of the left chest pocket (A1) in :mod:`wsnlib.sim.body`; scaled with the user's height.
+CAMERA_HEIGHT_175_M = -0.15
+
+
+def kinect_camera(user: User, distance_m: float = PAPER_CAMERA_DISTANCE_M) -> tuple[np.ndarray, np.ndarray]:
+    """Kinect position (3,) and viewing direction (3,) in ``user``'s shoulder frame.
+
+    ``distance_m`` in front of the user (paper 002: "at a distance of about 3 m"), facing the
+    user (looking along −y), centred on the torso (x = the torso centre, 19 cm left of the right
+    shoulder for a 1.75 m user), at chest height (:data:`CAMERA_HEIGHT_175_M`, scaled).  The
+    height and centring are *assumed*; the paper gives only the distance.
+    """
+    scale = user.height_m / 1.75
+    position = np.array([user.body.torso_center_x_m, float(distance_m), CAMERA_HEIGHT_175_M * scale])
+    return position, np.array([0.0, -1.0, 0.0])
+
+
+@dataclass(frozen=True, eq=False)
+class KinectStream:
+    """What the simulated Kinect reported during one session (shapes with ``K`` frames).
+
+    Attributes
+    ----------
+    time_s : (K,)
+        Frame times (s), ``k / frame_rate_hz`` from 0, rounded to 1 µs.
+    joints : (K, 3, 3)
+        Reported shoulder, elbow, wrist (m, shoulder frame; referenced to the tracked shoulder
+        unless ``relative_to`` said otherwise).
+    targets : (K, 2, 3)
+        Target positions derived from the reported joints at each target's fraction along its
+        segment (:func:`wsnlib.sim.optical.kinect_target_positions`), m.
+    true_joints : (K, 3, 3)
+        The true joints at the frame times (m).
+    true_targets : (K, 2, 3)
+        The true target positions on the arm axis (m).
+    label : (K,) object
+        Label of the motion piece at each frame.
+    camera_position, camera_axis : (3,)
+        Camera placement (:func:`kinect_camera`).
+    """
+
+    time_s: np.ndarray
+    joints: np.ndarray
+    targets: np.ndarray
+    true_joints: np.ndarray
+    true_targets: np.ndarray
+    label: np.ndarray
+    camera_position: np.ndarray
+    camera_axis: np.ndarray
+
+
+def simulate_kinect_stream(
+    motion: ArmMotion,
+    user: User,
+    *,
+    rng: np.random.Generator,
+    model: KinectModel | None = None,
+    camera_distance_m: float = PAPER_CAMERA_DISTANCE_M,
+    relative_to: str = "tracked_shoulder",
+    duration_s: float | None = None,
+) -> KinectStream:
+    """The Kinect's view of ``motion``: true joints at 30 fps → :func:`simulate_kinect` → targets.
+
+    Frames at ``k / frame_rate_hz`` for ``k = 0 … ⌊duration · rate⌋``; camera from
+    :func:`kinect_camera`; T1 at ``d1 / upper_arm`` along shoulder → elbow and T2 at
+    ``(d2 − upper_arm) / forearm`` along elbow → wrist (the user's true strap positions, which
+    paper 002's experimenters knew).  ``rng`` draws the Kinect errors only.
+    """
+    model = KinectModel() if model is None else model
+    duration = motion.total_duration_s if duration_s is None else float(duration_s)
+    times = output_times(duration, model.frame_rate_hz)
+    kin = motion.kinematics(times, user)
+    upper, fore = user.upper_arm_m, user.forearm_m
+    true_joints = np.moveaxis(kin.joint_pos, 0, 1)  # (K, 3, 3)
+    position, axis = kinect_camera(user, camera_distance_m)
+    joints = simulate_kinect(
+        true_joints,
+        rng=rng,
+        fs=model.frame_rate_hz,
+        camera_position=position,
+        camera_axis=axis,
+        model=model,
+        relative_to=relative_to,
+    )
+    d1, d2 = user.target_distances_m
+    fractions = (d1 / upper, (d2 - upper) / fore)
+    return KinectStream(
+        time_s=times,
+        joints=joints,
+        targets=kinect_target_positions(joints, fractions=fractions),
+        true_joints=true_joints,
+        true_targets=np.moveaxis(kin.pos, 0, 1).copy(),
+        label=kin.label,
+        camera_position=position,
+        camera_axis=axis,
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# The online dynamic session on one clock: sample tables and alignment
+# --------------------------------------------------------------------------------------------
+
+
+#: Session name of the online dynamic session (as :func:`wsnlib.sim.radio.online_dynamic_session`).
+DYNAMIC_SESSION = "online_dynamic"
+
+_MOVEMENT_RE = re.compile(r"^M(\d+)_")
+
+
+def acc_table(acc: SunspotAcc, user: str, session: str = DYNAMIC_SESSION) -> pd.DataFrame:
+    """Long accelerometer table (:mod:`wsnlib.io.accel`, kind "acc") of one session.
+
+    Values rounded to 6 decimals (the CSV precision), rows ordered by time, then target.
+    """
+    return _long_table(acc.time_s, acc.acc, acc.label, user, session, accel.VALUE_COLUMNS["acc"])
+
+
+def kinect_table(stream: KinectStream, user: str, session: str = DYNAMIC_SESSION) -> pd.DataFrame:
+    """Long Kinect table (:mod:`wsnlib.io.accel`, kind "kinect") of one session (as :func:`acc_table`)."""
+    return _long_table(stream.time_s, stream.targets, stream.label, user, session, accel.VALUE_COLUMNS["kinect"])
+
+
+def _long_table(time, values, label, user, session, value_columns) -> pd.DataFrame:
+    n, n_targets = values.shape[:2]
+    flat = values.reshape(n * n_targets, 3)
+    table = {
+        "time_s": np.repeat(time, n_targets),
+        "user": user,
+        "session": session,
+        "target": np.tile(np.asarray(TARGET_NAMES[:n_targets], dtype=object), n),
+        "label": np.repeat(np.asarray(label, dtype=object), n_targets),
+    }
+    for j, column in enumerate(value_columns):
+        table[column] = np.round(flat[:, j], 6) + 0.0  # the CSV precision, so memory and file agree
+    df = pd.DataFrame(table)
+    df = df.astype({"user": object, "session": object, "target": object, "label": object})
+    return df
+
+
+def concat_sample_tables(frames, rate_hz: float) -> pd.DataFrame:
+    """Concatenate long sample tables (:func:`acc_table`, :func:`kinect_table`); ``attrs["rate_hz"]`` = ``rate_hz``."""
+    out = pd.concat(frames, ignore_index=True)
+    out.attrs = {"rate_hz": float(rate_hz)}
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class DynamicData:
+    """RSS vectors of the online dynamic session with everything else aligned to them.
+
+    One row per RSS vector: per packet of a target (``rss_vectors(window_packets=1,
+    fill="last")``), concatenated over users in order, then target, then time.  ``n`` rows.
+
+    Attributes
+    ----------
+    user, target : (n,) object
+        User name; target name ("T1" upper arm, "T2" forearm).
+    target_index : (n,) int
+        0 for T1, 1 for T2 (the segment index in :class:`wsnlib.posture.ArmChain`).
+    time_s : (n,)
+        Packet time stamp (s, session clock).
+    rss : (n, N_anchors)
+        RSS (dBm), anchors in :attr:`anchors` order; missing readings carried forward, −95 dBm
+        before the first.
+    label : (n,) object
+        Label of the packet (posture, "M1_lower_P2_P3_P1" … or "transition").
+    movement : (n,) int
+        Movement number 1 … 8 while a movement is under way (from the label), 0 otherwise.
+    position : (n, 3)
+        True target position at the packet time (m, shoulder frame, on the arm axis).
+    pitch_true_rad : (n,)
+        True pitch of the target's segment: the elevation of ``position`` seen from the
+        shoulder, ``asin(z / |p|)`` (exact for the straight arm of :mod:`wsnlib.sim.body`).
+    acc : (n, 3)
+        The latest accelerometer sample at or before ``time_s`` (m/s², device frame).
+    acc_time_s : (n,)
+        Its time stamp (s); ``acc_time_s <= time_s`` always.
+    kinect : (n, 3)
+        The latest Kinect estimate of the target at or before ``time_s`` (m, shoulder frame).
+    kinect_time_s : (n,)
+        Its frame time (s).
+    segment_length_m : (n,)
+        Length of the target's segment (m): upper arm for T1, forearm for T2 (the paper's d).
+    device_offset_m : (n,)
+        Distance of the target from its segment's proximal joint (m): from the shoulder for T1,
+        from the elbow for T2 (the paper's d′).
+    anchors : tuple of str
+    """
+
+    user: np.ndarray
+    target: np.ndarray
+    target_index: np.ndarray
+    time_s: np.ndarray
+    rss: np.ndarray
+    label: np.ndarray
+    movement: np.ndarray
+    position: np.ndarray
+    pitch_true_rad: np.ndarray
+    acc: np.ndarray
+    acc_time_s: np.ndarray
+    kinect: np.ndarray
+    kinect_time_s: np.ndarray
+    segment_length_m: np.ndarray
+    device_offset_m: np.ndarray
+    anchors: tuple[str, ...]
+
+    def __len__(self) -> int:
+        return self.time_s.size
+
+    def select(self, *, user=None, target=None, movement=None, label=None) -> DynamicData:
+        """Rows matching every given value (a value or a collection; ``movement`` numbers)."""
+        keep = np.ones(len(self), dtype=bool)
+        for name, wanted in (("user", user), ("target", target), ("movement", movement), ("label", label)):
+            if wanted is None:
+                continue
+            wanted = [wanted] if isinstance(wanted, str | int | np.integer) else list(wanted)
+            keep &= np.isin(getattr(self, name), wanted)
+        values = {
+            f.name: getattr(self, f.name)[keep] for f in dataclasses.fields(self) if f.name != "anchors"
+        }
+        return DynamicData(**values, anchors=self.anchors)
+
+
+def movement_number(labels) -> np.ndarray:
+    """Movement number (int) of each label: ``k`` for ``"M<k>_…"``, 0 for anything else."""
+    out = []
+    for label in np.asarray(labels, dtype=object).ravel():
+        match = _MOVEMENT_RE.match(str(label))
+        out.append(int(match.group(1)) if match else 0)
+    return np.asarray(out, dtype=int).reshape(np.shape(labels))
+
+
+def _latest(sample_times: np.ndarray, query: np.ndarray, what: str, where: str) -> np.ndarray:
+    index = np.searchsorted(sample_times, query, side="right") - 1
+    if np.any(index < 0):
+        first = float(query[int(np.argmax(index < 0))])
+        raise ValueError(f"{where}: no {what} sample at or before the RSS vector at {first:.6f} s")
+    return index
+
+
+def align_dynamic(
+    rss: pd.DataFrame,
+    acc: pd.DataFrame,
+    kinect: pd.DataFrame,
+    chains: dict[str, ArmChain],
+    *,
+    session: str = DYNAMIC_SESSION,
+) -> DynamicData:
+    """Pair every RSS vector of ``session`` with the latest accelerometer sample and Kinect
+    estimate at or before it (module docstring).
+
+    Parameters
+    ----------
+    rss : pandas.DataFrame
+        Long RSS table (:mod:`wsnlib.io.rss`); rows of other sessions are ignored.
+    acc, kinect : pandas.DataFrame
+        Long sample tables (:mod:`wsnlib.io.accel`) covering the same users and session.
+    chains : dict
+        ``{user: ArmChain}`` (``User.geometry``) for every user of the session.
+    session : str
+
+    Returns
+    -------
+    DynamicData
+
+    Raises
+    ------
+    ValueError
+        A user without chain, accelerometer or Kinect rows, or an RSS vector earlier than every
+        accelerometer sample or Kinect frame of its target.
+    """
+    sub = rss[rss["session"] == session]
+    if len(sub) == 0:
+        raise ValueError(f"the RSS table has no rows of session {session!r}")
+    vectors = rss_format.rss_vectors(sub, window_packets=1, fill="last")
+    n = len(vectors)
+    target_index = np.array([TARGET_NAMES.index(t) for t in vectors.target], dtype=int)
+    acc_values = np.empty((n, 3))
+    acc_time = np.empty(n)
+    kin_values = np.empty((n, 3))
+    kin_time = np.empty(n)
+    lengths = np.empty(n)
+    offsets = np.empty(n)
+    tables = (
+        ("accelerometer", acc, accel.VALUE_COLUMNS["acc"], acc_values, acc_time),
+        ("Kinect", kinect, accel.VALUE_COLUMNS["kinect"], kin_values, kin_time),
+    )
+    for user in pd.unique(vectors.user):
+        if user not in chains:
+            raise ValueError(f"chains has no ArmChain for user {user!r}")
+        chain = chains[user]
+        for t_idx, target in enumerate(TARGET_NAMES):
+            rows = np.flatnonzero((vectors.user == user) & (target_index == t_idx))
+            if rows.size == 0:
+                continue
+            query = vectors.time_s[rows]
+            lengths[rows] = chain.segment_lengths_m[t_idx]
+            offsets[rows] = chain.device_offsets_m[t_idx]
+            for what, table, value_columns, values, times in tables:
+                mask = (
+                    (table["user"] == user).to_numpy()
+                    & (table["session"] == session).to_numpy()
+                    & (table["target"] == target).to_numpy()
+                )
+                if not np.any(mask):
+                    raise ValueError(f"no {what} rows for user {user!r}, session {session!r}, target {target}")
+                part = table.loc[mask]
+                sample_time = part["time_s"].to_numpy(dtype=float)
+                order = np.argsort(sample_time, kind="stable")
+                sample_time = sample_time[order]
+                index = _latest(sample_time, query, what, f"user {user!r}, target {target}")
+                values[rows] = part[list(value_columns)].to_numpy(dtype=float)[order][index]
+                times[rows] = sample_time[index]
+    position = vectors.position
+    norm = np.linalg.norm(position, axis=-1)
+    pitch = np.arcsin(np.clip(position[:, 2] / np.where(norm > 0, norm, 1.0), -1.0, 1.0))
+    return DynamicData(
+        user=vectors.user,
+        target=vectors.target,
+        target_index=target_index,
+        time_s=vectors.time_s,
+        rss=vectors.rss,
+        label=vectors.label,
+        movement=movement_number(vectors.label),
+        position=position,
+        pitch_true_rad=pitch,
+        acc=acc_values,
+        acc_time_s=acc_time,
+        kinect=kin_values,
+        kinect_time_s=kin_time,
+        segment_length_m=lengths,
+        device_offset_m=offsets,
+        anchors=vectors.anchors,
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# The dynamic campaign: RSS, accelerometers and Kinect of every user
+# --------------------------------------------------------------------------------------------
 
 
 @dataclass(frozen=True, eq=False)
@@ -137,13 +466,13 @@ class DynamicCampaign:
     Attributes
     ----------
     training_rss : pandas.DataFrame
-        Long RSS table (:mod:`wsnlib.rss`) of every user's training session (day 0).
+        Long RSS table (:mod:`wsnlib.io.rss`) of every user's training session (day 0).
     dynamic_rss : pandas.DataFrame
         Long RSS table of every user's online dynamic session (session ``"online_dynamic"``,
         the online day), labels ``P1`` … ``P5`` (short holds), ``M1_…`` … ``M8_…`` and
         ``transition``.
     acc : pandas.DataFrame
-        Long accelerometer table (:mod:`wsnlib.accel_format`, kind "acc") of the dynamic
+        Long accelerometer table (:mod:`wsnlib.io.accel`, kind "acc") of the dynamic
         sessions: 30 Hz, both targets, m/s².  ``attrs["rate_hz"]`` = 30.
     kinect : pandas.DataFrame
         Long Kinect table (kind "kinect"): target positions from the simulated Kinect, 30 fps.
@@ -178,7 +507,7 @@ class DynamicCampaign:
 
     @property
     def chains(self) -> dict[str, ArmChain]:
-        """``{user: ArmChain}`` of the online day (each user's :attr:`~wsnlib.sim.users.User.geometry`)."""
+        """``{user: ArmChain}`` of the online day (each user's :attr:`~wsnlib.sim.body.User.geometry`)."""
         return {u.name: u.geometry for u in self.online_users}
 
 
@@ -231,11 +560,10 @@ def simulate_dynamic_campaign(
     -------
     DynamicCampaign
     """
-    if isinstance(n_users, bool) or not isinstance(n_users, int | np.integer) or n_users < 1:
-        raise ValueError(f"n_users must be a positive integer, got {n_users!r}")
+    n_users = check_count(n_users, "n_users")
     acc_spec = SunspotAccSpec() if acc_spec is None else acc_spec
     kinect_model = KinectModel() if kinect_model is None else kinect_model
-    users = make_users(int(n_users), rng=rng)
+    users = make_users(n_users, rng=rng)
     training, dynamic, acc_frames, kinect_frames = [], [], [], []
     online_users, motions, acc_streams, kinect_streams = [], [], [], []
     for user in users:
@@ -309,25 +637,24 @@ def _chains_json(chains: dict[str, ArmChain]) -> dict:
 def write_dynamic_campaign(campaign: DynamicCampaign, folder, metadata: dict | None = None) -> dict[str, Path]:
     """Write the four tables of ``campaign`` into ``folder`` (:data:`DYNAMIC_FILES`).
 
-    RSS with :func:`wsnlib.rss.write_rss`, accelerometer and Kinect with
-    :func:`wsnlib.accel_format.write_samples`.  Every sidecar's metadata holds ``metadata``
+    RSS with :func:`wsnlib.io.rss.write_rss`, accelerometer and Kinect with
+    :func:`wsnlib.io.accel.write_samples`.  Every sidecar's metadata holds ``metadata``
     (e.g. the seed) and ``arm_chains`` (``{user: {segment_lengths_m, device_offsets_m}}`` of
     the online day, what :func:`read_dynamic_campaign` needs to rebuild :class:`DynamicData`);
     the accelerometer's also the sensor spec, the Kinect's the error model and camera distance.
     Byte-identical on rewrite.
     """
-    if not isinstance(campaign, DynamicCampaign):
-        raise ValueError(f"campaign must be a DynamicCampaign, got {type(campaign).__name__}")
+    check_type(campaign, DynamicCampaign, "campaign")
     folder = Path(folder)
     base = {} if metadata is None else dict(metadata)
     base["arm_chains"] = _chains_json(campaign.chains)
     paths = {
         "training_rss": rss_format.write_rss(campaign.training_rss, folder / DYNAMIC_FILES["training_rss"], base),
         "dynamic_rss": rss_format.write_rss(campaign.dynamic_rss, folder / DYNAMIC_FILES["dynamic_rss"], base),
-        "acc": accel_format.write_acc(
+        "acc": accel.write_acc(
             campaign.acc, folder / DYNAMIC_FILES["acc"], {**base, "acc_spec": dataclasses.asdict(campaign.acc_spec)}
         ),
-        "kinect": accel_format.write_kinect(
+        "kinect": accel.write_kinect(
             campaign.kinect,
             folder / DYNAMIC_FILES["kinect"],
             {**base, "kinect_model": dataclasses.asdict(campaign.kinect_model)},
@@ -353,8 +680,8 @@ def read_dynamic_campaign(folder) -> tuple[dict[str, pd.DataFrame], dict[str, di
     tables, sidecars = {}, {}
     for key in ("training_rss", "dynamic_rss"):
         tables[key], sidecars[key] = rss_format.read_rss(folder / DYNAMIC_FILES[key])
-    tables["acc"], sidecars["acc"] = accel_format.read_acc(folder / DYNAMIC_FILES["acc"])
-    tables["kinect"], sidecars["kinect"] = accel_format.read_kinect(folder / DYNAMIC_FILES["kinect"])
+    tables["acc"], sidecars["acc"] = accel.read_acc(folder / DYNAMIC_FILES["acc"])
+    tables["kinect"], sidecars["kinect"] = accel.read_kinect(folder / DYNAMIC_FILES["kinect"])
     raw = sidecars["dynamic_rss"]["metadata"].get("arm_chains")
     if not isinstance(raw, dict):
         raise ValueError(f"{folder / DYNAMIC_FILES['dynamic_rss']}: sidecar metadata has no 'arm_chains' object")

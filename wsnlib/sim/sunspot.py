@@ -88,10 +88,10 @@ import numpy as np
 
 from wsnlib import frames
 from wsnlib import quaternion as Q
-from wsnlib._validation import as_float_array, check_nonnegative, check_positive
+from wsnlib._validation import as_float_array, check_nonnegative, check_positive, check_rng, check_type
 from wsnlib.arm_model import ArmKinematics
 from wsnlib.sim.arm_motion import ArmMotion
-from wsnlib.sim.users import User
+from wsnlib.sim.body import User
 
 #: Down-sampling methods of :class:`SunspotAccSpec`.
 DOWNSAMPLE_METHODS = ("mean", "latest")
@@ -291,8 +291,7 @@ def ideal_specific_force(kin: ArmKinematics, *, gravity: float = frames.STANDARD
     mounting : array_like (4,) or (2, 4), optional
         Device → segment rotation per target; default identity (device frame = segment frame).
     """
-    if not isinstance(kin, ArmKinematics):
-        raise ValueError(f"kin must be an ArmKinematics, got {type(kin).__name__}")
+    check_type(kin, ArmKinematics, "kin")
     _mounting(mounting)  # validates, with this module's messages
     return np.moveaxis(kin.specific_force(gravity, mounting=mounting), 0, 1)
 
@@ -349,13 +348,9 @@ def simulate_sunspot_acc(
     -------
     SunspotAcc
     """
-    spec = SunspotAccSpec() if spec is None else spec
-    if not isinstance(spec, SunspotAccSpec):
-        raise ValueError(f"spec must be a SunspotAccSpec, got {type(spec).__name__}")
-    if not isinstance(motion, ArmMotion):
-        raise ValueError(f"motion must be an ArmMotion, got {type(motion).__name__}")
-    if not isinstance(rng, np.random.Generator):
-        raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+    spec = check_type(SunspotAccSpec() if spec is None else spec, SunspotAccSpec, "spec")
+    check_type(motion, ArmMotion, "motion")
+    check_rng(rng)
     gravity = check_positive(gravity, "gravity")
     duration = motion.total_duration_s if duration_s is None else check_positive(duration_s, "duration_s")
     fs, rate = spec.sample_rate_hz, spec.output_rate_hz
@@ -390,14 +385,3 @@ def simulate_sunspot_acc(
         out = raw[np.searchsorted(window, np.arange(n_out), side="right") - 1]
     label = motion.kinematics(times, user).label
     return SunspotAcc(time_s=times, acc=out, label=label, raw_time_s=raw_time, raw_acc=raw)
-
-
-__all__ = [
-    "DOWNSAMPLE_METHODS",
-    "SunspotAcc",
-    "SunspotAccSpec",
-    "ideal_specific_force",
-    "output_times",
-    "segment_axis_in_device",
-    "simulate_sunspot_acc",
-]

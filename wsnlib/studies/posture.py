@@ -18,7 +18,7 @@ Two checks of how far the Table 2–3 comparison can be trusted:
 * :func:`with_reference_error`: score everything against a reference derived by hand as the
   paper's was (:func:`wsnlib.sim.optical.hand_derived_reference`), not against the truth;
 * :func:`radio_sensitivity`: rerun a small Table 2 with the assumed radio-channel numbers of
-  :class:`wsnlib.sim.radio.RadioChannel` perturbed (:data:`RADIO_ASSUMPTIONS`).
+  :class:`wsnlib.sim.radio_channel.RadioChannel` perturbed (:data:`RADIO_ASSUMPTIONS`).
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wsnlib._validation import check_count, check_rng, check_type
 from wsnlib.io.rss import rss_vectors
 from wsnlib.optimize import SearchData, evaluate_chain
 from wsnlib.posture import pitch_from_acc
@@ -233,8 +234,7 @@ def with_reference_error(inputs: StudyInputs, *, rng: np.random.Generator,
     -------
     StudyInputs
     """
-    if not isinstance(inputs, StudyInputs):
-        raise ValueError(f"inputs must be a StudyInputs, got {type(inputs).__name__}")
+    check_type(inputs, StudyInputs, "inputs")
     target1, target2 = {}, {}
     for user, data1 in inputs.target1.items():
         data2 = inputs.target2[user]
@@ -251,7 +251,7 @@ def with_reference_error(inputs: StudyInputs, *, rng: np.random.Generator,
 #: The radio-channel numbers marked *assumed* or *unverified* in :mod:`wsnlib.sim.radio`, with the
 #: half-width of their perturbation: ``(field, half_width, kind)``; ``"relative"`` draws
 #: ``value · (1 + h·u)``, ``"additive"`` draws ``value + h·u``, ``u ~ U[−1, 1]`` times ``spread``.
-#: A dotted field is a field of a :class:`~wsnlib.sim.radio.PathLossModel`.  The ranges are
+#: A dotted field is a field of a :class:`~wsnlib.sim.radio_channel.PathLossModel`.  The ranges are
 #: ours: ±50 % for assumed scales and caps, ±100 % (down to 0, up to double) for assumed rates,
 #: offsets and noise, ±20–30 % for the unverified path-loss fits, a few dB for assumed levels.
 RADIO_ASSUMPTIONS = (
@@ -289,7 +289,7 @@ _FRACTIONS = {"day_decorrelation", "interference_fraction", "link_loss_rate", "t
 
 
 def perturbed_channel(factors: dict, channel=None):
-    """A :class:`~wsnlib.sim.radio.RadioChannel` with :data:`RADIO_ASSUMPTIONS` perturbed.
+    """A :class:`~wsnlib.sim.radio_channel.RadioChannel` with :data:`RADIO_ASSUMPTIONS` perturbed.
 
     Parameters
     ----------
@@ -300,7 +300,7 @@ def perturbed_channel(factors: dict, channel=None):
     channel : RadioChannel, optional
         The nominal channel; default ``RadioChannel()``.
     """
-    from wsnlib.sim.radio import RadioChannel
+    from wsnlib.sim.radio_channel import RadioChannel
 
     channel = RadioChannel() if channel is None else channel
     known = {name: (half, kind) for name, half, kind in RADIO_ASSUMPTIONS}
@@ -405,12 +405,10 @@ def radio_sensitivity(*, rng: np.random.Generator, n_draws: int = 8, spread: flo
     from wsnlib.optimize import paper_tables
     from wsnlib.sim.campaign import simulate_dynamic_campaign
 
-    if not isinstance(rng, np.random.Generator):
-        raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+    check_rng(rng)
     if quick:
         n_draws, n_users, hold_s = 2, 1, 4.0
-    if isinstance(n_draws, bool) or not isinstance(n_draws, int | np.integer) or n_draws < 0:
-        raise ValueError(f"n_draws must be a non-negative integer, got {n_draws!r}")
+    check_count(n_draws, "n_draws", 0)
     if n_draws == 0 and not include_nominal:
         raise ValueError("nothing to run: n_draws = 0 and include_nominal = False")
     spread = float(spread)

@@ -34,16 +34,25 @@ order and shape whatever the parameter values (zero levels still consume their d
 calibration grid over the levels uses common random numbers and the same seed always gives
 the same signals.
 
-Calibration against BROAD lives in :mod:`wsnlib.sim.disturbance.calibration`
-(:data:`~wsnlib.sim.disturbance.calibration.UNDISTURBED_BROAD`,
-:data:`~wsnlib.sim.disturbance.calibration.DISTURBED_BROAD`).
+Calibration against BROAD
+-------------------------
+The levels of :data:`UNDISTURBED_BROAD` and :data:`DISTURBED_BROAD` were chosen on a small
+grid so that TRIAD's error on simulated trials of :func:`wsnlib.sim.arm.movement_set`
+(:func:`simulated_triad_errors`) matches the median and 90th percentile that TRIAD reaches on
+BROAD's undisturbed and disturbed trials (:data:`BROAD_TRIAD_ERROR_DEG`, recorded from the 17
+shared trials).  What is measured on BROAD directly, not fitted, is written as such in the
+docstrings of the constants.  :func:`triad_calibration_table` shows the fit out of sample.  The
+grid fit and the recording of the BROAD statistics (``calibrate_disturbance``,
+``broad_triad_errors``, the grids and trials they used) are kept with the tests that rerun
+them, in ``tests/_calibration.py``.
 
 Sources
 -------
 * D. Laidig, M. Caruso, A. Cereatti, T. Seel, "BROAD—A Benchmark for Robust Inertial
   Orientation Estimation", Data 6(7):72, 2021 (CC BY 4.0): the trial groups (undisturbed
   rotation/translation; disturbed by tapping, phone vibration, a stationary magnet, a magnet
-  attached at 2–5 cm), and the recordings from which the numbers below are measured.
+  attached at 2–5 cm), and the recordings from which the numbers of the calibration are
+  measured.
 * Dipole field and µ0/(4π) = 10⁻⁷ T·m/A: J. D. Jackson, *Classical Electrodynamics*, 3rd ed.,
   Section 5.6 (field of a localized current distribution far away: a magnetic dipole).
 * Hard- and soft-iron model: the standard magnetometer error model (offset vector and a
@@ -54,13 +63,15 @@ Sources
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
+import pandas as pd
 
 from wsnlib import quaternion as Q
-from wsnlib._validation import check_nonnegative, check_positive
+from wsnlib._validation import check_count, check_nonnegative, check_positive, check_rng, check_type
 
 #: µ0 / (4π) in µT·m³/(A·m²): B (µT) = 0.1 · (3 (m·r̂) r̂ − m) / r³ with m in A·m², r in m.
 DIPOLE_CONSTANT_UT_M3_PER_AM2 = 1e-7 * 1e6
@@ -185,8 +196,7 @@ def translation_motion(n_samples: int, fs: float, rms_m_s2, band_hz=(0.5, 4.0), 
         Acceleration (m/s²) and displacement (m, ``pos'' = acc`` on the record's circle of
         frequencies, zero mean).
     """
-    if isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer) or n_samples < 2:
-        raise ValueError(f"n_samples must be an integer >= 2, got {n_samples!r}")
+    check_count(n_samples, "n_samples", 2)
     fs = check_positive(fs, "fs")
     rms = np.asarray(rms_m_s2, dtype=float)
     if not np.all(np.isfinite(rms)) or np.any(rms < 0.0):
@@ -244,7 +254,7 @@ def draw_disturbance(disturbance: Disturbance, node_pos_enu, fs: float, batch: t
     disturbance : Disturbance
     node_pos_enu : array_like, shape (N, T, 3)
         Node positions without the translation (m, earth frame), e.g.
-        :attr:`wsnlib.sim.arm.ArmTruth.pos`.
+        :attr:`wsnlib.arm_model.ArmKinematics.pos`.
     fs : float
         Sampling rate (Hz).
     batch : tuple of int
@@ -256,10 +266,8 @@ def draw_disturbance(disturbance: Disturbance, node_pos_enu, fs: float, batch: t
     -------
     DisturbanceSignals
     """
-    if not isinstance(disturbance, Disturbance):
-        raise ValueError(f"disturbance must be a Disturbance, got {type(disturbance).__name__}")
-    if not isinstance(rng, np.random.Generator):
-        raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+    check_type(disturbance, Disturbance, "disturbance")
+    check_rng(rng)
     pos = np.asarray(node_pos_enu, dtype=float)
     if pos.ndim != 3 or pos.shape[-1] != 3:
         raise ValueError(f"node_pos_enu must have shape (N, T, 3), got {pos.shape}")
@@ -321,3 +329,186 @@ def apply_disturbance(quat, acc, mag, signals: DisturbanceSignals) -> tuple[np.n
     field = mag + Q.rotate_inverse(q, signals.dipole_field_enu)
     mag_out = np.einsum("...ij,...j->...i", signals.soft_iron, field) + signals.hard_iron_body
     return acc_out, mag_out
+
+
+# --------------------------------------------------------------------------------------------
+# Calibration against BROAD
+# --------------------------------------------------------------------------------------------
+
+
+def _grid_setting(base: Disturbance, point: dict) -> Disturbance:
+    """``base`` with the grid point's fields replaced; ``magnetic_scale`` multiplies hard iron and dipole."""
+    changes = {key: value for key, value in point.items() if key != "magnetic_scale"}
+    setting = dataclasses.replace(base, **changes)
+    scale = point.get("magnetic_scale", 1.0)
+    return dataclasses.replace(setting, hard_iron_ut=setting.hard_iron_ut * scale,
+                               dipole_moment_am2=setting.dipole_moment_am2 * scale)
+
+
+#: BROAD's trial groups, by the word in the trial name.
+BROAD_GROUPS = ("undisturbed", "disturbed")
+
+#: The error kinds of :func:`wsnlib.metrics.broad_errors_deg` (total rotation angle; its part
+#: about a horizontal axis; its part about the vertical).
+ERROR_KINDS = ("total", "inclination", "heading")
+
+#: TRIAD's errors (°) on BROAD, recorded by ``broad_triad_errors``
+#: (``tests/_calibration.py``) from the 17 shared trials (02, 04, 05, 07, 09, 11, 14, 16
+#: undisturbed; 25, 27, 29–31, 33–36 disturbed), resampled to 50 Hz, pooled over each group's
+#: movement samples with a valid optical reference; median and 90th percentile, rounded to
+#: 0.01°.  The real-data test recomputes them.
+BROAD_TRIAD_ERROR_DEG = {
+    "undisturbed": {"total": {"median": 10.32, "p90": 66.10},
+                    "inclination": {"median": 5.37, "p90": 31.46},
+                    "heading": {"median": 7.13, "p90": 45.64}},
+    "disturbed": {"total": {"median": 26.39, "p90": 112.52},
+                  "inclination": {"median": 12.09, "p90": 47.12},
+                  "heading": {"median": 19.03, "p90": 101.57}},
+}
+
+#: RMS of the linear acceleration (m/s², earth frame: ``q_ref ⊗ acc ⊗ q_ref* − [0, 0, g]``)
+#: on the same samples: geometric mean over each group's trials and the standard deviation of
+#: its log — *measured* on BROAD; the calibration keeps the spreads and fits the levels.
+BROAD_LINEAR_ACC_RMS = {
+    "undisturbed": {"geometric_mean_m_s2": 2.25, "log_sd": 0.98},
+    "disturbed": {"geometric_mean_m_s2": 4.26, "log_sd": 0.61},
+}
+
+#: Soft-iron residual assumed in both groups (2 % of the field per matrix entry): the order of
+#: what remains after a hand-held ellipsoid calibration (AN4246); not fitted.
+SOFT_IRON_STD = 0.02
+
+#: The passing object of the disturbed group before calibration: 1 A·m² — a strong permanent
+#: magnet or a large steel object — passing 0.1–0.5 m from the arm at walking pace, 1 m/s
+#: (*assumed*); the calibration scales it together with the hard iron.
+DISTURBED_DIPOLE_MOMENT_AM2 = 1.0
+
+#: Starting points of the calibration (scale 1 of ``magnetic_scale``): *assumed* magnetic levels
+#: — undisturbed: a 2 µT uncalibrated hard-iron residual (a few % of the 46 µT field, what a
+#: quick calibration leaves); disturbed: a 10 µT offset (BROAD's magnet attached at 2–5 cm
+#: shifts the field norm by up to 20 µT, p10 of ‖mag‖ 23 µT at 2 cm against 44 µT) and the
+#: passing dipole above — and the translation spreads *measured* on BROAD.
+CALIBRATION_BASE = {
+    "undisturbed": Disturbance(translation_acc_rms_m_s2=BROAD_LINEAR_ACC_RMS["undisturbed"]["geometric_mean_m_s2"],
+                               translation_acc_log_sd=BROAD_LINEAR_ACC_RMS["undisturbed"]["log_sd"],
+                               hard_iron_ut=2.0, hard_iron_log_sd=0.5, soft_iron_std=SOFT_IRON_STD),
+    "disturbed": Disturbance(translation_acc_rms_m_s2=BROAD_LINEAR_ACC_RMS["disturbed"]["geometric_mean_m_s2"],
+                             translation_acc_log_sd=BROAD_LINEAR_ACC_RMS["disturbed"]["log_sd"],
+                             hard_iron_ut=10.0, hard_iron_log_sd=1.0, soft_iron_std=SOFT_IRON_STD,
+                             dipole_moment_am2=DISTURBED_DIPOLE_MOMENT_AM2),
+}
+
+#: Calibrated settings (the best points of the grids ``CALIBRATION_GRIDS`` of
+#: ``tests/_calibration.py``).  Undisturbed: body translation of 1.4 m/s² RMS (geometric mean
+#: over trials; BROAD measures 2.25 m/s² on its undisturbed trials, which also include the
+#: arm's own rotation-induced acceleration) with a wide spread (log-sd 1.5 against the
+#: measured 0.98: one fast-translation trial at 19 m/s² makes BROAD's tail) and a 4 µT
+#: hard-iron residual.  Disturbed: 3.25 m/s² (BROAD 4.26), an attached-magnet-like offset of
+#: 12.5 µT (median) and a passing 1.25 A·m² dipole.  Scores 0.045 and 0.014 (sum of four
+#: squared log ratios: the worst statistic off by about 15 % and 10 %).
+UNDISTURBED_BROAD = _grid_setting(CALIBRATION_BASE["undisturbed"], {
+    "translation_acc_rms_m_s2": 1.4, "translation_acc_log_sd": 1.5, "magnetic_scale": 2.0})
+DISTURBED_BROAD = _grid_setting(CALIBRATION_BASE["disturbed"], {
+    "translation_acc_rms_m_s2": 3.25, "translation_acc_log_sd": 1.1, "magnetic_scale": 1.25})
+
+#: The calibrated settings by BROAD group.
+BROAD_CALIBRATED = {"undisturbed": UNDISTURBED_BROAD, "disturbed": DISTURBED_BROAD}
+
+
+def error_statistics(errors_deg) -> dict[str, float]:
+    """Median and 90th percentile (°) of pooled errors: ``{"median": …, "p90": …}``."""
+    e = np.asarray(errors_deg, dtype=float).ravel()
+    if e.size == 0 or not np.all(np.isfinite(e)):
+        raise ValueError("errors_deg must be a non-empty array of finite numbers")
+    return {"median": float(np.median(e)), "p90": float(np.quantile(e, 0.9))}
+
+
+def simulated_triad_errors(disturbance: Disturbance | None, *, rng: np.random.Generator, n_repetitions: int = 16,
+                           fs: float = 50.0, duration_s: float = 8.0) -> dict[str, np.ndarray]:
+    """TRIAD's errors (°) on simulated trials of :func:`wsnlib.sim.arm.movement_set`.
+
+    Every movement is simulated ``n_repetitions`` times (own noise and disturbance) with the
+    datasheet sensor model; the errors are BROAD's (:func:`wsnlib.metrics.broad_errors_deg`)
+    between TRIAD and the truth, on every sample of both nodes (the movements' rests
+    included: the disturbance acts there too).
+
+    Parameters
+    ----------
+    disturbance : Disturbance or None
+        None simulates the clean sensors.
+    rng : numpy.random.Generator
+    n_repetitions : int
+    fs, duration_s : float
+        Sampling rate (Hz) and length (s) of the movements.
+
+    Returns
+    -------
+    dict[str, numpy.ndarray]
+        :data:`ERROR_KINDS` → errors, shape ``(n_movements · n_repetitions · 2 · T,)``.
+    """
+    from wsnlib.metrics import broad_errors_deg
+    from wsnlib.orientation import triad
+    from wsnlib.sim.arm import arm_kinematics, movement_set
+    from wsnlib.sim.imu import simulate_imu
+
+    errors = {kind: [] for kind in ERROR_KINDS}
+    for trajectory in movement_set(fs=fs, duration_s=duration_s).values():
+        truth = arm_kinematics(trajectory)
+        _, acc, mag = simulate_imu(truth, rng=rng, n_runs=n_repetitions, disturbance=disturbance)
+        for kind, value in broad_errors_deg(triad(acc, mag), truth.quat).items():
+            errors[kind].append(value.ravel())
+    return {kind: np.concatenate(value) for kind, value in errors.items()}
+
+
+def error_table(errors: dict) -> dict[str, dict[str, float]]:
+    """:func:`error_statistics` of each error kind: ``{kind: {"median": …, "p90": …}}``."""
+    return {kind: error_statistics(errors[kind]) for kind in ERROR_KINDS}
+
+
+def triad_calibration_table(*, seed: int = 1, n_repetitions: int = 32, broad: dict | None = None,
+                            settings: dict | None = None) -> pd.DataFrame:
+    """TRIAD's error on BROAD beside the clean and the calibrated simulator, per group and error kind.
+
+    Parameters
+    ----------
+    seed : int
+        Seed of the simulated trials; the default differs from the calibration's (0), so the
+        table shows the fit out of sample.
+    n_repetitions : int
+        Repetitions of each of the four movements.
+    broad : dict, optional
+        ``{group: {kind: {"median": …, "p90": …}}}``; default the recorded
+        :data:`BROAD_TRIAD_ERROR_DEG` (``broad_triad_statistics`` of ``tests/_calibration.py``
+        recomputes it from the files).
+    settings : dict, optional
+        ``{group: Disturbance}``; default :data:`BROAD_CALIBRATED`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per (group, error kind) of :data:`BROAD_GROUPS` × :data:`ERROR_KINDS`
+        (MultiIndex ``group``, ``error``); columns ``BROAD median (°)``, ``BROAD p90 (°)``,
+        ``clean sim median (°)``, ``clean sim p90 (°)``, ``calibrated sim median (°)``,
+        ``calibrated sim p90 (°)``.
+
+    Notes
+    -----
+    Result with the defaults (seed 1, 32 repetitions; calibration on seed 0), total error,
+    median / p90: undisturbed BROAD 10.3° / 66.1°, calibrated simulator 10.4° / 59.6°;
+    disturbed BROAD 26.4° / 112.5°, calibrated 30.1° / 103.5°; the clean simulator 0.6° /
+    1.9°.  The tests check the calibrated values within 25 % (``CALIBRATION_TOLERANCE``).
+    """
+    broad = BROAD_TRIAD_ERROR_DEG if broad is None else broad
+    settings = BROAD_CALIBRATED if settings is None else settings
+    clean = error_table(simulated_triad_errors(None, rng=np.random.default_rng(seed), n_repetitions=n_repetitions))
+    rows = []
+    for group in BROAD_GROUPS:
+        sim = error_table(simulated_triad_errors(settings[group], rng=np.random.default_rng(seed),
+                                                 n_repetitions=n_repetitions))
+        for kind in ERROR_KINDS:
+            rows.append({"group": group, "error": kind,
+                         "BROAD median (°)": broad[group][kind]["median"], "BROAD p90 (°)": broad[group][kind]["p90"],
+                         "clean sim median (°)": clean[kind]["median"], "clean sim p90 (°)": clean[kind]["p90"],
+                         "calibrated sim median (°)": sim[kind]["median"],
+                         "calibrated sim p90 (°)": sim[kind]["p90"]})
+    return pd.DataFrame(rows).set_index(["group", "error"])

@@ -1,13 +1,11 @@
-"""The explore panels: the studies compute (wsnlib.studies.burst_loss, .static_fingerprinting),
-wsnlib.plotting draws what they return, and the old wsnlib.views names still do both."""
-
-import time
+"""The explore panels: the studies compute (wsnlib.studies.burst_loss, .static_fingerprinting) and
+wsnlib.plotting draws what they return."""
 
 import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
-from wsnlib import fingerprint, metrics, plotting, views
+from wsnlib import metrics, plotting, radio
 from wsnlib.io.rss import rss_vectors
 from wsnlib.sim import arm_extension, simulate_recording
 from wsnlib.sim.campaign import simulate_campaign
@@ -37,34 +35,31 @@ def _lines(ax):
 
 
 def test_loss_recovery_draws_both_estimators_and_the_lossless_reference(recording):
-    ax = _axes()
-    started = time.perf_counter()
-    views.draw_loss_recovery(ax, recording=recording, beta=0.1, loss_packets=4, loss_start=80)
-    assert time.perf_counter() - started < 2.0
+    result = burst_loss.burst_recovery(recording, beta=0.1, loss_packets=4, loss_start=80)
+    ax = plotting.plot_burst_recovery(result, ax=_axes())
     lines = _lines(ax)
     assert {"data fusion", "single frame", "data fusion, no loss"} <= set(lines)
     assert all(np.all(np.asarray(y) >= 0) for label, y in lines.items() if label != "_child")
     # The loss makes data fusion worse than without it.
     assert lines["data fusion"].max() > lines["data fusion, no loss"].max()
     assert "data fusion: max" in ax.texts[0].get_text()
-    ax = _axes()
-    views.draw_loss_recovery(ax, recording=recording, beta=0.1, loss_packets=0, loss_start=80)
+    result = burst_loss.burst_recovery(recording, beta=0.1, loss_packets=0, loss_start=80)
+    ax = plotting.plot_burst_recovery(result, ax=_axes())
     lines = _lines(ax)
     np.testing.assert_allclose(lines["data fusion"], lines["data fusion, no loss"])
     assert ax.texts[0].get_text() == "data fusion: no loss"
 
 
 def test_hybrid_vs_fusion_tends_to_data_fusion_for_a_large_rho(recording):
-    ax = _axes()
-    views.draw_hybrid_vs_fusion(ax, recording=recording, rho=1.0, tau=6.0, loss_packets=4, beta=0.041, loss_start=80)
-    lines = _lines(ax)
+    result = burst_loss.hybrid_vs_fusion(recording, rho=1.0, tau=6.0, loss_packets=4, beta=0.041, loss_start=80)
+    lines = _lines(plotting.plot_hybrid_vs_fusion(result, ax=_axes()))
     truth = metrics.elbow_angle_deg(recording.quat_true[0], recording.quat_true[1])
     np.testing.assert_allclose(lines["truth"], truth)
     error = {name: np.abs(lines[name] - truth).mean() for name in ("data fusion", "hybrid")}
     assert error["hybrid"] < error["data fusion"]
-    ax = _axes()
-    views.draw_hybrid_vs_fusion(ax, recording=recording, rho=1e9, tau=6.0, loss_packets=4, beta=0.041,
-                                loss_start=80, blend="feedback")
+    result = burst_loss.hybrid_vs_fusion(recording, rho=1e9, tau=6.0, loss_packets=4, beta=0.041, loss_start=80,
+                                         blend="feedback")
+    ax = plotting.plot_hybrid_vs_fusion(result, ax=_axes())
     lines = _lines(ax)
     np.testing.assert_allclose(lines["hybrid"], lines["data fusion"], atol=1e-3)
     assert ax.texts[0].get_text().count("max") == 2
@@ -72,21 +67,18 @@ def test_hybrid_vs_fusion_tends_to_data_fusion_for_a_large_rho(recording):
 
 def test_static_fingerprinting_bars_match_knn(campaign_vectors):
     train, online = campaign_vectors
-    ax = _axes()
-    views.draw_static_fingerprinting(ax, train=train, online=online, n_neighbors=1, power=1, anchors=("A1", "A4"))
+    result = static_fingerprinting.static_fingerprinting(train, online, n_neighbors=1, power=1, anchors=("A1", "A4"))
+    ax = plotting.plot_static_fingerprinting(result, ax=_axes())
     heights = sorted(round(patch.get_height(), 6) for patch in ax.patches)
     assert len(heights) == 10  # five postures, two targets
-    estimate = fingerprint.fit_predict_by_group(
-        fingerprint.KNNFingerprint(1, anchors=[0, 3]), train.rss, train.position,
+    estimate = radio.fit_predict_by_group(
+        radio.KNNFingerprint(1, anchors=[0, 3]), train.rss, train.position,
         np.char.add(train.user.astype(str), train.target.astype(str)), online.rss,
         np.char.add(online.user.astype(str), online.target.astype(str)))
     error_cm = 100 * metrics.position_error(estimate, online.position)
     expected = sorted(round(error_cm[(online.label == p) & (online.target == t)].mean(), 6)
                       for p in np.unique(online.label) for t in ("T1", "T2"))
     np.testing.assert_allclose(heights, expected)
-    ax = _axes()
-    views.draw_static_fingerprinting(ax, train=train, online=online, n_neighbors=3, power=1, anchors=())
-    assert not ax.patches and "at least one anchor" in ax.texts[0].get_text()
 
 
 def test_burst_recovery_returns_what_the_plot_draws(recording):
@@ -103,11 +95,6 @@ def test_burst_recovery_returns_what_the_plot_draws(recording):
     lines = _lines(ax)
     for name, error in result.pitch_error_deg.items():
         np.testing.assert_array_equal(lines[name], np.abs(error))
-    # The old draw function draws the same lines and note.
-    old = views.draw_loss_recovery(_axes(), recording=recording, beta=0.1, loss_packets=4, loss_start=80)
-    for name, values in _lines(old).items():
-        np.testing.assert_array_equal(values, lines[name])
-    assert old.texts[0].get_text() == ax.texts[0].get_text()
     no_loss = burst_loss.burst_recovery(recording, beta=0.1, loss_packets=0, loss_start=80)
     assert no_loss.first_lost is None and no_loss.received.all()
     assert no_loss.recovery == burst_loss.RecoveryAfterBurst(peak_deg=None, recovery_s=None)
@@ -146,4 +133,3 @@ def test_static_fingerprinting_returns_what_the_plot_draws(campaign_vectors):
         static_fingerprinting.static_fingerprinting(train, online, n_neighbors=1, power=1, anchors=())
     with pytest.raises(ValueError, match="not in train.anchors"):
         static_fingerprinting.static_fingerprinting(train, online, n_neighbors=1, power=1, anchors=("A99",))
-
