@@ -27,6 +27,26 @@ Kinect and the paper's hand-derived reference (:mod:`.optical`) and whole campai
     train = training_session(users[0], rng=rng)                     # long RSS table
     online = online_dynamic_session(users[0].moved(rng), rng=rng)   # another day
     kin = movement("lower_P2_P3_P1", 3.0).sample(users[0], fs=50.0)  # ArmKinematics
+
+Which notebook each module serves (directly, or through :mod:`wsnlib.studies`; "sol": the
+solutions notebook of the same number; notebook 05 uses only the arm, for the paper's movement,
+notebook 10 nothing, and ``benchmarks/bench_madgwick.py`` uses :mod:`.arm` and :mod:`.imu`):
+
+=====================  =================================================================================
+module                 notebooks
+=====================  =================================================================================
+:mod:`.arm`            01–05, sol 01–04
+:mod:`.imu`            01–04, sol 01–04
+:mod:`.disturbance`    03, sol 03 (the model is reached through ``simulate_imu`` in 01–04)
+:mod:`.trials`         03, 04, sol 03, sol 04
+:mod:`.body`           06–09, sol 06–09
+:mod:`.arm_motion`     06–09, sol 06–09
+:mod:`.radio_channel`  06–09, sol 06–09 (08 also perturbs it: radio sensitivity)
+:mod:`.radio`          06–09, sol 06–09
+:mod:`.sunspot`        07–09, sol 07–09
+:mod:`.optical`        Kinect 07–09 and sol 07–09; the hand-derived reference 09 only
+:mod:`.campaign`       06 and sol 06 (``simulate_campaign``); 07–09 and sol 07–09 (``dynamic_campaign``)
+=====================  =================================================================================
 """
 
 from wsnlib.sim.arm import (
