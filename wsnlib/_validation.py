@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import numbers
 
@@ -102,3 +103,33 @@ def check_type(value, cls: type, name: str):
         article = "an" if cls.__name__[0] in "AEIOU" else "a"
         raise ValueError(f"{name} must be {article} {cls.__name__}, got {type(value).__name__}")
     return value
+
+
+def check_settings_fields(settings, *, may_be_zero=(), may_be_infinite=None, integers=None,
+                          largest: float = 1e100) -> None:
+    """Check and normalise, in place, every field of a frozen settings dataclass: a number > 0.
+
+    ``may_be_zero``: fields that may be 0 (a feature off); ``may_be_infinite``: fields that may
+    be ``inf`` (None: every field); ``integers``: field → largest whole value allowed; finite
+    values above ``largest`` are refused (they would overflow when squared).  Each error names
+    ``Class.field``.
+    """
+    integers = integers or {}
+    for f in dataclasses.fields(settings):
+        name, value = f"{type(settings).__name__}.{f.name}", getattr(settings, f.name)
+        try:
+            number = float(value)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{name} must be a number, got {value!r}") from exc
+        if not (number == 0.0 and f.name in may_be_zero):
+            if math.isnan(number) or number <= 0.0:
+                raise ValueError(f"{name} must be > 0, got {value!r}")
+            if math.isinf(number) and may_be_infinite is not None and f.name not in may_be_infinite:
+                raise ValueError(f"{name} must be finite, got {value!r}")
+            if largest < number < math.inf:
+                raise ValueError(f"{name} = {value!r} is too large (> {largest:g})")
+            if f.name in integers:
+                if number != round(number) or number > integers[f.name]:
+                    raise ValueError(f"{name} must be a whole number in [1, {integers[f.name]}], got {value!r}")
+                number = int(number)
+        object.__setattr__(settings, f.name, number)

@@ -20,12 +20,12 @@ there (:func:`single_frame_trusted` gives the mask).
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from wsnlib._validation import check_settings_fields
 from wsnlib.orientation import _batch as B
 from wsnlib.orientation import _kernels as K
 from wsnlib.orientation.lost_run import DEFAULT_HOLD_WINDOW, SCHEDULE_CODES, SCHEDULES
@@ -88,15 +88,7 @@ class SingleFrameGate:
     reference_tau_s: float = 20.0
 
     def __post_init__(self):
-        for f in dataclasses.fields(self):
-            value = getattr(self, f.name)
-            try:
-                number = float(value)
-            except (TypeError, ValueError) as exc:
-                raise ValueError(f"SingleFrameGate.{f.name} must be a number, got {value!r}") from exc
-            if math.isnan(number) or number <= 0.0:
-                raise ValueError(f"SingleFrameGate.{f.name} must be > 0 (inf: off), got {value!r}")
-            object.__setattr__(self, f.name, number)
+        check_settings_fields(self)  # every tolerance > 0, inf allowed (that check off)
 
     def vector(self, fs: float) -> np.ndarray:
         """The kernels' gate vector (:data:`wsnlib.orientation._kernels.GATE_SIZE` floats) at ``fs`` (Hz)."""

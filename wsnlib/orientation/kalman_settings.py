@@ -7,9 +7,10 @@ as one vector (:func:`wsnlib.orientation._kalman_layout.kalman_settings_vector`)
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
+
+from wsnlib._validation import check_settings_fields
 
 # ==========================================================================================
 # Settings
@@ -180,27 +181,8 @@ class KalmanSettings:
     acc_disturbance_tau_s: float = 0.5
 
     def __post_init__(self):
-        for f in dataclasses.fields(self):
-            value = getattr(self, f.name)
-            try:
-                number = float(value)
-            except (TypeError, ValueError) as exc:
-                raise ValueError(f"KalmanSettings.{f.name} must be a number, got {value!r}") from exc
-            if number == 0.0 and f.name in _MAY_BE_ZERO:
-                object.__setattr__(self, f.name, number)
-                continue
-            if math.isnan(number) or number <= 0.0:
-                raise ValueError(f"KalmanSettings.{f.name} must be > 0, got {value!r}")
-            if math.isinf(number) and f.name not in _MAY_BE_INFINITE:
-                raise ValueError(f"KalmanSettings.{f.name} must be finite, got {value!r}")
-            if number > _LARGEST_SETTING and not math.isinf(number):
-                raise ValueError(f"KalmanSettings.{f.name} = {value!r} is too large (> {_LARGEST_SETTING:g})")
-            if f.name in _INTEGER_SETTINGS:
-                if number != round(number) or number > _LARGEST_ORDER:
-                    raise ValueError(f"KalmanSettings.{f.name} must be a whole number in [1, {_LARGEST_ORDER}], "
-                                     f"got {value!r}")
-                number = int(number)
-            object.__setattr__(self, f.name, number)
+        check_settings_fields(self, may_be_zero=_MAY_BE_ZERO, may_be_infinite=_MAY_BE_INFINITE,
+                              integers={name: _LARGEST_ORDER for name in _INTEGER_SETTINGS}, largest=_LARGEST_SETTING)
 
 
 #: Settings that may be 0 (switches the feature off).

@@ -36,7 +36,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from wsnlib import fixed_order, frames
-from wsnlib._validation import as_float_array, check_nonzero_norm, check_positive
+from wsnlib._validation import check_positive
+from wsnlib.orientation.triad import unit_observations
 from wsnlib.quaternion import canonical, conjugate, from_scipy, multiply
 
 #: Default weights (accelerometer, magnetometer): gravity's direction is far more reliable than
@@ -45,14 +46,7 @@ DEFAULT_WEIGHTS = (1.0, 0.1)
 
 
 def _observations(acc, mag, weights):
-    acc = as_float_array(acc, "acc", last_dim=3)
-    mag = as_float_array(mag, "mag", last_dim=3)
-    try:
-        shape = np.broadcast_shapes(acc.shape, mag.shape)
-    except ValueError as exc:
-        raise ValueError(f"acc {acc.shape} and mag {mag.shape} do not broadcast") from exc
-    b_acc = acc / check_nonzero_norm(acc, "acc", "free fall has no gravity direction")[..., None]
-    b_mag = mag / check_nonzero_norm(mag, "mag", "a magnetometer reading needs a direction")[..., None]
+    b_acc, b_mag, shape = unit_observations(acc, mag)
     if len(weights) != 2:
         raise ValueError(f"weights must be two numbers (acc, mag), got {weights!r}")
     w = (check_positive(weights[0], "weights[0]"), check_positive(weights[1], "weights[1]"))

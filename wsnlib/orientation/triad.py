@@ -35,6 +35,19 @@ def _unit(v: np.ndarray, name: str, what: str) -> np.ndarray:
     return v / check_nonzero_norm(v, name, what)[..., None]
 
 
+def unit_observations(acc, mag):
+    """``acc`` and ``mag`` ``(..., 3)`` as unit vectors, and their broadcast shape: the checks every
+    single-frame solver shares (``ValueError`` on shapes, NaN/inf or a zero vector, naming it)."""
+    acc = as_float_array(acc, "acc", last_dim=3)
+    mag = as_float_array(mag, "mag", last_dim=3)
+    try:
+        shape = np.broadcast_shapes(acc.shape, mag.shape)
+    except ValueError as exc:
+        raise ValueError(f"acc {acc.shape} and mag {mag.shape} do not broadcast") from exc
+    return (_unit(acc, "acc", "free fall or a broken accelerometer has no gravity direction"),
+            _unit(mag, "mag", "a magnetometer reading needs a direction"), shape)
+
+
 def triad(acc, mag) -> np.ndarray:
     """Orientation from one accelerometer and one magnetometer sample (TRIAD).
 
@@ -60,14 +73,7 @@ def triad(acc, mag) -> np.ndarray:
         If ``acc`` or ``mag`` is not ``(..., 3)``, holds NaN/inf or a zero vector, if the
         shapes do not broadcast, or if ``acc`` and ``mag`` are parallel (heading undefined).
     """
-    acc = as_float_array(acc, "acc", last_dim=3)
-    mag = as_float_array(mag, "mag", last_dim=3)
-    try:
-        shape = np.broadcast_shapes(acc.shape, mag.shape)
-    except ValueError as exc:
-        raise ValueError(f"acc {acc.shape} and mag {mag.shape} do not broadcast") from exc
-    s1 = _unit(acc, "acc", "free fall or a broken accelerometer has no gravity direction")
-    m = _unit(mag, "mag", "a magnetometer reading needs a direction")
+    s1, m, shape = unit_observations(acc, mag)
     sin_angle = np.linalg.norm(np.cross(s1, m), axis=-1)
     if np.any(sin_angle < _PARALLEL_SIN_TOL):
         bad = np.argwhere(sin_angle < _PARALLEL_SIN_TOL)[0]
