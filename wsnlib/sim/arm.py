@@ -201,20 +201,16 @@ def minimum_jerk(t, start_s: float, rise_s: float) -> tuple[np.ndarray, np.ndarr
     return s, ds, dds
 
 
-def _constant(value: float, n: int) -> np.ndarray:
-    return np.full(n, float(value))
+def _pitch_angles(heading_deg: float, pitch: np.ndarray, axial_deg: float) -> np.ndarray:
+    """Joint angles (T, 4): constant heading and axial rotation (degrees), ``pitch`` (rad), elbow 0."""
+    n = pitch.size
+    return np.stack([np.full(n, float(np.radians(heading_deg))), pitch, np.full(n, float(np.radians(axial_deg))),
+                     np.zeros(n)], axis=-1)
 
 
-def arm_extension(
-    fs: float = 50.0,
-    duration_s: float = 6.0,
-    start_s: float = 1.0,
-    rise_s: float = 2.0,
-    pitch_start_deg: float = -90.0,
-    pitch_end_deg: float = 0.0,
-    heading_deg: float = 0.0,
-    axial_deg: float = 0.0,
-) -> ArmTrajectory:
+def arm_extension(fs: float = 50.0, duration_s: float = 6.0, start_s: float = 1.0, rise_s: float = 2.0,
+                  pitch_start_deg: float = -90.0, pitch_end_deg: float = 0.0, heading_deg: float = 0.0,
+                  axial_deg: float = 0.0) -> ArmTrajectory:
     """The paper's "90° arm extension": the straight arm rises from rest, then rests again.
 
     Humerus and forearm move jointly aligned (elbow flexion 0 throughout).  The humerus
@@ -244,43 +240,21 @@ def arm_extension(
     """
     fs, t = _time_axis(fs, duration_s)
     check_nonnegative(start_s, "start_s")
-    check_positive(rise_s, "rise_s")
     s, ds, dds = minimum_jerk(t, start_s, rise_s)
     span = np.radians(float(pitch_end_deg) - float(pitch_start_deg))
     n = t.size
-    angles = np.stack(
-        [
-            _constant(np.radians(heading_deg), n),
-            np.radians(float(pitch_start_deg)) + span * s,
-            _constant(np.radians(axial_deg), n),
-            np.zeros(n),
-        ],
-        axis=-1,
-    )
+    angles = _pitch_angles(heading_deg, np.radians(float(pitch_start_deg)) + span * s, axial_deg)
     rates = np.stack([np.zeros(n), span * ds, np.zeros(n), np.zeros(n)], axis=-1)
     accelerations = np.stack([np.zeros(n), span * dds, np.zeros(n), np.zeros(n)], axis=-1)
-    metadata = {
-        "generator": "wsnlib.sim.arm.arm_extension",
-        "fs": fs,
-        "duration_s": float(duration_s),
-        "start_s": float(start_s),
-        "rise_s": float(rise_s),
-        "pitch_start_deg": float(pitch_start_deg),
-        "pitch_end_deg": float(pitch_end_deg),
-        "heading_deg": float(heading_deg),
-        "axial_deg": float(axial_deg),
-    }
+    metadata = {"generator": "wsnlib.sim.arm.arm_extension", "fs": fs, "duration_s": float(duration_s),
+                "start_s": float(start_s), "rise_s": float(rise_s), "pitch_start_deg": float(pitch_start_deg),
+                "pitch_end_deg": float(pitch_end_deg), "heading_deg": float(heading_deg),
+                "axial_deg": float(axial_deg)}
     return ArmTrajectory(fs, t, angles, rates, accelerations, metadata)
 
 
-def pitch_ramp(
-    fs: float = 50.0,
-    duration_s: float = 60.0,
-    pitch_start_deg: float = -60.0,
-    pitch_end_deg: float = 60.0,
-    heading_deg: float = 0.0,
-    axial_deg: float = 0.0,
-) -> ArmTrajectory:
+def pitch_ramp(fs: float = 50.0, duration_s: float = 60.0, pitch_start_deg: float = -60.0, pitch_end_deg: float = 60.0,
+               heading_deg: float = 0.0, axial_deg: float = 0.0) -> ArmTrajectory:
     """Humerus pitch growing linearly with time, forearm aligned (paper 001, Fig. 2).
 
     The pitch goes from ``pitch_start_deg`` at t = 0 to ``pitch_end_deg`` at the last sample,
@@ -308,38 +282,18 @@ def pitch_ramp(
             raise ValueError(f"{name} must lie in [-90, 90] degrees, got {value!r}")
     n = t.size
     rate = np.radians(float(pitch_end_deg) - float(pitch_start_deg)) / t[-1]
-    angles = np.stack(
-        [
-            _constant(np.radians(heading_deg), n),
-            np.radians(float(pitch_start_deg)) + rate * t,
-            _constant(np.radians(axial_deg), n),
-            np.zeros(n),
-        ],
-        axis=-1,
-    )
+    angles = _pitch_angles(heading_deg, np.radians(float(pitch_start_deg)) + rate * t, axial_deg)
     rates = np.zeros((n, 4))
     rates[:, 1] = rate
-    metadata = {
-        "generator": "wsnlib.sim.arm.pitch_ramp",
-        "fs": fs,
-        "duration_s": float(duration_s),
-        "pitch_start_deg": float(pitch_start_deg),
-        "pitch_end_deg": float(pitch_end_deg),
-        "heading_deg": float(heading_deg),
-        "axial_deg": float(axial_deg),
-    }
+    metadata = {"generator": "wsnlib.sim.arm.pitch_ramp", "fs": fs, "duration_s": float(duration_s),
+                "pitch_start_deg": float(pitch_start_deg), "pitch_end_deg": float(pitch_end_deg),
+                "heading_deg": float(heading_deg), "axial_deg": float(axial_deg)}
     return ArmTrajectory(fs, t, angles, rates, np.zeros((n, 4)), metadata)
 
 
-def reach_and_flex(
-    fs: float = 50.0,
-    duration_s: float = 6.0,
-    start_s: float = 1.0,
-    rise_s: float = 2.5,
-    pitch_end_deg: float = -20.0,
-    heading_end_deg: float = 30.0,
-    elbow_end_deg: float = 90.0,
-) -> ArmTrajectory:
+def reach_and_flex(fs: float = 50.0, duration_s: float = 6.0, start_s: float = 1.0, rise_s: float = 2.5,
+                   pitch_end_deg: float = -20.0, heading_end_deg: float = 30.0,
+                   elbow_end_deg: float = 90.0) -> ArmTrajectory:
     """A three-joint movement: the arm rises and swings sideways while the elbow flexes.
 
     From hanging (pitch −90°, heading 0°, elbow straight) to ``pitch_end_deg``,
@@ -361,23 +315,15 @@ def reach_and_flex(
     """
     fs, t = _time_axis(fs, duration_s)
     check_nonnegative(start_s, "start_s")
-    check_positive(rise_s, "rise_s")
     s, ds, dds = minimum_jerk(t, start_s, rise_s)
     start = np.radians([0.0, -90.0, 0.0, 0.0])
     span = np.radians([float(heading_end_deg), float(pitch_end_deg) + 90.0, 0.0, float(elbow_end_deg)])
     angles = start + s[:, None] * span
     rates = ds[:, None] * span
     accelerations = dds[:, None] * span
-    metadata = {
-        "generator": "wsnlib.sim.arm.reach_and_flex",
-        "fs": fs,
-        "duration_s": float(duration_s),
-        "start_s": float(start_s),
-        "rise_s": float(rise_s),
-        "pitch_end_deg": float(pitch_end_deg),
-        "heading_end_deg": float(heading_end_deg),
-        "elbow_end_deg": float(elbow_end_deg),
-    }
+    metadata = {"generator": "wsnlib.sim.arm.reach_and_flex", "fs": fs, "duration_s": float(duration_s),
+                "start_s": float(start_s), "rise_s": float(rise_s), "pitch_end_deg": float(pitch_end_deg),
+                "heading_end_deg": float(heading_end_deg), "elbow_end_deg": float(elbow_end_deg)}
     return ArmTrajectory(fs, t, angles, rates, accelerations, metadata)
 
 
@@ -489,17 +435,8 @@ def arm_kinematics(trajectory: ArmTrajectory, geometry: ArmGeometry | None = Non
     quat = np.where((flips % 2 == 1)[..., None], -quat, quat)
     quat = quat / np.linalg.norm(quat, axis=-1, keepdims=True)
 
-    return ArmKinematics(
-        fs=trajectory.fs,
-        time_s=trajectory.t.copy(),
-        nodes=NODE_NAMES,
-        quat=quat,
-        gyr=np.stack([humerus[1], forearm[1]]),
-        ang_acc=np.stack([humerus[2], forearm[2]]),
-        pos=np.stack([p_h, p_e + p_fr]),
-        vel=np.stack([v_h, v_e + v_fr]),
-        acc_lin=np.stack([a_h, a_e + a_fr]),
-        joint_pos=np.stack([np.zeros((n, 3)), p_e, p_w]),
-        geometry=geometry,
-        trajectory=trajectory,
-    )
+    return ArmKinematics(fs=trajectory.fs, time_s=trajectory.t.copy(), nodes=NODE_NAMES, quat=quat,
+                         gyr=np.stack([humerus[1], forearm[1]]), ang_acc=np.stack([humerus[2], forearm[2]]),
+                         pos=np.stack([p_h, p_e + p_fr]), vel=np.stack([v_h, v_e + v_fr]),
+                         acc_lin=np.stack([a_h, a_e + a_fr]), joint_pos=np.stack([np.zeros((n, 3)), p_e, p_w]),
+                         geometry=geometry, trajectory=trajectory)

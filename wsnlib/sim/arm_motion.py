@@ -131,13 +131,8 @@ class ArmMotion:
         n = len(self.labels)
         if n == 0:
             raise ValueError("an ArmMotion needs at least one piece")
-        for name, shape in (
-            ("start_s", (n,)),
-            ("duration_s", (n,)),
-            ("quat_start", (n, 4)),
-            ("axis", (n, 3)),
-            ("speed", (n,)),
-        ):
+        for name, shape in (("start_s", (n,)), ("duration_s", (n,)), ("quat_start", (n, 4)), ("axis", (n, 3)),
+                            ("speed", (n,))):
             arr = as_float_array(getattr(self, name), name)
             if arr.shape != shape:
                 raise ValueError(f"{name} must have shape {shape}, got {arr.shape}")
@@ -230,20 +225,9 @@ class ArmMotion:
         quat2 = np.repeat(quat[None, :, :], 2, axis=0)
         upper, fore = geometry.segment_lengths_m
         joints = np.stack([np.zeros_like(direction), upper * direction, (upper + fore) * direction])
-        return ArmKinematics(
-            time_s=t.copy(),
-            quat=quat2,
-            gyr=Q.rotate_inverse(quat2, w),
-            ang_acc=np.zeros_like(r),
-            pos=r,
-            vel=velocity,
-            acc_lin=acceleration,
-            joint_pos=joints,
-            geometry=geometry,
-            fs=fs,
-            label=np.array(self.labels, dtype=object)[idx],
-            trajectory=self,
-        )
+        return ArmKinematics(time_s=t.copy(), quat=quat2, gyr=Q.rotate_inverse(quat2, w), ang_acc=np.zeros_like(r),
+                             pos=r, vel=velocity, acc_lin=acceleration, joint_pos=joints, geometry=geometry, fs=fs,
+                             label=np.array(self.labels, dtype=object)[idx], trajectory=self)
 
     def sample(self, user, fs: float = 30.0) -> ArmKinematics:
         """:meth:`kinematics` at ``k / fs`` for ``k = 0 … round(total · fs)`` (both ends included)."""
@@ -253,14 +237,9 @@ class ArmMotion:
 
 
 def _single_piece(duration_s, quat_start, axis, speed, label) -> ArmMotion:
-    return ArmMotion(
-        start_s=np.zeros(1),
-        duration_s=np.array([check_positive(duration_s, "duration_s")]),
-        quat_start=np.asarray(quat_start, dtype=float)[None],
-        axis=np.asarray(axis, dtype=float)[None],
-        speed=np.array([speed]),
-        labels=(label,),
-    )
+    return ArmMotion(start_s=np.zeros(1), duration_s=np.array([check_positive(duration_s, "duration_s")]),
+                     quat_start=np.asarray(quat_start, dtype=float)[None], axis=np.asarray(axis, dtype=float)[None],
+                     speed=np.array([speed]), labels=(label,))
 
 
 def hold(posture_or_direction, duration_s: float, *, label: str | None = None, q_start=None) -> ArmMotion:
@@ -287,15 +266,7 @@ def hold(posture_or_direction, duration_s: float, *, label: str | None = None, q
     return _single_piece(duration_s, q, [0.0, 0.0, 1.0], 0.0, label)
 
 
-def arc(
-    direction_start,
-    direction_end,
-    duration_s: float,
-    *,
-    via=None,
-    label: str = "arc",
-    q_start=None,
-) -> ArmMotion:
+def arc(direction_start, direction_end, duration_s: float, *, via=None, label: str = "arc", q_start=None) -> ArmMotion:
     """Constant-angular-speed great-circle arc of the straight arm (SLERP of directions).
 
     Parameters
@@ -339,11 +310,8 @@ def arc(
         angles.append(angle)
         axes.append(cross / fixed_order.norm(cross))
     speed = sum(angles) / duration
-    q = (
-        direction_orientation(points[0])
-        if q_start is None
-        else Q.normalize(as_float_array(q_start, "q_start", last_dim=4))
-    )
+    q = (direction_orientation(points[0]) if q_start is None
+         else Q.normalize(as_float_array(q_start, "q_start", last_dim=4)))
     if not np.allclose(Q.rotate(q, [1.0, 0.0, 0.0]), points[0], atol=1e-6):
         raise ValueError("q_start does not point the arm along direction_start")
     starts, quats = [], []
@@ -353,14 +321,8 @@ def arc(
         quats.append(q)
         q = Q.multiply(Q.from_axis_angle(axis, angle), q)
         t += angle / speed
-    return ArmMotion(
-        start_s=np.array(starts),
-        duration_s=np.array(angles) / speed,
-        quat_start=np.array(quats),
-        axis=np.array(axes),
-        speed=np.full(len(angles), speed),
-        labels=(label,) * len(angles),
-    )
+    return ArmMotion(start_s=np.array(starts), duration_s=np.array(angles) / speed, quat_start=np.array(quats),
+                     axis=np.array(axes), speed=np.full(len(angles), speed), labels=(label,) * len(angles))
 
 
 def movement(name: str, duration_s: float, *, label: str | None = None) -> ArmMotion:
@@ -444,14 +406,9 @@ def concatenate(motions) -> ArmMotion:
         speeds.append(m.speed)
         labels.extend(m.labels)
         offset += m.total_duration_s
-    return ArmMotion(
-        start_s=np.concatenate(starts),
-        duration_s=np.concatenate(durations),
-        quat_start=np.concatenate(quats),
-        axis=np.concatenate(axes),
-        speed=np.concatenate(speeds),
-        labels=tuple(labels),
-    )
+    return ArmMotion(start_s=np.concatenate(starts), duration_s=np.concatenate(durations),
+                     quat_start=np.concatenate(quats), axis=np.concatenate(axes), speed=np.concatenate(speeds),
+                     labels=tuple(labels))
 
 
 def jittered_direction(posture: str, sigma_deg: float, rng: np.random.Generator) -> np.ndarray:
