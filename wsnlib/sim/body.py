@@ -157,22 +157,13 @@ _WORN_SITES_175 = {
 
 #: Room anchor sites: (x, y) on the floor plan relative to the user's floor mark (m) and
 #: height above the floor (m).
-_ROOM_SITES = {
-    "A2": (1.0, 1.5, 0.75),
-    "A3": (2.0, -0.3, 1.80),
-    "A5": (-1.2, 2.5, 1.20),
-}
+_ROOM_SITES = {"A2": (1.0, 1.5, 0.75), "A3": (2.0, -0.3, 1.80), "A5": (-1.2, 2.5, 1.20)}
 
 #: Antenna axis of each anchor (unit vector, shoulder frame; assumed): worn nodes stand
 #: upright in their pocket, the hat node lies flat pointing forward, room nodes stand upright.
 ANCHOR_AXES: dict[str, tuple[float, float, float]] = {
-    "A1": (0.0, 0.0, 1.0),
-    "A2": (0.0, 0.0, 1.0),
-    "A3": (0.0, 0.0, 1.0),
-    "A4": (0.0, 0.0, 1.0),
-    "A5": (0.0, 0.0, 1.0),
-    "A6": (0.0, 0.0, 1.0),
-    "A7": (0.0, 1.0, 0.0),
+    "A1": (0.0, 0.0, 1.0), "A2": (0.0, 0.0, 1.0), "A3": (0.0, 0.0, 1.0), "A4": (0.0, 0.0, 1.0),
+    "A5": (0.0, 0.0, 1.0), "A6": (0.0, 0.0, 1.0), "A7": (0.0, 1.0, 0.0),
 }
 
 
@@ -232,9 +223,8 @@ class User:
     forearm_m: float
     target_distances_m: tuple[float, float]
     anchor_positions_m: np.ndarray
-    anchor_axes: np.ndarray = field(
-        default_factory=lambda: np.array([ANCHOR_AXES[a] for a in ANCHOR_NAMES], dtype=float)
-    )
+    anchor_axes: np.ndarray = field(default_factory=lambda: np.array([ANCHOR_AXES[a] for a in ANCHOR_NAMES],
+                                                                     dtype=float))
     body: BodyShape = field(default_factory=BodyShape)
     environment_seed: int = 0
     day: int = 0
@@ -245,10 +235,8 @@ class User:
             object.__setattr__(self, name, check_positive(getattr(self, name), name))
         d = as_float_array(self.target_distances_m, "target_distances_m")
         if d.shape != (2,) or not (0.0 < d[0] <= self.upper_arm_m < d[1] <= self.upper_arm_m + self.forearm_m):
-            raise ValueError(
-                "target_distances_m must be (d1, d2) with T1 on the upper arm and T2 on the forearm, "
-                f"got {tuple(d)} for upper arm {self.upper_arm_m:g} m and forearm {self.forearm_m:g} m"
-            )
+            raise ValueError("target_distances_m must be (d1, d2) with T1 on the upper arm and T2 on the forearm, "
+                             f"got {tuple(d)} for upper arm {self.upper_arm_m:g} m and forearm {self.forearm_m:g} m")
         object.__setattr__(self, "target_distances_m", (float(d[0]), float(d[1])))
         for name in ("anchor_positions_m", "anchor_axes"):
             arr = as_float_array(getattr(self, name), name, last_dim=3)
@@ -290,25 +278,12 @@ class User:
 
     def to_dict(self) -> dict:
         """JSON-ready parameters (for recording sidecars)."""
-        return {
-            "name": self.name,
-            "height_m": self.height_m,
-            "upper_arm_m": self.upper_arm_m,
-            "forearm_m": self.forearm_m,
-            "target_distances_m": list(self.target_distances_m),
-            "anchor_positions_m": self.anchor_dict(),
-            "environment_seed": self.environment_seed,
-            "day": self.day,
-        }
+        return {"name": self.name, "height_m": self.height_m, "upper_arm_m": self.upper_arm_m,
+                "forearm_m": self.forearm_m, "target_distances_m": list(self.target_distances_m),
+                "anchor_positions_m": self.anchor_dict(), "environment_seed": self.environment_seed, "day": self.day}
 
-    def moved(
-        self,
-        rng: np.random.Generator,
-        *,
-        worn_sigma_m: float = 0.015,
-        stance_sigma_m: float = 0.02,
-        target_sigma_m: float = 0.01,
-    ) -> User:
+    def moved(self, rng: np.random.Generator, *, worn_sigma_m: float = 0.015, stance_sigma_m: float = 0.02,
+              target_sigma_m: float = 0.01) -> User:
         """The same user on another day: t-shirt re-donned, back on the floor mark, targets re-strapped.
 
         Parameters
@@ -329,18 +304,16 @@ class User:
             ``day`` incremented, same ``environment_seed``.
         """
         anchors = _jitter_anchors(self.anchor_positions_m, rng, worn_sigma_m, stance_sigma_m)
-        d = np.asarray(self.target_distances_m) + rng.normal(
-            0.0, check_nonnegative(target_sigma_m, "target_sigma_m"), 2
-        )
+        sigma = check_nonnegative(target_sigma_m, "target_sigma_m")
+        d = np.asarray(self.target_distances_m) + rng.normal(0.0, sigma, 2)
         margin = 0.02
         d[0] = np.clip(d[0], margin, self.upper_arm_m - margin)
         d[1] = np.clip(d[1], self.upper_arm_m + margin, self.upper_arm_m + self.forearm_m - margin)
         return dataclasses.replace(self, anchor_positions_m=anchors, target_distances_m=tuple(d), day=self.day + 1)
 
 
-def _jitter_anchors(
-    positions: np.ndarray, rng: np.random.Generator, worn_sigma: float, stance_sigma: float
-) -> np.ndarray:
+def _jitter_anchors(positions: np.ndarray, rng: np.random.Generator, worn_sigma: float,
+                    stance_sigma: float) -> np.ndarray:
     worn_sigma = check_nonnegative(worn_sigma, "worn_sigma_m")
     stance_sigma = check_nonnegative(stance_sigma, "stance_sigma_m")
     worn = np.array([ANCHOR_WORN[a] for a in ANCHOR_NAMES])
@@ -351,13 +324,7 @@ def _jitter_anchors(
     return out
 
 
-def user_from_height(
-    name: str,
-    height_m: float,
-    *,
-    environment_seed: int = 0,
-    anchor_positions_m=None,
-) -> User:
+def user_from_height(name: str, height_m: float, *, environment_seed: int = 0, anchor_positions_m=None) -> User:
     """A user of body height ``height_m`` with Winter's proportions and nominal anchors.
 
     Upper arm 0.186 H, forearm 0.146 H, T1 at mid upper arm, T2 at mid forearm, body solids
@@ -367,26 +334,13 @@ def user_from_height(
     upper = UPPER_ARM_FRACTION * height
     fore = FOREARM_FRACTION * height
     anchors = nominal_anchor_positions(height) if anchor_positions_m is None else anchor_positions_m
-    return User(
-        name=name,
-        height_m=height,
-        upper_arm_m=upper,
-        forearm_m=fore,
-        target_distances_m=(0.5 * upper, upper + 0.5 * fore),
-        anchor_positions_m=anchors,
-        body=BodyShape.from_height(height),
-        environment_seed=environment_seed,
-    )
+    return User(name=name, height_m=height, upper_arm_m=upper, forearm_m=fore,
+                target_distances_m=(0.5 * upper, upper + 0.5 * fore), anchor_positions_m=anchors,
+                body=BodyShape.from_height(height), environment_seed=environment_seed)
 
 
-def make_users(
-    n_users: int = 5,
-    *,
-    rng: np.random.Generator,
-    heights_m=None,
-    worn_sigma_m: float = 0.02,
-    stance_sigma_m: float = 0.02,
-) -> list[User]:
+def make_users(n_users: int = 5, *, rng: np.random.Generator, heights_m=None, worn_sigma_m: float = 0.02,
+               stance_sigma_m: float = 0.02) -> list[User]:
     """``n_users`` users ("U1", "U2", …) with different heights and slightly different anchor placement.
 
     Parameters
@@ -462,76 +416,24 @@ def body_solids(user: User, arm_direction=None) -> list[Solid]:
     ex = np.array([1.0, 0.0, 0.0])
     cx = b.torso_center_x_m
     solids = [
-        Solid(
-            "torso",
-            "cylinder",
-            np.array([cx, 0.0, b.torso_bottom_z_m]),
-            b.torso_half_width_m,
-            ez,
-            b.torso_top_z_m - b.torso_bottom_z_m,
-            ex,
-            b.torso_half_depth_m,
-        ),
-        Solid(
-            "legs",
-            "cylinder",
-            np.array([cx, 0.0, b.floor_z_m]),
-            b.legs_half_width_m,
-            ez,
-            b.torso_bottom_z_m - b.floor_z_m,
-            ex,
-            b.legs_half_depth_m,
-        ),
-        Solid(
-            "neck",
-            "cylinder",
-            np.array([cx, 0.0, b.torso_top_z_m]),
-            b.neck_radius_m,
-            ez,
-            b.neck_length_m,
-            ex,
-            b.neck_radius_m,
-        ),
+        Solid("torso", "cylinder", np.array([cx, 0.0, b.torso_bottom_z_m]), b.torso_half_width_m, ez,
+              b.torso_top_z_m - b.torso_bottom_z_m, ex, b.torso_half_depth_m),
+        Solid("legs", "cylinder", np.array([cx, 0.0, b.floor_z_m]), b.legs_half_width_m, ez,
+              b.torso_bottom_z_m - b.floor_z_m, ex, b.legs_half_depth_m),
+        Solid("neck", "cylinder", np.array([cx, 0.0, b.torso_top_z_m]), b.neck_radius_m, ez, b.neck_length_m, ex,
+              b.neck_radius_m),
         Solid("head", "sphere", np.array([cx, 0.0, b.head_center_z_m]), b.head_radius_m),
-        Solid(
-            "left_arm",
-            "cylinder",
-            np.array([b.left_shoulder_x_m, 0.0, -b.left_arm_length_m]),
-            b.upper_arm_radius_m,
-            ez,
-            b.left_arm_length_m,
-            ex,
-            b.upper_arm_radius_m,
-        ),
+        Solid("left_arm", "cylinder", np.array([b.left_shoulder_x_m, 0.0, -b.left_arm_length_m]), b.upper_arm_radius_m,
+              ez, b.left_arm_length_m, ex, b.upper_arm_radius_m),
     ]
     if arm_direction is not None:
         u = as_float_array(arm_direction, "arm_direction", last_dim=3)
         u = u / np.linalg.norm(u, axis=-1, keepdims=True)
         ref = _perpendicular(u)
-        solids.append(
-            Solid(
-                "upper_arm",
-                "cylinder",
-                np.zeros_like(u),
-                b.upper_arm_radius_m,
-                u,
-                user.upper_arm_m,
-                ref,
-                b.upper_arm_radius_m,
-            )
-        )
-        solids.append(
-            Solid(
-                "forearm",
-                "cylinder",
-                u * user.upper_arm_m,
-                b.forearm_radius_m,
-                u,
-                user.forearm_m,
-                ref,
-                b.forearm_radius_m,
-            )
-        )
+        solids.append(Solid("upper_arm", "cylinder", np.zeros_like(u), b.upper_arm_radius_m, u, user.upper_arm_m, ref,
+                            b.upper_arm_radius_m))
+        solids.append(Solid("forearm", "cylinder", u * user.upper_arm_m, b.forearm_radius_m, u, user.forearm_m, ref,
+                            b.forearm_radius_m))
     return solids
 
 

@@ -169,16 +169,9 @@ class KinectStream:
     camera_axis: np.ndarray
 
 
-def simulate_kinect_stream(
-    motion: ArmMotion,
-    user: User,
-    *,
-    rng: np.random.Generator,
-    model: KinectModel | None = None,
-    camera_distance_m: float = PAPER_CAMERA_DISTANCE_M,
-    relative_to: str = "tracked_shoulder",
-    duration_s: float | None = None,
-) -> KinectStream:
+def simulate_kinect_stream(motion: ArmMotion, user: User, *, rng: np.random.Generator, model: KinectModel | None = None,
+                           camera_distance_m: float = PAPER_CAMERA_DISTANCE_M, relative_to: str = "tracked_shoulder",
+                           duration_s: float | None = None) -> KinectStream:
     """The Kinect's view of ``motion``: true joints at 30 fps → :func:`simulate_kinect` → targets.
 
     Frames at ``k / frame_rate_hz`` for ``k = 0 … ⌊duration · rate⌋``; camera from
@@ -193,27 +186,13 @@ def simulate_kinect_stream(
     upper, fore = user.upper_arm_m, user.forearm_m
     true_joints = np.moveaxis(kin.joint_pos, 0, 1)  # (K, 3, 3)
     position, axis = kinect_camera(user, camera_distance_m)
-    joints = simulate_kinect(
-        true_joints,
-        rng=rng,
-        fs=model.frame_rate_hz,
-        camera_position=position,
-        camera_axis=axis,
-        model=model,
-        relative_to=relative_to,
-    )
+    joints = simulate_kinect(true_joints, rng=rng, fs=model.frame_rate_hz, camera_position=position, camera_axis=axis,
+                             model=model, relative_to=relative_to)
     d1, d2 = user.target_distances_m
     fractions = (d1 / upper, (d2 - upper) / fore)
-    return KinectStream(
-        time_s=times,
-        joints=joints,
-        targets=kinect_target_positions(joints, fractions=fractions),
-        true_joints=true_joints,
-        true_targets=np.moveaxis(kin.pos, 0, 1).copy(),
-        label=kin.label,
-        camera_position=position,
-        camera_axis=axis,
-    )
+    return KinectStream(time_s=times, joints=joints, targets=kinect_target_positions(joints, fractions=fractions),
+                        true_joints=true_joints, true_targets=np.moveaxis(kin.pos, 0, 1).copy(), label=kin.label,
+                        camera_position=position, camera_axis=axis)
 
 
 # --------------------------------------------------------------------------------------------
@@ -243,18 +222,12 @@ def kinect_table(stream: KinectStream, user: str, session: str = DYNAMIC_SESSION
 def _long_table(time, values, label, user, session, value_columns) -> pd.DataFrame:
     n, n_targets = values.shape[:2]
     flat = values.reshape(n * n_targets, 3)
-    table = {
-        "time_s": np.repeat(time, n_targets),
-        "user": user,
-        "session": session,
-        "target": np.tile(np.asarray(TARGET_NAMES[:n_targets], dtype=object), n),
-        "label": np.repeat(np.asarray(label, dtype=object), n_targets),
-    }
+    table = {"time_s": np.repeat(time, n_targets), "user": user, "session": session,
+             "target": np.tile(np.asarray(TARGET_NAMES[:n_targets], dtype=object), n),
+             "label": np.repeat(np.asarray(label, dtype=object), n_targets)}
     for j, column in enumerate(value_columns):
         table[column] = np.round(flat[:, j], 6) + 0.0  # the CSV precision, so memory and file agree
-    df = pd.DataFrame(table)
-    df = df.astype({"user": object, "session": object, "target": object, "label": object})
-    return df
+    return pd.DataFrame(table).astype({"user": object, "session": object, "target": object, "label": object})
 
 
 def concat_sample_tables(frames, rate_hz: float) -> pd.DataFrame:
@@ -335,9 +308,7 @@ class DynamicData:
                 continue
             wanted = [wanted] if isinstance(wanted, str | int | np.integer) else list(wanted)
             keep &= np.isin(getattr(self, name), wanted)
-        values = {
-            f.name: getattr(self, f.name)[keep] for f in dataclasses.fields(self) if f.name != "anchors"
-        }
+        values = {f.name: getattr(self, f.name)[keep] for f in dataclasses.fields(self) if f.name != "anchors"}
         return DynamicData(**values, anchors=self.anchors)
 
 
@@ -358,14 +329,8 @@ def _latest(sample_times: np.ndarray, query: np.ndarray, what: str, where: str) 
     return index
 
 
-def align_dynamic(
-    rss: pd.DataFrame,
-    acc: pd.DataFrame,
-    kinect: pd.DataFrame,
-    chains: dict[str, ArmChain],
-    *,
-    session: str = DYNAMIC_SESSION,
-) -> DynamicData:
+def align_dynamic(rss: pd.DataFrame, acc: pd.DataFrame, kinect: pd.DataFrame, chains: dict[str, ArmChain], *,
+                  session: str = DYNAMIC_SESSION) -> DynamicData:
     """Pair every RSS vector of ``session`` with the latest accelerometer sample and Kinect
     estimate at or before it (module docstring).
 
@@ -395,12 +360,8 @@ def align_dynamic(
     vectors = rss_format.rss_vectors(sub, window_packets=1, fill="last")
     n = len(vectors)
     target_index = np.array([TARGET_NAMES.index(t) for t in vectors.target], dtype=int)
-    acc_values = np.empty((n, 3))
-    acc_time = np.empty(n)
-    kin_values = np.empty((n, 3))
-    kin_time = np.empty(n)
-    lengths = np.empty(n)
-    offsets = np.empty(n)
+    acc_values, kin_values = np.empty((n, 3)), np.empty((n, 3))
+    acc_time, kin_time, lengths, offsets = (np.empty(n) for _ in range(4))
     tables = (
         ("accelerometer", acc, accel.VALUE_COLUMNS["acc"], acc_values, acc_time),
         ("Kinect", kinect, accel.VALUE_COLUMNS["kinect"], kin_values, kin_time),
@@ -417,11 +378,8 @@ def align_dynamic(
             lengths[rows] = chain.segment_lengths_m[t_idx]
             offsets[rows] = chain.device_offsets_m[t_idx]
             for what, table, value_columns, values, times in tables:
-                mask = (
-                    (table["user"] == user).to_numpy()
-                    & (table["session"] == session).to_numpy()
-                    & (table["target"] == target).to_numpy()
-                )
+                mask = ((table["user"] == user).to_numpy() & (table["session"] == session).to_numpy()
+                        & (table["target"] == target).to_numpy())
                 if not np.any(mask):
                     raise ValueError(f"no {what} rows for user {user!r}, session {session!r}, target {target}")
                 part = table.loc[mask]
@@ -434,24 +392,11 @@ def align_dynamic(
     position = vectors.position
     norm = np.linalg.norm(position, axis=-1)
     pitch = np.arcsin(np.clip(position[:, 2] / np.where(norm > 0, norm, 1.0), -1.0, 1.0))
-    return DynamicData(
-        user=vectors.user,
-        target=vectors.target,
-        target_index=target_index,
-        time_s=vectors.time_s,
-        rss=vectors.rss,
-        label=vectors.label,
-        movement=movement_number(vectors.label),
-        position=position,
-        pitch_true_rad=pitch,
-        acc=acc_values,
-        acc_time_s=acc_time,
-        kinect=kin_values,
-        kinect_time_s=kin_time,
-        segment_length_m=lengths,
-        device_offset_m=offsets,
-        anchors=vectors.anchors,
-    )
+    return DynamicData(user=vectors.user, target=vectors.target, target_index=target_index, time_s=vectors.time_s,
+                       rss=vectors.rss, label=vectors.label, movement=movement_number(vectors.label), position=position,
+                       pitch_true_rad=pitch, acc=acc_values, acc_time_s=acc_time, kinect=kin_values,
+                       kinect_time_s=kin_time, segment_length_m=lengths, device_offset_m=offsets,
+                       anchors=vectors.anchors)
 
 
 # --------------------------------------------------------------------------------------------
@@ -511,18 +456,10 @@ class DynamicCampaign:
         return {u.name: u.geometry for u in self.online_users}
 
 
-def simulate_dynamic_campaign(
-    n_users: int = 5,
-    *,
-    rng: np.random.Generator,
-    hold_s: float = 30.0,
-    durations_s=None,
-    acc_spec: SunspotAccSpec | None = None,
-    kinect_model: KinectModel | None = None,
-    camera_distance_m: float = PAPER_CAMERA_DISTANCE_M,
-    channel: RadioChannel | None = None,
-    mounting=None,
-) -> DynamicCampaign:
+def simulate_dynamic_campaign(n_users: int = 5, *, rng: np.random.Generator, hold_s: float = 30.0, durations_s=None,
+                              acc_spec: SunspotAccSpec | None = None, kinect_model: KinectModel | None = None,
+                              camera_distance_m: float = PAPER_CAMERA_DISTANCE_M, channel: RadioChannel | None = None,
+                              mounting=None) -> DynamicCampaign:
     """Training RSS and the online dynamic session with RSS, accelerometers and Kinect, per user.
 
     For each user, in this order from ``rng``: the training session
@@ -583,29 +520,15 @@ def simulate_dynamic_campaign(
     acc_df = concat_sample_tables(acc_frames, acc_spec.output_rate_hz)
     kinect_df = concat_sample_tables(kinect_frames, kinect_model.frame_rate_hz)
     chains = {u.name: u.geometry for u in online_users}
-    return DynamicCampaign(
-        training_rss=concat_rss(training),
-        dynamic_rss=dynamic_rss,
-        acc=acc_df,
-        kinect=kinect_df,
-        data=align_dynamic(dynamic_rss, acc_df, kinect_df, chains),
-        users=tuple(users),
-        online_users=tuple(online_users),
-        motions=tuple(motions),
-        acc_streams=tuple(acc_streams),
-        kinect_streams=tuple(kinect_streams),
-        acc_spec=acc_spec,
-        kinect_model=kinect_model,
-    )
+    return DynamicCampaign(training_rss=concat_rss(training), dynamic_rss=dynamic_rss, acc=acc_df, kinect=kinect_df,
+                           data=align_dynamic(dynamic_rss, acc_df, kinect_df, chains), users=tuple(users),
+                           online_users=tuple(online_users), motions=tuple(motions), acc_streams=tuple(acc_streams),
+                           kinect_streams=tuple(kinect_streams), acc_spec=acc_spec, kinect_model=kinect_model)
 
 
 #: File names written by :func:`write_dynamic_campaign` (CSV; each with its JSON sidecar).
-DYNAMIC_FILES = {
-    "training_rss": "training_rss.csv",
-    "dynamic_rss": "dynamic_rss.csv",
-    "acc": "acc.csv",
-    "kinect": "kinect.csv",
-}
+DYNAMIC_FILES = {"training_rss": "training_rss.csv", "dynamic_rss": "dynamic_rss.csv", "acc": "acc.csv",
+                 "kinect": "kinect.csv"}
 
 
 def _dynamic_campaign_from_seed(n_users: int, seed: int, hold_s: float) -> DynamicCampaign:
@@ -627,13 +550,6 @@ def dynamic_campaign(n_users: int = 5, *, seed: int, hold_s: float = 30.0) -> Dy
     return cached("dynamic_campaign", arguments, _dynamic_campaign_from_seed)
 
 
-def _chains_json(chains: dict[str, ArmChain]) -> dict:
-    return {
-        user: {"segment_lengths_m": list(c.segment_lengths_m), "device_offsets_m": list(c.device_offsets_m)}
-        for user, c in chains.items()
-    }
-
-
 def write_dynamic_campaign(campaign: DynamicCampaign, folder, metadata: dict | None = None) -> dict[str, Path]:
     """Write the four tables of ``campaign`` into ``folder`` (:data:`DYNAMIC_FILES`).
 
@@ -647,20 +563,16 @@ def write_dynamic_campaign(campaign: DynamicCampaign, folder, metadata: dict | N
     check_type(campaign, DynamicCampaign, "campaign")
     folder = Path(folder)
     base = {} if metadata is None else dict(metadata)
-    base["arm_chains"] = _chains_json(campaign.chains)
-    paths = {
+    base["arm_chains"] = {user: {"segment_lengths_m": list(c.segment_lengths_m),
+                                 "device_offsets_m": list(c.device_offsets_m)} for user, c in campaign.chains.items()}
+    return {
         "training_rss": rss_format.write_rss(campaign.training_rss, folder / DYNAMIC_FILES["training_rss"], base),
         "dynamic_rss": rss_format.write_rss(campaign.dynamic_rss, folder / DYNAMIC_FILES["dynamic_rss"], base),
-        "acc": accel.write_acc(
-            campaign.acc, folder / DYNAMIC_FILES["acc"], {**base, "acc_spec": dataclasses.asdict(campaign.acc_spec)}
-        ),
-        "kinect": accel.write_kinect(
-            campaign.kinect,
-            folder / DYNAMIC_FILES["kinect"],
-            {**base, "kinect_model": dataclasses.asdict(campaign.kinect_model)},
-        ),
+        "acc": accel.write_acc(campaign.acc, folder / DYNAMIC_FILES["acc"],
+                               {**base, "acc_spec": dataclasses.asdict(campaign.acc_spec)}),
+        "kinect": accel.write_kinect(campaign.kinect, folder / DYNAMIC_FILES["kinect"],
+                                     {**base, "kinect_model": dataclasses.asdict(campaign.kinect_model)}),
     }
-    return paths
 
 
 def read_dynamic_campaign(folder) -> tuple[dict[str, pd.DataFrame], dict[str, dict], DynamicData]:

@@ -69,6 +69,10 @@ from wsnlib.sim.disturbance import Disturbance, apply_disturbance, draw_disturba
 #: 1 gauss = 100 µT.
 UT_PER_GAUSS = 100.0
 
+#: The noise and bias fields of :class:`ImuSpec` (>= 0; zero in :meth:`ImuSpec.noise_free`).
+_NOISE_FIELDS = ("gyr_noise_density_dps", "gyr_bias_dps", "gyr_bias_walk_dps", "acc_noise_density_ug", "acc_bias_mg",
+                 "mag_noise_ut", "mag_bias_ut")
+
 
 @dataclass(frozen=True)
 class ImuSpec:
@@ -177,38 +181,18 @@ class ImuSpec:
     saturate: bool = True
 
     def __post_init__(self):
-        for name in (
-            "gyr_full_scale_dps",
-            "gyr_sensitivity_mdps",
-            "acc_full_scale_g",
-            "acc_sensitivity_mg",
-            "mag_full_scale_gauss",
-            "mag_gain_xy_lsb_per_gauss",
-            "mag_gain_z_lsb_per_gauss",
-        ):
+        for name in ("gyr_full_scale_dps", "gyr_sensitivity_mdps", "acc_full_scale_g", "acc_sensitivity_mg",
+                     "mag_full_scale_gauss", "mag_gain_xy_lsb_per_gauss", "mag_gain_z_lsb_per_gauss"):
             object.__setattr__(self, name, check_positive(getattr(self, name), name))
-        for name in (
-            "gyr_noise_density_dps",
-            "gyr_bias_dps",
-            "gyr_bias_walk_dps",
-            "acc_noise_density_ug",
-            "acc_bias_mg",
-            "mag_noise_ut",
-            "mag_bias_ut",
-        ):
+        for name in _NOISE_FIELDS:
             object.__setattr__(self, name, check_nonnegative(getattr(self, name), name))
         for name in ("gyr_bits", "acc_bits", "mag_bits"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not (
-                2 <= value <= 32
-            ):
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not (2 <= value <= 32):
                 raise ValueError(f"{name} must be an integer in [2, 32], got {value!r}")
         if self.noise_bandwidth_hz is not None:
-            object.__setattr__(
-                self,
-                "noise_bandwidth_hz",
-                check_positive(self.noise_bandwidth_hz, "noise_bandwidth_hz"),
-            )
+            bandwidth = check_positive(self.noise_bandwidth_hz, "noise_bandwidth_hz")
+            object.__setattr__(self, "noise_bandwidth_hz", bandwidth)
         for name in ("quantize", "saturate"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise ValueError(f"{name} must be True or False, got {getattr(self, name)!r}")
@@ -220,19 +204,7 @@ class ImuSpec:
         Keyword ``changes`` override any field, e.g. ``ImuSpec.noise_free(gyr_bias_dps=0.5)``
         for a bias-only gyro.
         """
-        fields = {
-            "gyr_noise_density_dps": 0.0,
-            "gyr_bias_dps": 0.0,
-            "gyr_bias_walk_dps": 0.0,
-            "acc_noise_density_ug": 0.0,
-            "acc_bias_mg": 0.0,
-            "mag_noise_ut": 0.0,
-            "mag_bias_ut": 0.0,
-            "quantize": quantize,
-            "saturate": saturate,
-        }
-        fields.update(changes)
-        return cls(**fields)
+        return cls(**{**dict.fromkeys(_NOISE_FIELDS, 0.0), "quantize": quantize, "saturate": saturate, **changes})
 
     # ---- SI conversions --------------------------------------------------------------------
 
@@ -260,8 +232,7 @@ class ImuSpec:
     def mag_step_si(self) -> np.ndarray:
         """Magnetometer resolution per axis (µT per LSB), shape (3,)."""
         xy, z = self.mag_gain_xy_lsb_per_gauss, self.mag_gain_z_lsb_per_gauss
-        gains = np.array([xy, xy, z])
-        return UT_PER_GAUSS / gains
+        return UT_PER_GAUSS / np.array([xy, xy, z])
 
     @property
     def mag_full_scale_si(self) -> float:
@@ -279,9 +250,7 @@ class ImuSpec:
 
     def acc_noise_std_si(self, fs: float) -> float:
         """Per-sample accelerometer white-noise standard deviation (m/s²) at ``fs``."""
-        return self.acc_noise_density_ug * 1e-6 * frames.STANDARD_GRAVITY * np.sqrt(
-            self.noise_bandwidth(fs)
-        )
+        return self.acc_noise_density_ug * 1e-6 * frames.STANDARD_GRAVITY * np.sqrt(self.noise_bandwidth(fs))
 
     def mag_noise_std_si(self, fs: float) -> float:
         """Per-sample magnetometer noise standard deviation (µT); independent of ``fs``."""
@@ -306,12 +275,7 @@ class ImuSamples(NamedTuple):
     mag: np.ndarray
 
 
-def ideal_imu(
-    truth: ArmKinematics,
-    *,
-    gravity: float = frames.STANDARD_GRAVITY,
-    mag_field_enu=None,
-) -> ImuSamples:
+def ideal_imu(truth: ArmKinematics, *, gravity: float = frames.STANDARD_GRAVITY, mag_field_enu=None) -> ImuSamples:
     """Exact, continuous-valued readings of the nodes (no noise, bias or quantisation).
 
     Parameters
@@ -331,9 +295,7 @@ def ideal_imu(
     """
     check_type(truth, ArmKinematics, "truth")
     gravity = check_positive(gravity, "gravity")
-    if mag_field_enu is None:
-        mag_field_enu = frames.magnetic_field_enu()
-    mag_field = as_float_array(mag_field_enu, "mag_field_enu")
+    mag_field = as_float_array(frames.magnetic_field_enu() if mag_field_enu is None else mag_field_enu, "mag_field_enu")
     if mag_field.shape != (3,):
         raise ValueError(f"mag_field_enu must have shape (3,), got {mag_field.shape}")
     acc = truth.specific_force(gravity)
@@ -356,16 +318,9 @@ def _digitise(x: np.ndarray, step, full_scale: float, bits: int, spec: ImuSpec) 
     return x
 
 
-def simulate_imu(
-    truth: ArmKinematics,
-    spec: ImuSpec | None = None,
-    *,
-    rng: np.random.Generator,
-    n_runs: int | None = None,
-    gravity: float = frames.STANDARD_GRAVITY,
-    mag_field_enu=None,
-    disturbance: Disturbance | None = None,
-) -> ImuSamples:
+def simulate_imu(truth: ArmKinematics, spec: ImuSpec | None = None, *, rng: np.random.Generator,
+                 n_runs: int | None = None, gravity: float = frames.STANDARD_GRAVITY, mag_field_enu=None,
+                 disturbance: Disturbance | None = None) -> ImuSamples:
     """Simulate gyroscope, accelerometer and magnetometer readings of every node.
 
     Parameters
@@ -401,10 +356,7 @@ def simulate_imu(
     """
     spec = check_type(ImuSpec() if spec is None else spec, ImuSpec, "spec")
     check_rng(rng)
-    if n_runs is None:
-        batch: tuple[int, ...] = ()
-    else:
-        batch = (check_count(n_runs, "n_runs"),)
+    batch: tuple[int, ...] = () if n_runs is None else (check_count(n_runs, "n_runs"),)
     ideal = ideal_imu(truth, gravity=gravity, mag_field_enu=mag_field_enu)
     if truth.fs is None:
         raise ValueError("truth.fs is None: simulate_imu needs uniformly sampled kinematics with a sampling rate")
@@ -446,24 +398,14 @@ def _rng_provenance(rng: np.random.Generator) -> dict:
     seed_seq = getattr(rng.bit_generator, "seed_seq", None)
     entropy = getattr(seed_seq, "entropy", None)
     if isinstance(entropy, (int, np.integer)):
-        return {
-            "rng_bit_generator": type(rng.bit_generator).__name__,
-            "rng_entropy": int(entropy),
-            "rng_spawn_key": [int(k) for k in seed_seq.spawn_key],
-        }
+        return {"rng_bit_generator": type(rng.bit_generator).__name__, "rng_entropy": int(entropy),
+                "rng_spawn_key": [int(k) for k in seed_seq.spawn_key]}
     return {}
 
 
-def simulate_recording(
-    trajectory: ArmTrajectory,
-    *,
-    rng: np.random.Generator,
-    geometry: ArmGeometry | None = None,
-    spec: ImuSpec | None = None,
-    gravity: float = frames.STANDARD_GRAVITY,
-    mag_field_enu=None,
-    metadata: dict | None = None,
-) -> Recording:
+def simulate_recording(trajectory: ArmTrajectory, *, rng: np.random.Generator, geometry: ArmGeometry | None = None,
+                       spec: ImuSpec | None = None, gravity: float = frames.STANDARD_GRAVITY, mag_field_enu=None,
+                       metadata: dict | None = None) -> Recording:
     """One simulated recording of the two arm nodes, with ground-truth quaternions.
 
     Parameters
@@ -493,28 +435,12 @@ def simulate_recording(
     if mag_field_enu is None:
         mag_field_enu = frames.magnetic_field_enu()
     truth = arm_kinematics(trajectory, geometry)
-    gyr, acc, mag = simulate_imu(
-        truth, spec, rng=rng, gravity=gravity, mag_field_enu=mag_field_enu
-    )
-    info = {
-        "generator": "wsnlib.sim.imu.simulate_recording",
-        "trajectory": dict(trajectory.metadata),
-        "geometry": geometry.to_dict(),
-        "imu_spec": dataclasses.asdict(spec),
-        "gravity_m_s2": float(gravity),
-        "mag_field_enu_uT": [float(v) for v in np.asarray(mag_field_enu, dtype=float)],
-        **_rng_provenance(rng),
-    }
+    gyr, acc, mag = simulate_imu(truth, spec, rng=rng, gravity=gravity, mag_field_enu=mag_field_enu)
+    info = {"generator": "wsnlib.sim.imu.simulate_recording", "trajectory": dict(trajectory.metadata),
+            "geometry": geometry.to_dict(), "imu_spec": dataclasses.asdict(spec), "gravity_m_s2": float(gravity),
+            "mag_field_enu_uT": [float(v) for v in np.asarray(mag_field_enu, dtype=float)], **_rng_provenance(rng)}
     if metadata is not None:
         check_type(metadata, dict, "metadata")
         info.update(metadata)
-    return Recording(
-        fs=truth.fs,
-        time_s=truth.time_s,
-        nodes=truth.nodes,
-        gyr=gyr,
-        acc=acc,
-        mag=mag,
-        quat_true=truth.quat,
-        metadata=info,
-    )
+    return Recording(fs=truth.fs, time_s=truth.time_s, nodes=truth.nodes, gyr=gyr, acc=acc, mag=mag,
+                     quat_true=truth.quat, metadata=info)

@@ -185,23 +185,14 @@ class SunspotAccSpec:
     @classmethod
     def six_g(cls, **changes) -> SunspotAccSpec:
         """The ±6 g setting: sensitivity Vdd/15 per g ([LIS344ALH]), 68.3 counts/g."""
-        values = {"full_scale_g": 6.0, "sensitivity_per_vdd": 1.0 / 15.0}
-        values.update(changes)
-        return cls(**values)
+        return cls(**{"full_scale_g": 6.0, "sensitivity_per_vdd": 1.0 / 15.0, **changes})
 
     @classmethod
     def noise_free(cls, quantize: bool = False, saturate: bool = False, **changes) -> SunspotAccSpec:
         """No noise or bias (and by default no ADC or saturation): the exact specific force,
         down-sampled."""
-        values = {
-            "noise_density_ug": 0.0,
-            "adc_noise_lsb": 0.0,
-            "bias_mg": 0.0,
-            "quantize": quantize,
-            "saturate": saturate,
-        }
-        values.update(changes)
-        return cls(**values)
+        return cls(**{"noise_density_ug": 0.0, "adc_noise_lsb": 0.0, "bias_mg": 0.0, "quantize": quantize,
+                      "saturate": saturate, **changes})
 
     @property
     def counts_per_g(self) -> float:
@@ -314,16 +305,9 @@ def _windows(n_out: int, fs: float, rate: float) -> tuple[np.ndarray, np.ndarray
     return n, k
 
 
-def simulate_sunspot_acc(
-    motion: ArmMotion,
-    user: User,
-    *,
-    rng: np.random.Generator,
-    spec: SunspotAccSpec | None = None,
-    mounting=None,
-    gravity: float = frames.STANDARD_GRAVITY,
-    duration_s: float | None = None,
-) -> SunspotAcc:
+def simulate_sunspot_acc(motion: ArmMotion, user: User, *, rng: np.random.Generator, spec: SunspotAccSpec | None = None,
+                        mounting=None, gravity: float = frames.STANDARD_GRAVITY,
+                        duration_s: float | None = None) -> SunspotAcc:
     """Accelerometer streams of T1 and T2 while the arm follows ``motion`` (module docstring).
 
     Parameters
