@@ -242,22 +242,13 @@ class KinectModel:
                 number = check_nonnegative(value, item.name)
             object.__setattr__(self, item.name, number)
         if self.glitch_min_m > self.glitch_max_m:
-            raise ValueError(
-                f"glitch_min_m = {self.glitch_min_m} exceeds glitch_max_m = {self.glitch_max_m}"
-            )
+            raise ValueError(f"glitch_min_m = {self.glitch_min_m} exceeds glitch_max_m = {self.glitch_max_m}")
 
     @classmethod
     def noise_free(cls, frame_rate_hz: float = 30.0) -> KinectModel:
         """A model with every error component switched off (reports the truth at its frames)."""
-        return cls(
-            frame_rate_hz=frame_rate_hz,
-            depth_noise_const_m=0.0,
-            depth_noise_quad_m_per_m2=0.0,
-            lateral_noise_px=0.0,
-            bias_std_m=0.0,
-            glitch_rate_hz=0.0,
-            glitch_rate_occluded_hz=0.0,
-        )
+        return cls(frame_rate_hz=frame_rate_hz, depth_noise_const_m=0.0, depth_noise_quad_m_per_m2=0.0,
+                   lateral_noise_px=0.0, bias_std_m=0.0, glitch_rate_hz=0.0, glitch_rate_occluded_hz=0.0)
 
     @property
     def jitter_lag1_correlation(self) -> float:
@@ -365,9 +356,8 @@ def _camera_vector(value, name: str, batch_shape: tuple[int, ...]) -> np.ndarray
     except ValueError:
         fits = False
     if not fits:
-        raise ValueError(
-            f"{name} has shape {arr.shape}; it must be (3,) or broadcast to the batch shape {batch_shape} + (3,)"
-        )
+        raise ValueError(f"{name} has shape {arr.shape}; it must be (3,) or broadcast to the batch shape "
+                         f"{batch_shape} + (3,)")
     return arr
 
 
@@ -406,9 +396,7 @@ def _occlusion_score(truth: np.ndarray, axis: np.ndarray, parents: tuple[int, ..
             continue
         segment = truth[..., joint, :] - truth[..., parent, :]
         length = np.linalg.norm(segment, axis=-1)
-        cosine = np.divide(
-            np.sum(segment * camera_axis, axis=-1), length, out=np.zeros_like(length), where=length > 0
-        )
+        cosine = np.divide(np.sum(segment * camera_axis, axis=-1), length, out=np.zeros_like(length), where=length > 0)
         aligned = cosine**2
         score[..., joint] = np.maximum(score[..., joint], aligned)
         score[..., parent] = np.maximum(score[..., parent], aligned)
@@ -466,17 +454,8 @@ def _glitches(rng, score, model: KinectModel):
     return glitch, active, started
 
 
-def kinect_errors(
-    true_positions,
-    *,
-    rng: np.random.Generator,
-    fs: float = 30.0,
-    camera_position,
-    camera_axis,
-    model: KinectModel | None = None,
-    occluded=None,
-    parents=None,
-) -> KinectErrors:
+def kinect_errors(true_positions, *, rng: np.random.Generator, fs: float = 30.0, camera_position, camera_axis,
+                  model: KinectModel | None = None, occluded=None, parents=None) -> KinectErrors:
     """Draw the error components of a Kinect session (module docstring).
 
     Parameters
@@ -528,10 +507,8 @@ def kinect_errors(
     depth = np.sum((truth - position[..., None, None, :]) * axis_b, axis=-1)
     if np.any(depth <= 0.0):
         bad = np.argwhere(depth <= 0.0)[0]
-        raise ValueError(
-            f"a joint is not in front of the camera (depth {depth[tuple(bad)]:.3f} m at index "
-            f"{tuple(int(i) for i in bad)}); check camera_position and camera_axis"
-        )
+        raise ValueError(f"a joint is not in front of the camera (depth {depth[tuple(bad)]:.3f} m at index "
+                         f"{tuple(int(i) for i in bad)}); check camera_position and camera_axis")
     shape = truth.shape
 
     bias = model.bias_std_m * rng.standard_normal(shape[:-3] + (1,) + shape[-2:])
@@ -540,40 +517,20 @@ def kinect_errors(
     lateral_1, lateral_2 = _lateral_basis(axis)
     sigma_depth = model.depth_noise_std_m(depth)[..., None]
     sigma_lateral = model.lateral_noise_std_m(depth)[..., None]
-    jitter = (
-        unit[..., 0:1] * sigma_depth * axis_b
-        + unit[..., 1:2] * sigma_lateral * lateral_1[..., None, None, :]
-        + unit[..., 2:3] * sigma_lateral * lateral_2[..., None, None, :]
-    )
+    jitter = (unit[..., 0:1] * sigma_depth * axis_b
+              + unit[..., 1:2] * sigma_lateral * lateral_1[..., None, None, :]
+              + unit[..., 2:3] * sigma_lateral * lateral_2[..., None, None, :])
 
     score = _occlusion_score(truth, axis, chain, mask)
     glitch, active, started = _glitches(rng, score, model)
 
-    return KinectErrors(
-        times=np.arange(n_frames) / frame_rate,
-        truth=truth,
-        bias=bias,
-        jitter=jitter,
-        glitch=glitch,
-        glitch_active=active,
-        glitch_start=started,
-        occlusion_score=score,
-    )
+    return KinectErrors(times=np.arange(n_frames) / frame_rate, truth=truth, bias=bias, jitter=jitter, glitch=glitch,
+                        glitch_active=active, glitch_start=started, occlusion_score=score)
 
 
-def simulate_kinect(
-    true_positions,
-    *,
-    rng: np.random.Generator,
-    fs: float = 30.0,
-    camera_position,
-    camera_axis,
-    model: KinectModel | None = None,
-    occluded=None,
-    parents=None,
-    relative_to: str = "tracked_shoulder",
-    shoulder_index: int = 0,
-) -> np.ndarray:
+def simulate_kinect(true_positions, *, rng: np.random.Generator, fs: float = 30.0, camera_position, camera_axis,
+                    model: KinectModel | None = None, occluded=None, parents=None,
+                    relative_to: str = "tracked_shoulder", shoulder_index: int = 0) -> np.ndarray:
     """Joint positions as a first-generation Kinect skeletal tracker reports them.
 
     Parameters
@@ -599,16 +556,8 @@ def simulate_kinect(
         raise ValueError(f"shoulder_index must be an integer, got {shoulder_index!r}")
     if not -n_joints <= shoulder_index < n_joints:
         raise ValueError(f"shoulder_index = {shoulder_index} is out of range for {n_joints} joints")
-    errors = kinect_errors(
-        positions,
-        rng=rng,
-        fs=fs,
-        camera_position=camera_position,
-        camera_axis=camera_axis,
-        model=model,
-        occluded=occluded,
-        parents=parents,
-    )
+    errors = kinect_errors(positions, rng=rng, fs=fs, camera_position=camera_position, camera_axis=camera_axis,
+                           model=model, occluded=occluded, parents=parents)
     error = errors.total
     shoulder_index = int(shoulder_index) % n_joints
     shoulder = error[..., shoulder_index : shoulder_index + 1, :]

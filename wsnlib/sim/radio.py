@@ -105,9 +105,8 @@ def _radio_offsets(user: User, channel: RadioChannel) -> tuple[np.ndarray, np.nd
 # --------------------------------------------------------------------------------------------
 
 
-def packet_times(
-    duration_s: float, packet_rate_hz: float, target: int, *, rng, jitter_s: float = 0.0, start_s: float = 0.0
-) -> np.ndarray:
+def packet_times(duration_s: float, packet_rate_hz: float, target: int, *, rng, jitter_s: float = 0.0,
+                 start_s: float = 0.0) -> np.ndarray:
     """Transmission times (s) of ``target``'s packets: ``start + (k + target/2) / rate + jitter``.
 
     T2 is offset by half a period from T1 (the two targets interleave); times are rounded to
@@ -122,16 +121,8 @@ def packet_times(
     return np.round(start_s + t, 6)
 
 
-def simulate_rss(
-    motion: ArmMotion,
-    user: User,
-    *,
-    rng: np.random.Generator,
-    packet_rate_hz: float = 30.0,
-    channel: RadioChannel | None = None,
-    session: str = "session",
-    start_s: float = 0.0,
-) -> pd.DataFrame:
+def simulate_rss(motion: ArmMotion, user: User, *, rng: np.random.Generator, packet_rate_hz: float = 30.0,
+                 channel: RadioChannel | None = None, session: str = "session", start_s: float = 0.0) -> pd.DataFrame:
     """RSS readings of both targets at all anchors while the arm follows ``motion``.
 
     Parameters
@@ -188,48 +179,27 @@ def simulate_rss(
             g = gauss_markov(n, rho, rng=rng, shape=(n_anchors,), complex_valued=True).T
             power = power + rician_fading_db(budget.k_factor_db, g)
         lo, hi = channel.interference_loss_db
-        power = (
-            power
-            - _burst_losses(
-                n, channel.interference_fraction, channel.interference_mean_burst, lo, hi, rng, (n_anchors,)
-            ).T
-        )
+        power = power - _burst_losses(n, channel.interference_fraction, channel.interference_mean_burst, lo, hi, rng,
+                                      (n_anchors,)).T
         received = power >= channel.sensitivity_dbm
         if channel.link_loss_rate > 0.0:
-            received &= gilbert_elliott(
-                n, channel.link_loss_rate, channel.link_loss_mean_burst, rng=rng, shape=(n_anchors,)
-            ).T
+            received &= gilbert_elliott(n, channel.link_loss_rate, channel.link_loss_mean_burst, rng=rng,
+                                        shape=(n_anchors,)).T
         if channel.tx_loss_rate > 0.0:
             received &= (rng.random(n) >= channel.tx_loss_rate)[:, None]
         rssi = power + rssi_offset[None, :] + channel.rssi_noise_db * rng.standard_normal(power.shape)
         rssi = np.minimum(np.rint(rssi), channel.rssi_max_dbm).astype(np.int64)
         rows, cols = np.nonzero(received)
         pos = kin.pos[target, rows, :]
-        frames.append(
-            pd.DataFrame(
-                {
-                    "time_s": t[rows] + float(start_s),
-                    "user": user.name,
-                    "session": session,
-                    "target": TARGET_NAMES[target],
-                    "anchor": np.asarray(ANCHOR_NAMES, dtype=object)[cols],
-                    "rss_dbm": rssi[rows, cols],
-                    "label": kin.label[rows],
-                    "x_m": pos[:, 0],
-                    "y_m": pos[:, 1],
-                    "z_m": pos[:, 2],
-                }
-            )
-        )
-    if frames:
-        df = pd.concat(frames, ignore_index=True)
-    else:
-        df = pd.DataFrame({c: [] for c in COLUMNS})
+        frames.append(pd.DataFrame({
+            "time_s": t[rows] + float(start_s), "user": user.name, "session": session, "target": TARGET_NAMES[target],
+            "anchor": np.asarray(ANCHOR_NAMES, dtype=object)[cols], "rss_dbm": rssi[rows, cols],
+            "label": kin.label[rows], "x_m": pos[:, 0], "y_m": pos[:, 1], "z_m": pos[:, 2]}))
+    df = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame({c: [] for c in COLUMNS})
     df["time_s"] = np.round(df["time_s"].to_numpy(dtype=float), 6)
     df = df.sort_values(["time_s", "target", "anchor"], kind="stable", ignore_index=True)
-    df = df.astype(
-        {"user": object, "session": object, "target": object, "anchor": object, "label": object, "rss_dbm": np.int64}
-    )
+    df = df.astype({"user": object, "session": object, "target": object, "anchor": object, "label": object,
+                    "rss_dbm": np.int64})
     df.attrs["packet_rate_hz"] = rate
     df.attrs["anchor_positions_m"] = {user.name: {session: user.anchor_dict()}}
     return df
@@ -273,18 +243,9 @@ def _static_motion(rng, postures, hold_s, transition_s, jitter_deg):
     return concatenate(pieces)
 
 
-def static_session(
-    user: User,
-    *,
-    rng: np.random.Generator,
-    hold_s: float,
-    session: str,
-    transition_s: float = 3.0,
-    posture_jitter_deg: float = 2.0,
-    packet_rate_hz: float = 30.0,
-    channel: RadioChannel | None = None,
-    include_transitions: bool = False,
-) -> pd.DataFrame:
+def static_session(user: User, *, rng: np.random.Generator, hold_s: float, session: str, transition_s: float = 3.0,
+                   posture_jitter_deg: float = 2.0, packet_rate_hz: float = 30.0, channel: RadioChannel | None = None,
+                   include_transitions: bool = False) -> pd.DataFrame:
     """The user holds P1 … P5 for ``hold_s`` each, moving between them in ``transition_s``.
 
     Rows recorded while moving are labelled ``"transition"`` and dropped unless
@@ -310,13 +271,8 @@ def static_session(
     pandas.DataFrame
         See :func:`simulate_rss`; labels ``"P1"`` … ``"P5"``.
     """
-    motion = _static_motion(
-        rng,
-        POSTURES,
-        check_positive(hold_s, "hold_s"),
-        check_positive(transition_s, "transition_s"),
-        posture_jitter_deg,
-    )
+    motion = _static_motion(rng, POSTURES, check_positive(hold_s, "hold_s"),
+                            check_positive(transition_s, "transition_s"), posture_jitter_deg)
     df = simulate_rss(motion, user, rng=rng, packet_rate_hz=packet_rate_hz, channel=channel, session=session)
     if not include_transitions:
         attrs = df.attrs
@@ -325,58 +281,25 @@ def static_session(
     return df
 
 
-def training_session(
-    user: User,
-    *,
-    rng: np.random.Generator,
-    hold_s: float = 30.0,
-    transition_s: float = 3.0,
-    posture_jitter_deg: float = 2.0,
-    packet_rate_hz: float = 30.0,
-    channel: RadioChannel | None = None,
-    session: str = "training",
-    include_transitions: bool = False,
-) -> pd.DataFrame:
+def training_session(user: User, *, rng: np.random.Generator, hold_s: float = 30.0, transition_s: float = 3.0,
+                     posture_jitter_deg: float = 2.0, packet_rate_hz: float = 30.0, channel: RadioChannel | None = None,
+                     session: str = "training", include_transitions: bool = False) -> pd.DataFrame:
     """Training phase: :func:`static_session` with the paper's 30 s per posture (~1000
     fingerprint vectors per target), session ``"training"``."""
-    return static_session(
-        user,
-        rng=rng,
-        hold_s=hold_s,
-        session=session,
-        transition_s=transition_s,
-        posture_jitter_deg=posture_jitter_deg,
-        packet_rate_hz=packet_rate_hz,
-        channel=channel,
-        include_transitions=include_transitions,
-    )
+    return static_session(user, rng=rng, hold_s=hold_s, session=session, transition_s=transition_s,
+                          posture_jitter_deg=posture_jitter_deg, packet_rate_hz=packet_rate_hz, channel=channel,
+                          include_transitions=include_transitions)
 
 
-def online_static_session(
-    user: User,
-    *,
-    rng: np.random.Generator,
-    hold_s: float = 10.0,
-    transition_s: float = 3.0,
-    posture_jitter_deg: float = 2.0,
-    packet_rate_hz: float = 30.0,
-    channel: RadioChannel | None = None,
-    session: str = "online_static",
-    include_transitions: bool = False,
-) -> pd.DataFrame:
+def online_static_session(user: User, *, rng: np.random.Generator, hold_s: float = 10.0, transition_s: float = 3.0,
+                          posture_jitter_deg: float = 2.0, packet_rate_hz: float = 30.0,
+                          channel: RadioChannel | None = None, session: str = "online_static",
+                          include_transitions: bool = False) -> pd.DataFrame:
     """Online phase, static part: :func:`static_session` with ``hold_s`` 10 s (not given in the
     paper, *assumed*), session ``"online_static"``; pass ``user.moved(rng)`` for another day."""
-    return static_session(
-        user,
-        rng=rng,
-        hold_s=hold_s,
-        session=session,
-        transition_s=transition_s,
-        posture_jitter_deg=posture_jitter_deg,
-        packet_rate_hz=packet_rate_hz,
-        channel=channel,
-        include_transitions=include_transitions,
-    )
+    return static_session(user, rng=rng, hold_s=hold_s, session=session, transition_s=transition_s,
+                          posture_jitter_deg=posture_jitter_deg, packet_rate_hz=packet_rate_hz, channel=channel,
+                          include_transitions=include_transitions)
 
 
 def movement_label(index: int, name: str) -> str:
@@ -384,14 +307,8 @@ def movement_label(index: int, name: str) -> str:
     return f"M{int(index)}_{name}"
 
 
-def online_dynamic_motion(
-    *,
-    rng: np.random.Generator,
-    durations_s=None,
-    repetitions: int = 2,
-    hold_s: float = 1.0,
-    transition_s: float = 2.0,
-) -> ArmMotion:
+def online_dynamic_motion(*, rng: np.random.Generator, durations_s=None, repetitions: int = 2, hold_s: float = 1.0,
+                          transition_s: float = 2.0) -> ArmMotion:
     """The arm motion of :func:`online_dynamic_session` (the paper's sequence of movements).
 
     For each movement: move (``"transition"``) to its start posture unless already there,
@@ -421,25 +338,15 @@ def online_dynamic_motion(
     return concatenate(pieces)
 
 
-def online_dynamic_session(
-    user: User,
-    *,
-    rng: np.random.Generator,
-    durations_s=None,
-    repetitions: int = 2,
-    hold_s: float = 1.0,
-    transition_s: float = 2.0,
-    packet_rate_hz: float = 30.0,
-    channel: RadioChannel | None = None,
-    session: str = "online_dynamic",
-) -> pd.DataFrame:
+def online_dynamic_session(user: User, *, rng: np.random.Generator, durations_s=None, repetitions: int = 2,
+                           hold_s: float = 1.0, transition_s: float = 2.0, packet_rate_hz: float = 30.0,
+                           channel: RadioChannel | None = None, session: str = "online_dynamic") -> pd.DataFrame:
     """Online phase, dynamic part: the four movements, the sequence done twice (8 movements).
 
     Labels: ``"M1_lower_P2_P3_P1"`` … ``"M8_horizontal_P3_P4"`` during the movements (index
     and name, :func:`movement_label`), the posture name during the short holds around them,
     ``"transition"`` in between.  See :func:`online_dynamic_motion` and :func:`simulate_rss`.
     """
-    motion = online_dynamic_motion(
-        rng=rng, durations_s=durations_s, repetitions=repetitions, hold_s=hold_s, transition_s=transition_s
-    )
+    motion = online_dynamic_motion(rng=rng, durations_s=durations_s, repetitions=repetitions, hold_s=hold_s,
+                                   transition_s=transition_s)
     return simulate_rss(motion, user, rng=rng, packet_rate_hz=packet_rate_hz, channel=channel, session=session)

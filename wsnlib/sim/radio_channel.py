@@ -160,12 +160,8 @@ WORN_ANTENNA_LOSS_DB = 0.5 * (ONBODY_LOS.pl0_db - float(free_space_loss_db(0.10,
 #: Off-body (body-worn target to room anchor), indoor: exponent 1.7 and σ 1.2 dB
 #: [IRACON2019], unverified; PL0 at 1 m = free space (40.2 dB, derived) + one worn antenna
 #: (:data:`WORN_ANTENNA_LOSS_DB`, derived).
-OFFBODY = PathLossModel(
-    pl0_db=float(free_space_loss_db(1.0, FREQUENCY_HZ)) + WORN_ANTENNA_LOSS_DB,
-    exponent=1.7,
-    sigma_db=1.2,
-    d0_m=1.0,
-)
+OFFBODY = PathLossModel(pl0_db=float(free_space_loss_db(1.0, FREQUENCY_HZ)) + WORN_ANTENNA_LOSS_DB, exponent=1.7,
+                        sigma_db=1.2, d0_m=1.0)
 
 
 @dataclass(frozen=True)
@@ -289,27 +285,12 @@ class RadioChannel:
     timing_jitter_s: float = 0.002
 
     def __post_init__(self):
-        for name in (
-            "frequency_hz",
-            "shadow_length_m",
-            "coherence_time_s",
-            "slow_time_s",
-            "interference_mean_burst",
-            "link_loss_mean_burst",
-        ):
+        for name in ("frequency_hz", "shadow_length_m", "coherence_time_s", "slow_time_s", "interference_mean_burst",
+                     "link_loss_mean_burst"):
             object.__setattr__(self, name, check_positive(getattr(self, name), name))
-        for name in (
-            "creeping_db_per_cm",
-            "offbody_shadow_cap_db",
-            "limb_shadow_cap_db",
-            "onbody_room_path_loss_db",
-            "body_trim_m",
-            "slow_sigma_db",
-            "tx_power_offset_db",
-            "rssi_offset_db",
-            "rssi_noise_db",
-            "timing_jitter_s",
-        ):
+        for name in ("creeping_db_per_cm", "offbody_shadow_cap_db", "limb_shadow_cap_db", "onbody_room_path_loss_db",
+                     "body_trim_m", "slow_sigma_db", "tx_power_offset_db", "rssi_offset_db", "rssi_noise_db",
+                     "timing_jitter_s"):
             object.__setattr__(self, name, check_nonnegative(getattr(self, name), name))
         for name in ("interference_fraction", "link_loss_rate", "tx_loss_rate", "day_decorrelation"):
             value = check_nonnegative(getattr(self, name), name)
@@ -322,12 +303,9 @@ class RadioChannel:
         if not 0.0 <= lo <= hi:
             raise ValueError(f"interference_loss_db must be (low, high) with 0 <= low <= high, got {(lo, hi)}")
         object.__setattr__(self, "interference_loss_db", (lo, hi))
-        if (
-            isinstance(self.shadow_features, bool)
-            or not isinstance(self.shadow_features, int)
-            or self.shadow_features < 1
-        ):
-            raise ValueError(f"shadow_features must be a positive integer, got {self.shadow_features!r}")
+        features = self.shadow_features
+        if isinstance(features, bool) or not isinstance(features, int) or features < 1:
+            raise ValueError(f"shadow_features must be a positive integer, got {features!r}")
         for name in ("onbody_los", "onbody_nlos", "offbody"):
             if not isinstance(getattr(self, name), PathLossModel):
                 raise ValueError(f"{name} must be a PathLossModel")
@@ -335,19 +313,9 @@ class RadioChannel:
     def ideal(self) -> RadioChannel:
         """The same channel without any randomness in time: no fading, slow shadowing,
         interference, random loss, jitter, radio offsets or read noise (spatial field kept)."""
-        return dataclasses.replace(
-            self,
-            slow_sigma_db=0.0,
-            interference_fraction=0.0,
-            link_loss_rate=0.0,
-            tx_loss_rate=0.0,
-            tx_power_offset_db=0.0,
-            rssi_offset_db=0.0,
-            rssi_noise_db=0.0,
-            timing_jitter_s=0.0,
-            fading_k_db=np.inf,
-            fading_k_onbody_los_db=np.inf,
-        )
+        return dataclasses.replace(self, slow_sigma_db=0.0, interference_fraction=0.0, link_loss_rate=0.0,
+                                   tx_loss_rate=0.0, tx_power_offset_db=0.0, rssi_offset_db=0.0, rssi_noise_db=0.0,
+                                   timing_jitter_s=0.0, fading_k_db=np.inf, fading_k_onbody_los_db=np.inf)
 
     def to_dict(self) -> dict:
         """JSON-ready parameters (path-loss models as nested dicts)."""
@@ -434,18 +402,12 @@ class LinkBudget:
     mean_rx_dbm: np.ndarray
 
 
-def _shadow_field(
-    anchors: np.ndarray, antenna: np.ndarray, target: int, user: User, channel: RadioChannel
-) -> np.ndarray:
+def _shadow_field(anchors: np.ndarray, antenna: np.ndarray, target: int, user: User,
+                  channel: RadioChannel) -> np.ndarray:
     """Unit-variance smooth random field X(anchor, antenna), (T, 7) (module docstring)."""
     m = channel.shadow_features
-    x = np.concatenate(
-        [
-            np.broadcast_to(anchors[None], antenna.shape[:1] + anchors.shape),
-            np.broadcast_to(antenna[:, None, :], antenna.shape[:1] + anchors.shape),
-        ],
-        axis=-1,
-    )  # (T, 7, 6)
+    x = np.concatenate([np.broadcast_to(anchors[None], antenna.shape[:1] + anchors.shape),
+                        np.broadcast_to(antenna[:, None, :], antenna.shape[:1] + anchors.shape)], axis=-1)  # (T, 7, 6)
     out = np.zeros(x.shape[:2])
     beta = channel.day_decorrelation
     for a in range(anchors.shape[0]):
@@ -496,9 +458,8 @@ def link_budget(kin: ArmKinematics, user: User, target: int, channel: RadioChann
     q = anchors[None, :, :]
     for solid in solids:
         if solid.base.ndim == 2:  # moving (arm) solids: add the anchor axis for broadcasting
-            solid = dataclasses.replace(
-                solid, base=solid.base[:, None, :], axis=solid.axis[:, None, :], ref=solid.ref[:, None, :]
-            )
+            solid = dataclasses.replace(solid, base=solid.base[:, None, :], axis=solid.axis[:, None, :],
+                                        ref=solid.ref[:, None, :])
         c = chord_length(p, q, solid, trim_m=channel.body_trim_m)
         if solid.name in LIMB_SOLIDS:
             chord_limb = chord_limb + c
@@ -516,16 +477,13 @@ def link_budget(kin: ArmKinematics, user: User, target: int, channel: RadioChann
     direct = path_loss + body_loss
     via_room = -10.0 * np.log10(10.0 ** (-direct / 10.0) + 10.0 ** (-channel.onbody_room_path_loss_db / 10.0))
     total_loss = np.where(worn[None, :], via_room, direct)
-    sigma = np.where(
-        worn[None, :],
-        (1.0 - weight) * channel.onbody_los.sigma_db + weight * channel.onbody_nlos.sigma_db,
-        channel.offbody.sigma_db,
-    )
+    sigma = np.where(worn[None, :],
+                     (1.0 - weight) * channel.onbody_los.sigma_db + weight * channel.onbody_nlos.sigma_db,
+                     channel.offbody.sigma_db)
     shadow = sigma * _shadow_field(anchors, antenna, target, user, channel)
-    gain_t = dipole_gain_db(link, axis[:, None, :], channel.antenna_peak_gain_dbi, channel.antenna_floor_db)
-    gain_a = dipole_gain_db(
-        -link, user.anchor_axes[None, :, :], channel.antenna_peak_gain_dbi, channel.antenna_floor_db
-    )
+    peak, floor = channel.antenna_peak_gain_dbi, channel.antenna_floor_db
+    gain_t = dipole_gain_db(link, axis[:, None, :], peak, floor)
+    gain_a = dipole_gain_db(-link, user.anchor_axes[None, :, :], peak, floor)
     k_los, k_shadowed = channel.fading_k_onbody_los_db, channel.fading_k_db
     if np.isfinite(k_los) and np.isfinite(k_shadowed):
         k_onbody = k_los + weight * (k_shadowed - k_los)
@@ -533,19 +491,7 @@ def link_budget(kin: ArmKinematics, user: User, target: int, channel: RadioChann
         k_onbody = np.where(weight > 0.0, k_shadowed, k_los)
     k_db = np.where(worn[None, :], k_onbody, k_shadowed)
     mean_rx = channel.tx_power_dbm - total_loss + gain_t + gain_a + shadow
-    return LinkBudget(
-        distance_m=distance,
-        chord_m=chord_trunk + chord_limb,
-        nlos=(chord_trunk + chord_limb) > 0.0,
-        worn=worn,
-        path_loss_db=path_loss,
-        body_loss_db=body_loss,
-        total_loss_db=total_loss,
-        nlos_weight=weight,
-        gain_target_db=gain_t,
-        gain_anchor_db=gain_a,
-        shadow_sigma_db=sigma,
-        shadow_db=shadow,
-        k_factor_db=np.broadcast_to(k_db, distance.shape).copy(),
-        mean_rx_dbm=mean_rx,
-    )
+    return LinkBudget(distance_m=distance, chord_m=chord_trunk + chord_limb, nlos=(chord_trunk + chord_limb) > 0.0,
+                      worn=worn, path_loss_db=path_loss, body_loss_db=body_loss, total_loss_db=total_loss,
+                      nlos_weight=weight, gain_target_db=gain_t, gain_anchor_db=gain_a, shadow_sigma_db=sigma,
+                      shadow_db=shadow, k_factor_db=np.broadcast_to(k_db, distance.shape).copy(), mean_rx_dbm=mean_rx)
