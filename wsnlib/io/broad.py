@@ -30,16 +30,14 @@ silently replaced: delete it to download it again).  The verified hash is rememb
 from __future__ import annotations
 
 import json
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from wsnlib import paths
 from wsnlib._files import sha256_of
 from wsnlib._validation import as_float_array, check_positive
-from wsnlib.io.download import RegistryEntry, download_verified, git_blob_sha1_of
+from wsnlib.io.download import RegistryEntry, data_folder, download_verified, git_blob_sha1_of, read_registry
 
 #: Commit of github.com/dlaidig/broad the files are pinned to.
 BROAD_COMMIT = "7e2f8189bb4a3ac91eae32c69b6bc87f08a6e2ad"
@@ -51,21 +49,13 @@ BROAD_URL = "https://raw.githubusercontent.com/dlaidig/broad/{commit}/data_mat/{
 BROAD_DIR_ENV_VAR = "WSNLIB_BROAD_DIR"
 
 
-def _read_broad_registry() -> dict[str, RegistryEntry]:
-    from importlib import resources
-
-    text = resources.files("wsnlib").joinpath("registry", "broad.tsv").read_text(encoding="utf-8")
-    rows = [line.split("\t") for line in text.splitlines() if line and not line.startswith("#")]
-    if rows[0] != ["file", "sha256", "git_blob_sha1"]:
-        raise ValueError(f"wsnlib/registry/broad.tsv: unexpected header {rows[0]}")
-    return {name: RegistryEntry(None if sha == "-" else sha, blob) for name, sha, blob in rows[1:]}
-
-
 #: File name → expected content (:class:`RegistryEntry`) of every file of the dataset's
 #: ``data_mat/`` folder at :data:`BROAD_COMMIT`: the 39 trials and ``trials.json``.  The SHA-256
 #: is known for 30 trials; the other 9 (13, 17, 19, 20, 22, 23, 37, 38, 39) are verified by
 #: their git blob id.  Shipped as ``wsnlib/registry/broad.tsv``.
-BROAD_REGISTRY: dict[str, RegistryEntry] = _read_broad_registry()
+BROAD_REGISTRY: dict[str, RegistryEntry] = {
+    name: RegistryEntry(None if sha == "-" else sha, blob)
+    for name, sha, blob in read_registry("broad", ["file", "sha256", "git_blob_sha1"])}
 
 #: Largest tolerated deviation of a reference quaternion's norm from 1.
 _BROAD_QUAT_NORM_TOL = 1e-6
@@ -107,12 +97,7 @@ def broad_dir(data_dir=None) -> Path:
 
     The folder is not created here (only a download creates it).
     """
-    if data_dir is not None:
-        return Path(data_dir).expanduser().resolve()
-    override = os.environ.get(BROAD_DIR_ENV_VAR)
-    if override:
-        return Path(override).expanduser().resolve()
-    return paths.ROOT / "data" / "raw" / "broad"
+    return data_folder(data_dir, BROAD_DIR_ENV_VAR, "broad")
 
 
 def _broad_trial_name(trial) -> str:
@@ -148,10 +133,8 @@ def _verify_file(path: Path, expected: RegistryEntry) -> None:
         return
     actual = compute(path)
     if actual != wanted:
-        raise ValueError(
-            f"{path}: {kind} is {actual}, expected {wanted} (the file is corrupt, truncated or "
-            f"another version); delete it to download it again"
-        )
+        raise ValueError(f"{path}: {kind} is {actual}, expected {wanted} (the file is corrupt, truncated or "
+                         f"another version); delete it to download it again")
     _VERIFIED_HASHES[key] = actual
 
 
@@ -195,10 +178,8 @@ def broad_file(filename: str, data_dir=None, *, download: bool = True, downloade
     if not path.exists():
         url = BROAD_URL.format(commit=BROAD_COMMIT, filename=filename)
         if not download:
-            raise FileNotFoundError(
-                f"{path} does not exist; download it from {url}, point ${BROAD_DIR_ENV_VAR} or "
-                f"data_dir at a folder holding it, or call with download=True"
-            )
+            raise FileNotFoundError(f"{path} does not exist; download it from {url}, point ${BROAD_DIR_ENV_VAR} or "
+                                    f"data_dir at a folder holding it, or call with download=True")
         download_verified(url, path, expected, downloader, env_var=BROAD_DIR_ENV_VAR)
     _verify_file(path, expected)
     return path
@@ -287,9 +268,8 @@ class BroadTrial:
         object.__setattr__(self, "quat_ref", self._frozen(quat))
         movement = np.asarray(self.movement)
         if movement.dtype != np.bool_ or movement.shape != (n,):
-            raise ValueError(
-                f"{where}: movement must be a boolean array of shape {(n,)}, got {movement.dtype} {movement.shape}"
-            )
+            raise ValueError(f"{where}: movement must be a boolean array of shape {(n,)}, got {movement.dtype} "
+                             f"{movement.shape}")
         object.__setattr__(self, "movement", self._frozen(movement))
         if not isinstance(self.info, str):
             raise ValueError(f"{where}: info must be a string")
@@ -361,14 +341,6 @@ def load_broad(trial, data_dir=None, *, download: bool = True, downloader=None) 
     n_samples = np.asarray(mat["imu_gyr"]).shape[0]
     info = mat.get("info")
     info_text = str(np.asarray(info).reshape(-1)[0]) if info is not None and np.asarray(info).size else ""
-    return BroadTrial(
-        name=name,
-        fs=fs,
-        time_s=np.arange(n_samples) / check_positive(fs, f"BROAD trial {name!r}: sampling_rate"),
-        gyr=mat["imu_gyr"],
-        acc=mat["imu_acc"],
-        mag=mat["imu_mag"],
-        quat_ref=mat["opt_quat"],
-        movement=movement_raw.astype(bool),
-        info=info_text,
-    )
+    time_s = np.arange(n_samples) / check_positive(fs, f"BROAD trial {name!r}: sampling_rate")
+    return BroadTrial(name=name, fs=fs, time_s=time_s, gyr=mat["imu_gyr"], acc=mat["imu_acc"], mag=mat["imu_mag"],
+                      quat_ref=mat["opt_quat"], movement=movement_raw.astype(bool), info=info_text)

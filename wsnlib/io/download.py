@@ -1,10 +1,11 @@
 """Verified downloads of dataset files, shared by the BROAD (:mod:`wsnlib.io.broad`) and PABR
 (:mod:`wsnlib.io.pabr`) loaders.
 
-A registry (shipped under ``wsnlib/registry/``) maps each file of a dataset to its expected
-content (:class:`RegistryEntry`); :func:`download_verified` fetches a file with pooch and keeps
-it only if it matches: its SHA-256, or where the registry has none its git blob id
-(:func:`git_blob_sha1_of`).
+A registry (shipped under ``wsnlib/registry/``, read by :func:`read_registry`) maps each file
+of a dataset to its expected content (:class:`RegistryEntry`); :func:`download_verified`
+fetches a file with pooch and keeps it only if it matches: its SHA-256, or where the registry
+has none its git blob id (:func:`git_blob_sha1_of`).  :func:`data_folder` is where a dataset's
+files live.
 """
 
 from __future__ import annotations
@@ -13,6 +14,8 @@ import hashlib
 import os
 from dataclasses import dataclass
 from pathlib import Path
+
+from wsnlib import paths
 
 
 @dataclass(frozen=True)
@@ -33,6 +36,27 @@ class RegistryEntry:
     sha256: str | None
     git_blob_sha1: str | None = None
     size_bytes: int | None = None
+
+
+def data_folder(data_dir, env_var: str, name: str) -> Path:
+    """A dataset's folder: ``data_dir``, else ``$<env_var>``, else ``<ROOT>/data/raw/<name>`` (not created here)."""
+    if data_dir is not None:
+        return Path(data_dir).expanduser().resolve()
+    override = os.environ.get(env_var)
+    if override:
+        return Path(override).expanduser().resolve()
+    return paths.ROOT / "data" / "raw" / name
+
+
+def read_registry(name: str, header: list[str]) -> list[list[str]]:
+    """The rows (tab-separated fields) of the shipped ``wsnlib/registry/<name>.tsv`` below its ``header``."""
+    from importlib import resources
+
+    text = resources.files("wsnlib").joinpath("registry", f"{name}.tsv").read_text(encoding="utf-8")
+    rows = [line.split("\t") for line in text.splitlines() if line and not line.startswith("#")]
+    if rows[0] != header:
+        raise ValueError(f"wsnlib/registry/{name}.tsv: unexpected header {rows[0]}")
+    return rows[1:]
 
 
 def git_blob_sha1_of(path: Path) -> str:
@@ -74,14 +98,10 @@ def download_verified(url: str, path: Path, expected: RegistryEntry, downloader,
             os.replace(partial, path)
     except ValueError as exc:
         wanted = f"SHA-256 {expected.sha256}" if expected.sha256 else f"git blob id {expected.git_blob_sha1}"
-        raise ValueError(
-            f"download of {path.name} from {url} failed the hash check (expected {wanted}); "
-            f"nothing was written to {path}. Details: {exc}"
-        ) from exc
+        raise ValueError(f"download of {path.name} from {url} failed the hash check (expected {wanted}); "
+                         f"nothing was written to {path}. Details: {exc}") from exc
     except OSError as exc:
-        raise OSError(
-            f"could not download {url} to {path}: {exc}. Without network, copy the file there "
-            f"by hand or set ${env_var} to a folder holding it"
-        ) from exc
+        raise OSError(f"could not download {url} to {path}: {exc}. Without network, copy the file there "
+                      f"by hand or set ${env_var} to a folder holding it") from exc
     finally:
         partial.unlink(missing_ok=True)

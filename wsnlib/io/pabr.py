@@ -89,7 +89,6 @@ from __future__ import annotations
 import io
 import json
 import logging
-import os
 import re
 import urllib.parse
 import warnings
@@ -98,9 +97,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from wsnlib import paths
 from wsnlib._validation import check_count
-from wsnlib.io.download import RegistryEntry, download_verified
+from wsnlib.io.download import RegistryEntry, data_folder, download_verified, read_registry
 from wsnlib.io.vectors import RssVectors, window_readings
 
 logger = logging.getLogger(__name__)
@@ -119,38 +117,22 @@ PABR_COMMIT = "77474b69dc7d73fc5b07b74d7b4b65f3235a663e"
 PABR_URL = "https://raw.githubusercontent.com/philotuxo/Position-Annotated-BLE-RSSI-Dataset/{commit}/{path}"
 
 
-def _read_pabr_registry() -> dict:
-    from importlib import resources
-
-    text = resources.files("wsnlib").joinpath("registry", "pabr.tsv").read_text(encoding="utf-8")
-    rows = [line.split("\t") for line in text.splitlines() if line and not line.startswith("#")]
-    if rows[0] != ["file", "sha256", "bytes"]:
-        raise ValueError(f"wsnlib/registry/pabr.tsv: unexpected header {rows[0]}")
-    return {name: RegistryEntry(sha256=sha, size_bytes=int(size)) for name, sha, size in rows[1:]}
-
-
 #: Path (relative to the dataset's root) → expected content (:class:`wsnlib.io.download.RegistryEntry`:
 #: SHA-256 and size of the full file at :data:`PABR_COMMIT`) of every file the loaders read:
 #: ``LICENSE.md``, ``cnf/tetam.dev``, ``hst/set_1/*``, ``hst/set_2/*``, ``trk/*_all_sensors.mbd``.
-PABR_REGISTRY: dict = _read_pabr_registry()
+PABR_REGISTRY: dict = {name: RegistryEntry(sha256=sha, size_bytes=int(size))
+                       for name, sha, size in read_registry("pabr", ["file", "sha256", "bytes"])}
 
 
 def pabr_dir(data_dir=None) -> Path:
     """Folder of the PABR files: ``data_dir``, else ``$WSNLIB_PABR_DIR``, else ``<ROOT>/data/raw/pabr``."""
-    if data_dir is not None:
-        return Path(data_dir).expanduser().resolve()
-    override = os.environ.get(PABR_DIR_ENV_VAR)
-    if override:
-        return Path(override).expanduser().resolve()
-    return paths.ROOT / "data" / "raw" / "pabr"
+    return data_folder(data_dir, PABR_DIR_ENV_VAR, "pabr")
 
 
 def _missing_message(path: Path, what: str) -> str:
     """Message of the ``FileNotFoundError`` for a missing PABR file or folder ``path`` (``what`` names it)."""
-    return (
-        f"PABR {what} not found: {path} is missing (set the folder with the data_dir argument or the "
-        f"environment variable {PABR_DIR_ENV_VAR}; default <ROOT>/data/raw/pabr; or call with download=True)"
-    )
+    return (f"PABR {what} not found: {path} is missing (set the folder with the data_dir argument or the "
+            f"environment variable {PABR_DIR_ENV_VAR}; default <ROOT>/data/raw/pabr; or call with download=True)")
 
 
 def _require_path(path: Path, what: str, kind: str = "file") -> Path:
@@ -272,9 +254,8 @@ def load_pabr_receivers(data_dir=None, *, download: bool = True, downloader=None
     for mac, (position, _color, alias) in dongles.items():
         if len(position) != 3:
             raise ValueError(f"{path}: receiver {alias} ({mac}) has position {position}, expected x, y, z")
-        rows.append(
-            {"receiver": alias, "mac": mac, "x": float(position[0]), "y": float(position[1]), "z": float(position[2])}
-        )
+        rows.append({"receiver": alias, "mac": mac, "x": float(position[0]), "y": float(position[1]),
+                     "z": float(position[2])})
     table = pd.DataFrame(rows, columns=["receiver", "mac", "x", "y", "z"])
     if table["receiver"].duplicated().any() or table["mac"].duplicated().any():
         raise ValueError(f"{path}: duplicate receiver alias or MAC")
@@ -316,10 +297,9 @@ def _read_mbd(files: list[tuple[Path, bytes]], names: list[str]) -> pd.DataFrame
         for row in range(n_rows):
             path, number, line = _line_of_row(files, row)
             if line.count(b",") != len(names) - 1:
-                raise ValueError(
-                    f"{path}, line {number}: {line.count(b',') + 1} comma-separated fields, expected "
-                    f"{len(names)} ({', '.join(names[:4])}{', ...' if len(names) > 4 else ''}): {line[:80]!r}"
-                )
+                raise ValueError(f"{path}, line {number}: {line.count(b',') + 1} comma-separated fields, expected "
+                                 f"{len(names)} ({', '.join(names[:4])}{', ...' if len(names) > 4 else ''}): "
+                                 f"{line[:80]!r}")
     try:
         # No NA parsing: a column with "nan", an empty or a non-numeric field stays text, found below.
         text = pd.read_csv(io.BytesIO(data), header=None, names=names, dtype=dict.fromkeys(_TEXT_FIELDS, str),
@@ -358,14 +338,8 @@ def _drop_invalid(table: pd.DataFrame, what: str) -> pd.DataFrame:
     table = table.loc[valid].reset_index(drop=True)
     table.attrs["n_packets_read"] = n_read
     table.attrs["n_dropped_invalid_rssi"] = n_dropped
-    logger.info(
-        "PABR %s: dropped %d of %d packets with RSSI outside [%g, %g] dBm",
-        what,
-        n_dropped,
-        n_read,
-        RSSI_MIN_DBM,
-        RSSI_MAX_DBM,
-    )
+    logger.info("PABR %s: dropped %d of %d packets with RSSI outside [%g, %g] dBm", what, n_dropped, n_read,
+                RSSI_MIN_DBM, RSSI_MAX_DBM)
     return table
 
 
@@ -378,14 +352,8 @@ def _cut_common_span(table: pd.DataFrame, n_packets: int) -> pd.DataFrame:
     return table.loc[keep.to_numpy()].reset_index(drop=True)
 
 
-def load_pabr_fingerprints(
-    set_name: str = "set_1",
-    data_dir=None,
-    *,
-    common_span_packets: int | None = None,
-    download: bool = True,
-    downloader=None,
-) -> pd.DataFrame:
+def load_pabr_fingerprints(set_name: str = "set_1", data_dir=None, *, common_span_packets: int | None = None,
+                           download: bool = True, downloader=None) -> pd.DataFrame:
     """Packets recorded at the stationary reference points of ``hst/<set_name>/``.
 
     Parameters
@@ -427,10 +395,8 @@ def load_pabr_fingerprints(
     if not files:
         if not download:
             _require_path(folder, f"fingerprint folder hst/{set_name}", kind="folder")
-            raise FileNotFoundError(
-                f"PABR fingerprint folder {folder} holds no .mbd files (set {PABR_DIR_ENV_VAR}, "
-                f"or call with download=True)"
-            )
+            raise FileNotFoundError(f"PABR fingerprint folder {folder} holds no .mbd files (set {PABR_DIR_ENV_VAR}, "
+                                    f"or call with download=True)")
         for name in _registry_files(f"hst/{set_name}/", ".mbd"):
             pabr_file(name, data_dir, download=True, downloader=downloader)
         files = sorted(folder.glob("*.mbd"))
@@ -448,10 +414,8 @@ def load_pabr_fingerprints(
         meta.append((sensor, float(match["x"]), float(match["y"]), float(match["z"]), n_lines))
     without_file = [name for name in mac_of if name not in {m[0] for m in meta}]
     if without_file:
-        raise ValueError(
-            f"{folder}: no file of receiver(s) {without_file} (expected <sensor>_<x>_<y>_<z>.mbd files for each of "
-            f"the {len(mac_of)} receivers of cnf/tetam.dev); is the folder complete?"
-        )
+        raise ValueError(f"{folder}: no file of receiver(s) {without_file} (expected <sensor>_<x>_<y>_<z>.mbd files "
+                         f"for each of the {len(mac_of)} receivers of cnf/tetam.dev); is the folder complete?")
     raw = _read_mbd(contents, _HST_FIELDS)
     n_lines = np.array([m[4] for m in meta])
     sensor = np.repeat([m[0] for m in meta], n_lines)
@@ -461,21 +425,14 @@ def load_pabr_fingerprints(
     if np.any(mismatch):
         row = int(np.argmax(mismatch))
         path, number, _ = _line_of_row(contents, row)
-        raise ValueError(
-            f"{path}, line {number}: file of {sensor[row]} holds a packet of receiver MAC {raw['mac'][row]}"
-        )
+        raise ValueError(f"{path}, line {number}: file of {sensor[row]} holds a packet of receiver MAC "
+                         f"{raw['mac'][row]}")
     points, point_of_file = np.unique(np.array([m[1:4] for m in meta]), axis=0, return_inverse=True)
-    table = pd.DataFrame(
-        {
-            "point": np.repeat(np.asarray(point_of_file).reshape(-1), n_lines),
-            "x": xyz[:, 0],
-            "y": xyz[:, 1],
-            "z": xyz[:, 2],
-            "receiver": pd.Categorical(sensor, categories=list(receivers["receiver"])),
-            "timestamp": raw["timestamp"].to_numpy(dtype=float),
-            "rssi": raw["rssi"].to_numpy(dtype=float),
-        }
-    )
+    table = pd.DataFrame({"point": np.repeat(np.asarray(point_of_file).reshape(-1), n_lines), "x": xyz[:, 0],
+                          "y": xyz[:, 1], "z": xyz[:, 2],
+                          "receiver": pd.Categorical(sensor, categories=list(receivers["receiver"])),
+                          "timestamp": raw["timestamp"].to_numpy(dtype=float),
+                          "rssi": raw["rssi"].to_numpy(dtype=float)})
     table = table.sort_values(["point", "receiver", "timestamp"], kind="stable").reset_index(drop=True)
     if common_span_packets is not None:
         table = _cut_common_span(table, int(common_span_packets))
@@ -548,30 +505,17 @@ def load_pabr_tracks(tracks=None, data_dir=None, *, download: bool = True, downl
     unknown_mac = ~raw["mac"].isin(list(alias_of)).to_numpy()
     if np.any(unknown_mac):
         path, number, _ = _line_of_row(contents, int(np.argmax(unknown_mac)))
-        raise ValueError(
-            f"{path}, line {number}: packet of unknown receiver MAC {raw['mac'][int(np.argmax(unknown_mac))]!r} "
-            f"(not in cnf/tetam.dev)"
-        )
-    table = pd.DataFrame(
-        {
-            "track": pd.Categorical(np.repeat(names, counts), categories=names),
-            "timestamp": raw["timestamp"].to_numpy(dtype=float),
-            "receiver": pd.Categorical(raw["mac"].map(alias_of), categories=list(receivers["receiver"])),
-            "rssi": raw["rssi"].to_numpy(dtype=float),
-            "x": raw["x"].to_numpy(dtype=float),
-            "y": raw["y"].to_numpy(dtype=float),
-            "z": raw["z"].to_numpy(dtype=float),
-        }
-    )
+        raise ValueError(f"{path}, line {number}: packet of unknown receiver MAC "
+                         f"{raw['mac'][int(np.argmax(unknown_mac))]!r} (not in cnf/tetam.dev)")
+    table = pd.DataFrame({"track": pd.Categorical(np.repeat(names, counts), categories=names),
+                          "timestamp": raw["timestamp"].to_numpy(dtype=float),
+                          "receiver": pd.Categorical(raw["mac"].map(alias_of), categories=list(receivers["receiver"])),
+                          **{c: raw[c].to_numpy(dtype=float) for c in ("rssi", "x", "y", "z")}})
     table = _drop_invalid(table, "tracks")
     unheard = [name for name in receivers["receiver"] if name not in set(table["receiver"])]
     if unheard:
-        warnings.warn(
-            f"PABR tracks {names}: receiver(s) {unheard} of cnf/tetam.dev heard no valid packet; their columns of "
-            f"pabr_vectors will be all NaN",
-            UserWarning,
-            stacklevel=2,
-        )
+        warnings.warn(f"PABR tracks {names}: receiver(s) {unheard} of cnf/tetam.dev heard no valid packet; their "
+                      f"columns of pabr_vectors will be all NaN", UserWarning, stacklevel=2)
     table.attrs["source"] = str(folder)
     return table
 
@@ -585,17 +529,9 @@ PABR_USER = "PABR"
 PABR_TARGET = "beacon"
 
 
-def pabr_vectors(
-    table: pd.DataFrame,
-    *,
-    window_s: float | None = None,
-    window_packets: int | None = None,
-    window: str | None = None,
-    fill: str | float | None = None,
-    floor_dbm: float = RSSI_MIN_DBM,
-    min_receivers: int = 1,
-    group: str | None = None,
-) -> RssVectors:
+def pabr_vectors(table: pd.DataFrame, *, window_s: float | None = None, window_packets: int | None = None,
+                 window: str | None = None, fill: str | float | None = None, floor_dbm: float = RSSI_MIN_DBM,
+                 min_receivers: int = 1, group: str | None = None) -> RssVectors:
     """RSS vectors (one value per receiver) from a long table of packets; see the module docstring.
 
     A thin wrapper of :func:`wsnlib.io.vectors.window_readings` (the windowing the simulated
@@ -636,9 +572,8 @@ def pabr_vectors(
         :data:`PABR_TARGET`.  A point's vectors all have its exact position.
     """
     if sum(arg is not None for arg in (window_s, window_packets, window)) != 1:
-        raise ValueError(
-            "give exactly one of window_s (seconds), window_packets (packets per receiver) and window='point'"
-        )
+        raise ValueError("give exactly one of window_s (seconds), window_packets (packets per receiver) and "
+                         "window='point'")
     if group is None:
         group = "point" if "point" in table.columns else "track"
     if window is not None and (window != "point" or group != "point"):
@@ -650,24 +585,16 @@ def pabr_vectors(
         raise ValueError(f"table lacks the column(s) {missing} (expected a load_pabr_* table)")
     check_count(min_receivers, "min_receivers")
     receiver = table["receiver"]
-    names = (
-        list(receiver.cat.categories) if isinstance(receiver.dtype, pd.CategoricalDtype) else sorted(receiver.unique())
-    )
+    categorical = isinstance(receiver.dtype, pd.CategoricalDtype)
+    names = list(receiver.cat.categories) if categorical else sorted(receiver.unique())
     df = table[needed].copy()
     df["receiver"] = pd.Categorical(df["receiver"], categories=names)
     df = df.sort_values([group, "receiver", "timestamp"], kind="stable")
     label = df[group].to_numpy(dtype=object)
     readings = pd.DataFrame({
-        "user": PABR_USER,
-        "session": label.astype(str),
-        "target": PABR_TARGET,
-        "label": label,
-        "anchor": df["receiver"].astype(object).to_numpy(),
-        "rss_dbm": df["rssi"].to_numpy(dtype=float),
-        "time_s": df["timestamp"].to_numpy(dtype=float),
-        "x_m": df["x"].to_numpy(dtype=float),
-        "y_m": df["y"].to_numpy(dtype=float),
-        "z_m": df["z"].to_numpy(dtype=float),
-    })
+        "user": PABR_USER, "session": label.astype(str), "target": PABR_TARGET, "label": label,
+        "anchor": df["receiver"].astype(object).to_numpy(), "rss_dbm": df["rssi"].to_numpy(dtype=float),
+        "time_s": df["timestamp"].to_numpy(dtype=float), "x_m": df["x"].to_numpy(dtype=float),
+        "y_m": df["y"].to_numpy(dtype=float), "z_m": df["z"].to_numpy(dtype=float)})
     return window_readings(readings, tuple(names), window_packets=window_packets, window_s=window_s, window=window,
                            complete_windows=True, fill=fill, floor_dbm=floor_dbm, min_anchors=min_receivers)
