@@ -70,6 +70,7 @@ import numpy as np
 import pandas as pd
 
 from wsnlib._validation import check_positive, check_type
+from wsnlib.io.rss import block_order
 from wsnlib.io.sidecar import (
     check_names,
     check_sidecar_units,
@@ -139,30 +140,22 @@ def _validate(df, kind: str, targets, where: str) -> pd.DataFrame:
         raise ValueError(f"{where}: columns must be exactly {expected} ({detail})")
     if len(df) == 0:
         raise ValueError(f"{where}: has no data rows")
-    out = {}
-    for column in ("time_s",) + VALUE_COLUMNS[kind]:
-        out[column] = finite_column(df, column, where)
-    for column in TEXT_COLUMNS:
-        out[column] = name_column(df, column, where)
+    out = {column: finite_column(df, column, where) for column in ("time_s",) + VALUE_COLUMNS[kind]}
+    out.update({column: name_column(df, column, where) for column in TEXT_COLUMNS})
     stray = sorted(set(out["target"]) - set(targets))
     if stray:
         raise ValueError(f"{where}: column 'target' has target(s) {stray} not in the sidecar's targets {list(targets)}")
     return pd.DataFrame({c: out[c] for c in expected})
 
 
-def _block(frame: pd.DataFrame) -> np.ndarray:
-    codes, _ = pd.factorize(frame["user"].astype(str) + "\x1f" + frame["session"].astype(str), sort=False)
-    return codes
-
-
 def _sort(frame: pd.DataFrame, targets) -> pd.DataFrame:
     rank = frame["target"].map({t: i for i, t in enumerate(targets)}).to_numpy()
-    order = np.lexsort((rank, frame["time_s"].to_numpy(), _block(frame)))
+    order = np.lexsort((rank, frame["time_s"].to_numpy(), block_order(frame)))
     return frame.iloc[order].reset_index(drop=True)
 
 
 def _check_order(frame: pd.DataFrame, targets, where: str) -> None:
-    block = _block(frame)
+    block = block_order(frame)
     if np.any(np.diff(block) < 0):
         row = int(np.argmax(np.diff(block) < 0)) + 2
         raise ValueError(f"{where}: column 'session': rows of each (user, session) must be contiguous (data row {row})")
@@ -174,25 +167,16 @@ def _check_order(frame: pd.DataFrame, targets, where: str) -> None:
     backwards = same & ((dt < 0) | ((dt == 0) & (drank < 0)))
     if np.any(backwards):
         row = int(np.argmax(backwards)) + 2
-        raise ValueError(
-            f"{where}: column 'time_s': rows must be ordered by time, then target, within each (user, session); "
-            f"data row {row} is out of order"
-        )
+        raise ValueError(f"{where}: column 'time_s': rows must be ordered by time, then target, within each "
+                         f"(user, session); data row {row} is out of order")
     duplicate = same & (dt == 0) & (drank == 0)
     if np.any(duplicate):
         row = int(np.argmax(duplicate)) + 2
         raise ValueError(f"{where}: column 'target': duplicate sample of one target at one time at data row {row}")
 
 
-def write_samples(
-    df: pd.DataFrame,
-    path,
-    kind: str,
-    metadata: dict | None = None,
-    *,
-    rate_hz: float | None = None,
-    targets=TARGET_NAMES,
-) -> Path:
+def write_samples(df: pd.DataFrame, path, kind: str, metadata: dict | None = None, *, rate_hz: float | None = None,
+                  targets=TARGET_NAMES) -> Path:
     """Write a sample table as ``path`` (CSV) and its sidecar ``path.with_suffix('.json')``.
 
     Parameters
@@ -230,16 +214,8 @@ def write_samples(
     _check_order(frame, targets, where)
     for column in ("time_s",) + VALUE_COLUMNS[kind]:
         frame[column] = np.round(frame[column].to_numpy(dtype=float), 6) + 0.0  # -0.0 prints as 0
-    sidecar = {
-        "format": FORMAT_NAME,
-        "format_version": FORMAT_VERSION,
-        "kind": kind,
-        "rate_hz": rate,
-        "targets": list(targets),
-        "units": UNITS[kind],
-        "frame": FRAMES[kind],
-        "metadata": metadata,
-    }
+    sidecar = {"format": FORMAT_NAME, "format_version": FORMAT_VERSION, "kind": kind, "rate_hz": rate,
+               "targets": list(targets), "units": UNITS[kind], "frame": FRAMES[kind], "metadata": metadata}
     return write_table_with_sidecar(frame, path, sidecar, FLOAT_FORMAT)
 
 

@@ -75,6 +75,7 @@ import pandas as pd
 from wsnlib._validation import as_float_array, check_positive, check_type
 from wsnlib.io.sidecar import (
     check_name,
+    check_names,
     check_sidecar_units,
     finite_column,
     load_sidecar,
@@ -92,13 +93,8 @@ SIGNAL_COLUMNS: dict[str, tuple[str, str, str]] = {
     "mag": ("mag_x_uT", "mag_y_uT", "mag_z_uT"),
 }
 QUAT_COLUMNS: tuple[str, str, str, str] = ("quat_w", "quat_x", "quat_y", "quat_z")
-BASE_COLUMNS: tuple[str, ...] = (
-    "time_s",
-    "node",
-    *SIGNAL_COLUMNS["gyr"],
-    *SIGNAL_COLUMNS["acc"],
-    *SIGNAL_COLUMNS["mag"],
-)
+BASE_COLUMNS: tuple[str, ...] = ("time_s", "node", *SIGNAL_COLUMNS["gyr"], *SIGNAL_COLUMNS["acc"],
+                                 *SIGNAL_COLUMNS["mag"])
 ALL_COLUMNS: tuple[str, ...] = BASE_COLUMNS + QUAT_COLUMNS
 
 #: Units written to (and required in) the sidecar.
@@ -156,15 +152,7 @@ class Recording:
             raise ValueError(f"time_s must be 1-D, got shape {self.time_s.shape}")
         if self.time_s.size > 1 and np.any(np.diff(self.time_s) <= 0.0):
             raise ValueError("time_s must be strictly increasing")
-        if isinstance(self.nodes, str):
-            raise ValueError("nodes must be a sequence of node names, not a single string")
-        self.nodes = tuple(self.nodes)
-        if not self.nodes:
-            raise ValueError("nodes must name at least one node")
-        for name in self.nodes:
-            check_name(name, "node name")
-        if len(set(self.nodes)) != len(self.nodes):
-            raise ValueError(f"nodes must be unique, got {self.nodes}")
+        self.nodes = check_names(self.nodes, "nodes")
         shape = (len(self.nodes), self.time_s.size)
         for name in ("gyr", "acc", "mag"):
             arr = as_float_array(getattr(self, name), name, last_dim=3)
@@ -216,10 +204,8 @@ def write_recording(recording: Recording, path) -> Path:
     if path.suffix.lower() == ".json":
         raise ValueError(f"path must name the CSV file, not the sidecar: {path}")
     n_nodes, n_samples = len(recording.nodes), recording.n_samples
-    data: dict[str, object] = {
-        "time_s": np.repeat(recording.time_s, n_nodes),
-        "node": np.tile(np.array(recording.nodes, dtype=object), n_samples),
-    }
+    data: dict[str, object] = {"time_s": np.repeat(recording.time_s, n_nodes),
+                               "node": np.tile(np.array(recording.nodes, dtype=object), n_samples)}
     for key, columns in SIGNAL_COLUMNS.items():
         values = np.swapaxes(getattr(recording, key), 0, 1).reshape(-1, 3)
         for i, column in enumerate(columns):
@@ -232,16 +218,9 @@ def write_recording(recording: Recording, path) -> Path:
     # Adding 0.0 turns -0.0 into 0.0, so that equal values always print the same way.
     numeric = [c for c in frame.columns if c != "node"]
     frame[numeric] = frame[numeric] + 0.0
-    sidecar = {
-        "format": FORMAT_NAME,
-        "format_version": FORMAT_VERSION,
-        "fs_hz": recording.fs,
-        "nodes": list(recording.nodes),
-        "units": UNITS,
-        "frame_convention": FRAME_CONVENTION,
-        "has_quaternions": recording.quat_true is not None,
-        "metadata": recording.metadata,
-    }
+    sidecar = {"format": FORMAT_NAME, "format_version": FORMAT_VERSION, "fs_hz": recording.fs,
+               "nodes": list(recording.nodes), "units": UNITS, "frame_convention": FRAME_CONVENTION,
+               "has_quaternions": recording.quat_true is not None, "metadata": recording.metadata}
     return write_table_with_sidecar(frame, path, sidecar, FLOAT_FORMAT, what="recording.metadata")
 
 
@@ -313,19 +292,11 @@ def read_recording(path) -> Recording:
         raise ValueError(f"{path}: columns must be in the order {expected}, got {columns}")
     if len(frame) == 0:
         raise ValueError(f"{path}: has no data rows")
-    if meta is not None and bool(meta.get("has_quaternions", bool(quat_present))) != bool(
-        quat_present
-    ):
-        raise ValueError(
-            f"{sidecar_path(path)}: 'has_quaternions' is {meta.get('has_quaternions')!r} "
-            f"but {path} {'has' if quat_present else 'lacks'} the quat_* columns"
-        )
+    if meta is not None and bool(meta.get("has_quaternions", bool(quat_present))) != bool(quat_present):
+        raise ValueError(f"{sidecar_path(path)}: 'has_quaternions' is {meta.get('has_quaternions')!r} "
+                         f"but {path} {'has' if quat_present else 'lacks'} the quat_* columns")
 
-    numeric = {}
-    for column in expected:
-        if column == "node":
-            continue
-        numeric[column] = finite_column(frame, column, path)
+    numeric = {column: finite_column(frame, column, path) for column in expected if column != "node"}
     node_col = frame["node"].to_numpy(dtype=object)
     for row, name in enumerate(node_col):
         if not isinstance(name, str) or not name.strip():
@@ -354,18 +325,14 @@ def read_recording(path) -> Recording:
     expected_nodes = np.tile(np.array(nodes, dtype=object), n_samples)
     if not np.array_equal(node_col, expected_nodes):
         row = int(np.argmax(node_col != expected_nodes))
-        raise ValueError(
-            f"{path}: column 'node': rows must cycle through {list(nodes)} for every sample; "
-            f"data row {row + 1} has {node_col[row]!r}, expected {expected_nodes[row]!r}"
-        )
+        raise ValueError(f"{path}: column 'node': rows must cycle through {list(nodes)} for every sample; "
+                         f"data row {row + 1} has {node_col[row]!r}, expected {expected_nodes[row]!r}")
 
     time = numeric["time_s"].reshape(n_samples, n_nodes)
     if not np.all(time == time[:, :1]):
         row = int(np.argmax(np.any(time != time[:, :1], axis=1)))
-        raise ValueError(
-            f"{path}: column 'time_s': nodes have different time stamps at sample {row} "
-            f"({time[row].tolist()})"
-        )
+        raise ValueError(f"{path}: column 'time_s': nodes have different time stamps at sample {row} "
+                         f"({time[row].tolist()})")
     time_s = time[:, 0]
     if n_samples > 1 and np.any(np.diff(time_s) <= 0.0):
         row = int(np.argmax(np.diff(time_s) <= 0.0))
@@ -376,10 +343,8 @@ def read_recording(path) -> Recording:
         if n_samples > 1:
             median_step = float(np.median(np.diff(time_s)))
             if not math.isclose(median_step, 1.0 / fs, rel_tol=0.01):
-                raise ValueError(
-                    f"{path}: column 'time_s' has median step {median_step:.6g} s, which "
-                    f"disagrees with fs_hz = {fs:g} in {sidecar_path(path)}"
-                )
+                raise ValueError(f"{path}: column 'time_s' has median step {median_step:.6g} s, which "
+                                 f"disagrees with fs_hz = {fs:g} in {sidecar_path(path)}")
         metadata = dict(meta.get("metadata", {}))
     else:
         if n_samples < 2:
@@ -397,18 +362,9 @@ def read_recording(path) -> Recording:
         norm = np.linalg.norm(quat, axis=-1)
         if np.any(np.abs(norm - 1.0) > _QUAT_NORM_TOL):
             node, sample = np.argwhere(np.abs(norm - 1.0) > _QUAT_NORM_TOL)[0]
-            raise ValueError(
-                f"{path}: columns quat_*: not a unit quaternion (norm {norm[node, sample]:.9g}) "
-                f"for node {nodes[node]!r} at sample {sample}"
-            )
+            raise ValueError(f"{path}: columns quat_*: not a unit quaternion (norm {norm[node, sample]:.9g}) "
+                             f"for node {nodes[node]!r} at sample {sample}")
 
-    return Recording(
-        fs=fs,
-        time_s=time_s.copy(),
-        nodes=nodes,
-        gyr=block(SIGNAL_COLUMNS["gyr"]),
-        acc=block(SIGNAL_COLUMNS["acc"]),
-        mag=block(SIGNAL_COLUMNS["mag"]),
-        quat_true=quat,
-        metadata=metadata,
-    )
+    return Recording(fs=fs, time_s=time_s.copy(), nodes=nodes, gyr=block(SIGNAL_COLUMNS["gyr"]),
+                     acc=block(SIGNAL_COLUMNS["acc"]), mag=block(SIGNAL_COLUMNS["mag"]), quat_true=quat,
+                     metadata=metadata)

@@ -70,10 +70,8 @@ def resample_factors(fs_in, fs_out) -> tuple[int, int]:
     ratio = fs_out / fs_in
     fraction = Fraction(ratio).limit_denominator(MAX_DENOMINATOR)
     if not math.isclose(float(fraction), ratio, rel_tol=_RATIO_RTOL):
-        raise ValueError(
-            f"fs_out / fs_in = {fs_out!r} / {fs_in!r} = {ratio!r} is not a ratio of integers up to "
-            f"{MAX_DENOMINATOR} (nearest {fraction}); give the rates to full precision (BROAD: 2000/7 Hz)"
-        )
+        raise ValueError(f"fs_out / fs_in = {fs_out!r} / {fs_in!r} = {ratio!r} is not a ratio of integers up to "
+                         f"{MAX_DENOMINATOR} (nearest {fraction}); give the rates to full precision (BROAD: 2000/7 Hz)")
     return fraction.numerator, fraction.denominator
 
 
@@ -206,18 +204,12 @@ def resample_broad(trial: BroadTrial, fs_out: float = 50.0) -> BroadTrial:
         raise ValueError(f"trial must be a BroadTrial (see wsnlib.io.broad.load_broad), got {type(trial).__name__}")
     fs_in = trial.fs
     fs_out = check_positive(fs_out, "fs_out")
-    note = (
-        f"[wsnlib] Resampled from {fs_in:.9g} Hz to {fs_out:g} Hz by wsnlib.io.resample "
-        f"(IMU: anti-alias FIR + polyphase; opt_quat: SLERP, NaN kept; movement: nearest sample)."
-    )
-    return dataclasses.replace(
-        trial,
-        fs=fs_out,
-        time_s=resampled_times(trial.n_samples, fs_in, fs_out),
-        gyr=resample_signal(trial.gyr, fs_in, fs_out),
-        acc=resample_signal(trial.acc, fs_in, fs_out),
-        mag=resample_signal(trial.mag, fs_in, fs_out),
-        quat_ref=resample_quaternion(trial.quat_ref, fs_in, fs_out),
-        movement=resample_mask(trial.movement, fs_in, fs_out),
-        info=f"{trial.info}\n\n{note}" if trial.info else note,
-    )
+    note = (f"[wsnlib] Resampled from {fs_in:.9g} Hz to {fs_out:g} Hz by wsnlib.io.resample "
+            f"(IMU: anti-alias FIR + polyphase; opt_quat: SLERP, NaN kept; movement: nearest sample).")
+    return dataclasses.replace(trial, fs=fs_out, time_s=resampled_times(trial.n_samples, fs_in, fs_out),
+                               gyr=resample_signal(trial.gyr, fs_in, fs_out),
+                               acc=resample_signal(trial.acc, fs_in, fs_out),
+                               mag=resample_signal(trial.mag, fs_in, fs_out),
+                               quat_ref=resample_quaternion(trial.quat_ref, fs_in, fs_out),
+                               movement=resample_mask(trial.movement, fs_in, fs_out),
+                               info=f"{trial.info}\n\n{note}" if trial.info else note)

@@ -142,55 +142,42 @@ def validate_table(df: pd.DataFrame, anchors, targets, where: str) -> pd.DataFra
         raise ValueError(f"{where}: columns must be in the order {list(COLUMNS)}, got {columns}")
     if len(df) == 0:
         raise ValueError(f"{where}: has no data rows")
-    out = {}
-    for column in FLOAT_COLUMNS:
-        out[column] = finite_column(df, column, where)
+    out = {column: finite_column(df, column, where) for column in FLOAT_COLUMNS}
     rss = df["rss_dbm"]
-    if rss.dtype == object:
-        text = rss.astype(str)
-        bad = ~text.str.match(_INT_RE)
-        if bad.any():
-            row = int(np.argmax(bad.to_numpy()))
-            raise ValueError(
-                f"{where}: column 'rss_dbm' must hold integers, got {rss.iloc[row]!r} at data row {row + 1}"
-            )
-        rss_values = text.astype(np.int64).to_numpy()
-    elif pd.api.types.is_integer_dtype(rss.dtype):
+    if pd.api.types.is_integer_dtype(rss.dtype):
         rss_values = rss.to_numpy(dtype=np.int64)
     else:
-        values = pd.to_numeric(rss, errors="coerce").to_numpy(dtype=float)
-        bad = ~np.isfinite(values) | (values != np.round(values))
+        if rss.dtype == object:
+            text = rss.astype(str)
+            bad = ~text.str.match(_INT_RE).to_numpy()
+        else:
+            values = pd.to_numeric(rss, errors="coerce").to_numpy(dtype=float)
+            bad = ~np.isfinite(values) | (values != np.round(values))
         if np.any(bad):
             row = int(np.argmax(bad))
-            raise ValueError(
-                f"{where}: column 'rss_dbm' must hold integers, got {rss.iloc[row]!r} at data row {row + 1}"
-            )
-        rss_values = values.astype(np.int64)
+            raise ValueError(f"{where}: column 'rss_dbm' must hold integers, got {rss.iloc[row]!r} at data row "
+                             f"{row + 1}")
+        rss_values = text.astype(np.int64).to_numpy() if rss.dtype == object else values.astype(np.int64)
     lo, hi = RSS_RANGE_DBM
     bad = (rss_values < lo) | (rss_values > hi)
     if np.any(bad):
         row = int(np.argmax(bad))
-        raise ValueError(
-            f"{where}: column 'rss_dbm' value {rss_values[row]} at data row {row + 1} is outside [{lo}, {hi}] dBm"
-        )
+        raise ValueError(f"{where}: column 'rss_dbm' value {rss_values[row]} at data row {row + 1} is outside "
+                         f"[{lo}, {hi}] dBm")
     out["rss_dbm"] = rss_values
     for column in TEXT_COLUMNS:
         out[column] = name_column(df, column, where)
     for column, allowed, what in (("anchor", anchors, "anchors"), ("target", targets, "targets")):
         stray = sorted(set(out[column]) - set(allowed))
         if stray:
-            raise ValueError(
-                f"{where}: column {column!r} has {what[:-1]}(s) {stray} not in the sidecar's {what} {list(allowed)}"
-            )
-    frame = pd.DataFrame({c: out[c] for c in COLUMNS})
-    return frame
+            raise ValueError(f"{where}: column {column!r} has {what[:-1]}(s) {stray} not in the sidecar's {what} "
+                             f"{list(allowed)}")
+    return pd.DataFrame({c: out[c] for c in COLUMNS})
 
 
 def block_order(frame: pd.DataFrame) -> np.ndarray:
     """Block index per row: (user, session) pairs numbered in order of first appearance."""
-    keys = frame["user"].astype(str) + "\x1f" + frame["session"].astype(str)
-    codes, _ = pd.factorize(keys, sort=False)
-    return codes
+    return pd.factorize(frame["user"].astype(str) + "\x1f" + frame["session"].astype(str), sort=False)[0]
 
 
 def sort_rows(frame: pd.DataFrame, anchors, targets) -> pd.DataFrame:
@@ -207,10 +194,8 @@ def check_rows(frame: pd.DataFrame, anchors, targets, where: str) -> None:
     block = block_order(frame)
     if np.any(np.diff(block) < 0):
         row = int(np.argmax(np.diff(block) < 0)) + 1
-        raise ValueError(
-            f"{where}: column 'session': rows of each (user, session) must be contiguous; data row {row + 1} "
-            f"returns to an earlier block"
-        )
+        raise ValueError(f"{where}: column 'session': rows of each (user, session) must be contiguous; data row "
+                         f"{row + 1} returns to an earlier block")
     t_rank = frame["target"].map({t: i for i, t in enumerate(targets)}).to_numpy()
     a_rank = frame["anchor"].map({a: i for i, a in enumerate(anchors)}).to_numpy()
     time = frame["time_s"].to_numpy()
@@ -224,25 +209,21 @@ def check_rows(frame: pd.DataFrame, anchors, targets, where: str) -> None:
     bad_order = same_block & ~all_zero & (sign < 0)
     if np.any(bad_order):
         row = int(np.argmax(bad_order)) + 1
-        raise ValueError(
-            f"{where}: column 'time_s': rows must be ordered by time, target, anchor within each (user, session); "
-            f"data row {row + 1} is out of order"
-        )
+        raise ValueError(f"{where}: column 'time_s': rows must be ordered by time, target, anchor within each "
+                         f"(user, session); data row {row + 1} is out of order")
     dup = same_block & all_zero
     if np.any(dup):
         row = int(np.argmax(dup)) + 1
-        raise ValueError(
-            f"{where}: column 'anchor': duplicate report of one packet by one anchor at data row {row + 1}"
-        )
+        raise ValueError(f"{where}: column 'anchor': duplicate report of one packet by one anchor at data row "
+                         f"{row + 1}")
     packet = same_block & (step[:, 1] == 0) & (step[:, 2] == 0)
     for column in ("label", "x_m", "y_m", "z_m"):
         values = frame[column].to_numpy()
         differs = packet & (values[1:] != values[:-1])
         if np.any(differs):
             row = int(np.argmax(differs)) + 1
-            raise ValueError(
-                f"{where}: column {column!r} differs between rows of the same packet at data row {row + 1}"
-            )
+            raise ValueError(f"{where}: column {column!r} differs between rows of the same packet at data row "
+                             f"{row + 1}")
 
 
 # --------------------------------------------------------------------------------------------
@@ -250,16 +231,8 @@ def check_rows(frame: pd.DataFrame, anchors, targets, where: str) -> None:
 # --------------------------------------------------------------------------------------------
 
 
-def write_rss(
-    df: pd.DataFrame,
-    path,
-    metadata: dict | None = None,
-    *,
-    packet_rate_hz: float | None = None,
-    anchor_positions_m: dict | None = None,
-    anchors=ANCHOR_NAMES,
-    targets=TARGET_NAMES,
-) -> Path:
+def write_rss(df: pd.DataFrame, path, metadata: dict | None = None, *, packet_rate_hz: float | None = None,
+              anchor_positions_m: dict | None = None, anchors=ANCHOR_NAMES, targets=TARGET_NAMES) -> Path:
     """Write the long RSS table ``df`` as ``path`` (CSV) and its sidecar ``path.with_suffix('.json')``.
 
     Parameters
@@ -310,17 +283,9 @@ def write_rss(
     for c in FLOAT_COLUMNS:
         text[c] = np.round(text[c].to_numpy(dtype=float), 6) + 0.0
     text["rss_dbm"] = text["rss_dbm"].astype(np.int64)
-    sidecar = {
-        "format": FORMAT_NAME,
-        "format_version": FORMAT_VERSION,
-        "packet_rate_hz": rate,
-        "anchors": list(anchors),
-        "targets": list(targets),
-        "anchor_positions_m": positions,
-        "units": UNITS,
-        "frame": FRAME,
-        "metadata": metadata,
-    }
+    sidecar = {"format": FORMAT_NAME, "format_version": FORMAT_VERSION, "packet_rate_hz": rate,
+               "anchors": list(anchors), "targets": list(targets), "anchor_positions_m": positions, "units": UNITS,
+               "frame": FRAME, "metadata": metadata}
     return write_table_with_sidecar(text, path, sidecar, FLOAT_FORMAT)
 
 
@@ -342,9 +307,8 @@ def _check_positions(positions, anchors, where: str) -> dict:
             for anchor, xyz in table.items():
                 arr = np.asarray(xyz, dtype=float)
                 if arr.shape != (3,) or not np.all(np.isfinite(arr)):
-                    raise ValueError(
-                        f"{where}: anchor_positions_m[{user!r}][{session!r}][{anchor!r}] must be 3 finite numbers"
-                    )
+                    raise ValueError(f"{where}: anchor_positions_m[{user!r}][{session!r}][{anchor!r}] must be 3 finite "
+                                     f"numbers")
                 entry[anchor] = [float(v) for v in arr]
             out[str(user)][str(session)] = entry
     return out
@@ -364,9 +328,8 @@ def _read_sidecar(path: Path) -> dict:
         meta["anchor_positions_m"] = _check_positions(meta.get("anchor_positions_m", {}), meta["anchors"], str(side))
     except ValueError as exc:
         raise ValueError(f"{side}: {exc}") from exc
-    if not isinstance(meta.get("metadata", {}), dict):
+    if not isinstance(meta.setdefault("metadata", {}), dict):
         raise ValueError(f"{side}: 'metadata' must be an object")
-    meta.setdefault("metadata", {})
     return meta
 
 
@@ -416,17 +379,9 @@ def read_rss(path) -> tuple[pd.DataFrame, dict]:
 # --------------------------------------------------------------------------------------------
 
 
-def rss_vectors(
-    df: pd.DataFrame,
-    window_packets: int | None = None,
-    *,
-    window_s: float | None = None,
-    window: str | None = None,
-    anchors=None,
-    target: str | None = None,
-    fill: str | float | None = None,
-    floor_dbm: float = DEFAULT_FLOOR_DBM,
-) -> RssVectors:
+def rss_vectors(df: pd.DataFrame, window_packets: int | None = None, *, window_s: float | None = None,
+                window: str | None = None, anchors=None, target: str | None = None, fill: str | float | None = None,
+                floor_dbm: float = DEFAULT_FLOOR_DBM) -> RssVectors:
     """Fingerprint vectors (:class:`~wsnlib.io.vectors.RssVectors`) from a long RSS table.
 
     Packets are identified by (user, session, target, time_s).  Within each (user, session,

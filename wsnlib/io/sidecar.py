@@ -83,16 +83,13 @@ def _check_csv_integrity(path: Path, meta: dict, side: Path) -> None:
     lines = data.count(b"\n") + (1 if data and not data.endswith(b"\n") else 0)
     found = max(lines - 1, 0)  # minus the header line
     if found != rows:
-        raise ValueError(
-            f"{path}: has {found} data rows but its sidecar {side.name} says {rows}: the file is "
-            f"truncated or was changed after it was written (write it again with the writer)"
-        )
+        raise ValueError(f"{path}: has {found} data rows but its sidecar {side.name} says {rows}: the file is "
+                         f"truncated or was changed after it was written (write it again with the writer)")
     actual = hashlib.sha256(data).hexdigest()
     if actual != digest:
-        raise ValueError(
-            f"{path}: SHA-256 {actual[:12]}… differs from {CSV_SHA256_KEY!r} {digest[:12]}… in its sidecar "
-            f"{side.name}: the file was damaged or changed after it was written (write it again with the writer)"
-        )
+        raise ValueError(f"{path}: SHA-256 {actual[:12]}… differs from {CSV_SHA256_KEY!r} {digest[:12]}… in its "
+                         f"sidecar {side.name}: the file was damaged or changed after it was written (write it again "
+                         f"with the writer)")
 
 
 def finite_column(frame, column: str, where) -> np.ndarray:
@@ -101,19 +98,16 @@ def finite_column(frame, column: str, where) -> np.ndarray:
     bad = ~np.isfinite(values)
     if np.any(bad):
         row = int(np.argmax(bad))
-        raise ValueError(
-            f"{where}: column {column!r} has a non-numeric or non-finite value "
-            f"{frame[column].iloc[row]!r} at data row {row + 1}"
-        )
+        raise ValueError(f"{where}: column {column!r} has a non-numeric or non-finite value "
+                         f"{frame[column].iloc[row]!r} at data row {row + 1}")
     return values
 
 
 def check_name(value, what: str) -> str:
     """``value`` if it is a usable name (non-empty, no commas, quotes or surrounding spaces), else ``ValueError``."""
     if not isinstance(value, str) or not value or value != value.strip() or any(c in value for c in ',"\n\r'):
-        raise ValueError(
-            f"{what} must be a non-empty string without commas, quotes or surrounding spaces, got {value!r}"
-        )
+        raise ValueError(f"{what} must be a non-empty string without commas, quotes or surrounding spaces, "
+                         f"got {value!r}")
     return value
 
 
@@ -166,9 +160,8 @@ def load_sidecar(path: Path, format_name: str, format_version: int, *, required:
     if meta.get("format") != format_name:
         raise ValueError(f"{side}: 'format' must be {format_name!r}, got {meta.get('format')!r}")
     if meta.get("format_version") != format_version:
-        raise ValueError(
-            f"{side}: unsupported 'format_version' {meta.get('format_version')!r} (this reader knows {format_version})"
-        )
+        raise ValueError(f"{side}: unsupported 'format_version' {meta.get('format_version')!r} (this reader knows "
+                         f"{format_version})")
     _check_csv_integrity(Path(path), meta, side)
     return meta
 
@@ -180,6 +173,5 @@ def check_sidecar_units(meta: dict, units: dict, side: Path) -> None:
         raise ValueError(f"{side}: 'units' must be an object {units}, got {found!r}")
     for key, unit in units.items():
         if found.get(key) != unit:
-            raise ValueError(
-                f"{side}: units[{key!r}] must be {unit!r} (convert the data first), got {found.get(key)!r}"
-            )
+            raise ValueError(f"{side}: units[{key!r}] must be {unit!r} (convert the data first), "
+                             f"got {found.get(key)!r}")

@@ -46,7 +46,7 @@ biases the cell's mean).  Online vectors must be complete; ``fill`` completes th
 from __future__ import annotations
 
 import numbers
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 import pandas as pd
@@ -126,22 +126,8 @@ class RssVectors:
                 continue
             wanted = [wanted] if isinstance(wanted, str | numbers.Number) else list(wanted)
             keep &= np.isin(getattr(self, field_name), wanted)
-        return self._take(keep)
-
-    def _take(self, rows) -> RssVectors:
-        return RssVectors(
-            rss=self.rss[rows],
-            n_readings=self.n_readings[rows],
-            time_s=self.time_s[rows],
-            position=self.position[rows],
-            label=self.label[rows],
-            target=self.target[rows],
-            session=self.session[rows],
-            user=self.user[rows],
-            window=self.window[rows],
-            n_packets=self.n_packets[rows],
-            anchors=self.anchors,
-        )
+        return RssVectors(**{f.name: getattr(self, f.name)[keep] for f in fields(self) if f.name != "anchors"},
+                          anchors=self.anchors)
 
 
 def _point_codes(readings: pd.DataFrame) -> np.ndarray:
@@ -189,18 +175,10 @@ def _check_fill(fill, floor_dbm) -> float | None:
     return value
 
 
-def window_readings(
-    readings: pd.DataFrame,
-    anchors,
-    *,
-    window_packets: int | None = None,
-    window_s: float | None = None,
-    window: str | None = None,
-    complete_windows: bool = False,
-    fill: str | float | None = None,
-    floor_dbm: float | None = None,
-    min_anchors: int = 1,
-) -> RssVectors:
+def window_readings(readings: pd.DataFrame, anchors, *, window_packets: int | None = None,
+                    window_s: float | None = None, window: str | None = None, complete_windows: bool = False,
+                    fill: str | float | None = None, floor_dbm: float | None = None,
+                    min_anchors: int = 1) -> RssVectors:
     """RSS vectors from a readings table: the one windowing function (see the module docstring).
 
     Parameters
@@ -338,31 +316,14 @@ def window_readings(
 
     take = (counts > 0).sum(axis=1) >= min_anchors
     meta = {c: rows[c].to_numpy(dtype=object)[first][take] for c in ("user", "session", "target", "label")}
-    return RssVectors(
-        rss=rss[take],
-        n_readings=counts[take],
-        time_s=last_time[take],
-        position=position[take],
-        window=win[first][take],
-        n_packets=n_packets[take],
-        anchors=anchors,
-        **meta,
-    )
+    return RssVectors(rss=rss[take], n_readings=counts[take], time_s=last_time[take], position=position[take],
+                      window=win[first][take], n_packets=n_packets[take], anchors=anchors, **meta)
 
 
 def _empty(anchors: tuple[str, ...]) -> RssVectors:
     n_anchors = len(anchors)
     empty = np.empty((0,), dtype=object)
-    return RssVectors(
-        rss=np.empty((0, n_anchors)),
-        n_readings=np.zeros((0, n_anchors), dtype=np.int64),
-        time_s=np.empty(0),
-        position=np.empty((0, 3)),
-        label=empty,
-        target=empty,
-        session=empty,
-        user=empty,
-        window=np.zeros(0, dtype=np.int64),
-        n_packets=np.zeros(0, dtype=np.int64),
-        anchors=anchors,
-    )
+    return RssVectors(rss=np.empty((0, n_anchors)), n_readings=np.zeros((0, n_anchors), dtype=np.int64),
+                      time_s=np.empty(0), position=np.empty((0, 3)), label=empty, target=empty, session=empty,
+                      user=empty, window=np.zeros(0, dtype=np.int64), n_packets=np.zeros(0, dtype=np.int64),
+                      anchors=anchors)
