@@ -41,9 +41,7 @@ def check_nonzero_norm(arr: np.ndarray, name: str, what: str) -> np.ndarray:
     norm = np.linalg.norm(arr, axis=-1)
     if np.any(norm <= 0.0):
         bad = np.argwhere(norm <= 0.0)[0]
-        raise ValueError(
-            f"{name} has a zero-norm vector at index {tuple(int(i) for i in bad)} ({what})"
-        )
+        raise ValueError(f"{name} has a zero-norm vector at index {tuple(int(i) for i in bad)} ({what})")
     return norm
 
 

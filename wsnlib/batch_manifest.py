@@ -80,8 +80,7 @@ def last_started_cell(executed: Path) -> dict:
         nb = nbformat.read(executed, as_version=4)
     except Exception:  # missing or half-written copy
         return {}
-    started = [i for i, cell in enumerate(nb.cells)
-               if cell.get("metadata", {}).get("papermill", {}).get("start_time")]
+    started = [i for i, cell in enumerate(nb.cells) if cell.get("metadata", {}).get("papermill", {}).get("start_time")]
     if not started:
         return {}
     index = started[-1]

@@ -96,17 +96,9 @@ def gravity_gate(acc, *, xi: float = DEFAULT_XI_M_S2, gravity: float = frames.ST
     return np.abs(np.linalg.norm(acc, axis=-1) - gravity) <= xi
 
 
-def pitch_from_acc(
-    acc,
-    *,
-    method: str = "gating",
-    xi: float = DEFAULT_XI_M_S2,
-    gravity: float = frames.STANDARD_GRAVITY,
-    fs: float | None = None,
-    cutoff_hz: float = DEFAULT_CUTOFF_HZ,
-    order: int = 2,
-    segment_axis=SEGMENT_AXIS,
-) -> np.ndarray:
+def pitch_from_acc(acc, *, method: str = "gating", xi: float = DEFAULT_XI_M_S2,
+                   gravity: float = frames.STANDARD_GRAVITY, fs: float | None = None,
+                   cutoff_hz: float = DEFAULT_CUTOFF_HZ, order: int = 2, segment_axis=SEGMENT_AXIS) -> np.ndarray:
     """Segment pitch θ (rad) from accelerometer readings, eqs. (6)–(7), ``(..., T, 3) → (..., T)``.
 
     ``θ = arcsin(a · u / |a|)`` with ``u`` the device axis along the segment (pointing
@@ -317,14 +309,8 @@ def forward_chain(heading, pitch, chain: ArmChain, *, origin=(0.0, 0.0, 0.0)) ->
     return {"devices": devices, "joints": joints}
 
 
-def recursive_chain(
-    radio_positions,
-    pitch,
-    chain: ArmChain,
-    *,
-    origin=(0.0, 0.0, 0.0),
-    heading_tol_m: float = DEFAULT_HEADING_TOL_M,
-) -> dict[str, np.ndarray]:
+def recursive_chain(radio_positions, pitch, chain: ArmChain, *, origin=(0.0, 0.0, 0.0),
+                    heading_tol_m: float = DEFAULT_HEADING_TOL_M) -> dict[str, np.ndarray]:
     """The paper's recursive estimation process, eqs. (8)–(10), over any chain (footnote 5).
 
     For segment ``s = 0, 1, …`` with proximal joint ``A`` (the origin for ``s = 0``, else the

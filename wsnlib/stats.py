@@ -310,9 +310,8 @@ def _as_samples(samples) -> tuple[list[str], list[np.ndarray]]:
     return names, arrays
 
 
-def rank_with_ties(samples, *, rng: np.random.Generator, level: float = 0.95, n_boot: int = 2000,
-                   method: str = "bca", statistic: str = "mean", paired: bool = True,
-                   lower_is_better: bool = True):
+def rank_with_ties(samples, *, rng: np.random.Generator, level: float = 0.95, n_boot: int = 2000, method: str = "bca",
+                   statistic: str = "mean", paired: bool = True, lower_is_better: bool = True):
     """Rank methods by their per-unit values with bootstrap intervals; overlapping → tie.
 
     Parameters
@@ -418,8 +417,7 @@ def describe_ranking(ranking, *, what: str = "error", unit: str = "", decimals: 
     if len(first) > 1:
         names = list(first.index)
         listed = ", ".join(names[:-1]) + f" and {names[-1]}"
-        return (f"{listed} cannot be told apart on {what} — a tie: " + "; ".join(fmt(n) for n in names)
-                + f" {scope}.")
+        return f"{listed} cannot be told apart on {what} — a tie: " + "; ".join(fmt(n) for n in names) + f" {scope}."
     best = first.index[0]
     if len(ranking) == 1:
         return f"{fmt(best)} {scope}."
@@ -427,8 +425,7 @@ def describe_ranking(ranking, *, what: str = "error", unit: str = "", decimals: 
     return f"{best} has the best {what}, separated from the runner-up: {fmt(best)} vs {fmt(runner)} {scope}."
 
 
-def ratio_of_means_ci(a, b, *, rng: np.random.Generator, level: float = 0.95,
-                      n_boot: int = 2000) -> BootstrapInterval:
+def ratio_of_means_ci(a, b, *, rng: np.random.Generator, level: float = 0.95, n_boot: int = 2000) -> BootstrapInterval:
     """Percentile bootstrap interval of ``mean(a) / mean(b)`` over paired units.
 
     The units (rows of ``a`` and ``b`` together) are resampled; each resample's ratio of means

@@ -62,15 +62,13 @@ def _as_output(value, shape: tuple[int, ...], exercise: str, inputs: str) -> np.
         raise AssertionError(f"{exercise}: your function returned {value!r} for {inputs}, "
                              f"which is not an array of numbers ({error})") from None
     if arr.shape != shape:
-        raise AssertionError(f"{exercise}: your function returned shape {arr.shape} for {inputs}, "
-                             f"expected {shape}")
+        raise AssertionError(f"{exercise}: your function returned shape {arr.shape} for {inputs}, expected {shape}")
     if not np.all(np.isfinite(arr)):
         raise AssertionError(f"{exercise}: your function returned non-finite values {arr} for {inputs}")
     return arr
 
 
-def _compare(got: np.ndarray, expected: np.ndarray, atol: float, exercise: str, inputs: str,
-             hint: str = "") -> float:
+def _compare(got: np.ndarray, expected: np.ndarray, atol: float, exercise: str, inputs: str, hint: str = "") -> float:
     difference = float(np.max(np.abs(got - expected))) if got.size else 0.0
     if not difference <= atol:
         message = (f"{exercise}: for {inputs}\n  expected {np.array2string(expected, precision=6)}\n"

@@ -4,12 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wsnlib.exercises.checking import (
-    ExerciseReport,
-    _Case,
-    _check_arguments,
-    _run_cases,
-)
+from wsnlib.exercises.checking import ExerciseReport, _Case, _check_arguments, _run_cases
 
 
 def check_shepard_knn(student_function, *, rng: np.random.Generator, n_cases: int = 300,
@@ -62,8 +57,7 @@ def check_shepard_knn(student_function, *, rng: np.random.Generator, n_cases: in
 
     return _run_cases("shepard_knn", student_function, draw, n_cases=n_cases, atol=atol,
                       hint="distances over all anchors (Euclidean: sqrt of the summed squares), keep "
-                      "the k smallest, weights 1/(d**power + wsnlib.radio.SHEPARD_EPS) "
-                      "divided by their sum")
+                      "the k smallest, weights 1/(d**power + wsnlib.radio.SHEPARD_EPS) divided by their sum")
 
 
 def check_gated_pitch(student_function, *, rng: np.random.Generator, n_cases: int = 200,

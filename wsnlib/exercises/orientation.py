@@ -4,13 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wsnlib.exercises.checking import (
-    ExerciseReport,
-    _Case,
-    _check_arguments,
-    _random_unit_quaternion,
-    _run_cases,
-)
+from wsnlib.exercises.checking import ExerciseReport, _Case, _check_arguments, _random_unit_quaternion, _run_cases
 
 
 def check_madgwick_step(student_function, *, rng: np.random.Generator, n_cases: int = 200,
@@ -262,8 +256,7 @@ def check_triad(student_function, *, rng: np.random.Generator, n_cases: int = 30
 
     return _run_cases("triad", student_function, draw, n_cases=n_cases, atol=atol, rotation=True,
                       hint="build the same orthonormal triad (a, a×m/|a×m|, a × that) in the body and "
-                      "from the ENU references (up, and wsnlib.frames.magnetic_field_enu()), "
-                      "then R = M_ref M_bodyᵀ")
+                      "from the ENU references (up, and wsnlib.frames.magnetic_field_enu()), then R = M_ref M_bodyᵀ")
 
 
 def _reference_gain_after_gap(prior_variance, gap_rate_std, n_lost, fs, measurement_variance):

@@ -23,9 +23,7 @@ def _check_shape(shape, name: str = "shape") -> tuple[int, ...]:
     try:
         shape = tuple(shape)
     except TypeError:
-        raise ValueError(
-            f"{name} must be a tuple of non-negative integers, got {shape!r}"
-        ) from None
+        raise ValueError(f"{name} must be a tuple of non-negative integers, got {shape!r}") from None
     return tuple(_check_count(s, name) for s in shape)
 
 
@@ -34,9 +32,7 @@ def _check_mask(value, name: str, min_ndim: int = 1) -> np.ndarray:
     if arr.dtype != np.bool_:
         raise ValueError(f"{name} must be a boolean mask (True = received), got dtype {arr.dtype}")
     if arr.ndim < min_ndim:
-        raise ValueError(
-            f"{name} must have at least {min_ndim} dimension(s), got shape {arr.shape}"
-        )
+        raise ValueError(f"{name} must have at least {min_ndim} dimension(s), got shape {arr.shape}")
     return arr
 
 

@@ -26,11 +26,8 @@ def n_packets_for(n_samples: int, samples_per_packet: int = SAMPLES_PER_PACKET) 
     return -(-n_samples // spp)
 
 
-def packets_to_samples(
-    packet_received,
-    samples_per_packet: int = SAMPLES_PER_PACKET,
-    n_samples: int | None = None,
-) -> np.ndarray:
+def packets_to_samples(packet_received, samples_per_packet: int = SAMPLES_PER_PACKET,
+                       n_samples: int | None = None) -> np.ndarray:
     """Expand a per-packet mask to a per-sample mask.
 
     Parameters
@@ -59,10 +56,8 @@ def packets_to_samples(
     n_samples = _check_count(n_samples, "n_samples")
     needed = n_packets_for(n_samples, spp)
     if n_packets != needed:
-        raise ValueError(
-            f"packet_received has {n_packets} packets, but n_samples = {n_samples} at "
-            f"{spp} samples per packet needs {needed}"
-        )
+        raise ValueError(f"packet_received has {n_packets} packets, but n_samples = {n_samples} at "
+                         f"{spp} samples per packet needs {needed}")
     return samples[..., :n_samples]
 
 

@@ -47,14 +47,8 @@ def burst_loss(n_packets: int, start_packet: int, n_lost: int) -> np.ndarray:
     return mask
 
 
-def burst_mask(
-    n_samples: int,
-    start_sample: int,
-    n_packets: int,
-    samples_per_packet: int = SAMPLES_PER_PACKET,
-    *,
-    align: str = "next",
-) -> np.ndarray:
+def burst_mask(n_samples: int, start_sample: int, n_packets: int, samples_per_packet: int = SAMPLES_PER_PACKET, *,
+               align: str = "next") -> np.ndarray:
     """Per-sample mask with ``n_packets`` whole packets lost "right after ``start_sample`` samples".
 
     Parameters
@@ -141,9 +135,7 @@ def burst_train(n_samples: int, start_sample: int, period_samples: int, n_packet
 # --------------------------------------------------------------------------------------------
 
 
-def bernoulli_loss(
-    n_packets: int, loss_rate: float, *, rng: np.random.Generator, shape=()
-) -> np.ndarray:
+def bernoulli_loss(n_packets: int, loss_rate: float, *, rng: np.random.Generator, shape=()) -> np.ndarray:
     """Independent packet losses with probability ``loss_rate``.
 
     Parameters
@@ -192,21 +184,13 @@ def gilbert_elliott_probabilities(loss_rate: float, mean_burst: float) -> tuple[
     p_bg = 1.0 / burst
     p_gb = rate * p_bg / (1.0 - rate)
     if p_gb > 1.0:
-        raise ValueError(
-            f"loss_rate = {rate:g} cannot be reached with mean_burst = {burst:g}: "
-            f"loss_rate must be <= mean_burst / (1 + mean_burst) = {burst / (1.0 + burst):g}"
-        )
+        raise ValueError(f"loss_rate = {rate:g} cannot be reached with mean_burst = {burst:g}: "
+                         f"loss_rate must be <= mean_burst / (1 + mean_burst) = {burst / (1.0 + burst):g}")
     return p_gb, p_bg
 
 
-def gilbert_elliott(
-    n_packets: int,
-    loss_rate: float,
-    mean_burst: float,
-    *,
-    rng: np.random.Generator,
-    shape=(),
-) -> np.ndarray:
+def gilbert_elliott(n_packets: int, loss_rate: float, mean_burst: float, *, rng: np.random.Generator,
+                    shape=()) -> np.ndarray:
     """Bursty packet loss from the two-state Gilbert–Elliott Markov chain.
 
     States: Good (packet received) and Bad (packet lost).  ``p(B→G) = 1 / mean_burst`` and
@@ -295,10 +279,8 @@ def loss_trace_from_file(path) -> np.ndarray:
         for tok in tokens:
             flag = values.get(tok.lower())
             if flag is None:
-                raise ValueError(
-                    f"{path}: line {line_no}: {tok!r} is not a packet flag "
-                    "(1/0 or true/false, 1 = received)"
-                )
+                raise ValueError(f"{path}: line {line_no}: {tok!r} is not a packet flag "
+                                 "(1/0 or true/false, 1 = received)")
             flags.append(flag)
     if not flags:
         raise ValueError(f"{path}: holds no packet flags")

@@ -262,11 +262,9 @@ def loss_figures_of_merit(error_deg, *, fs, received, threshold_deg=5.0, start: 
     received = np.asarray(received)
     if received.dtype != np.bool_:
         raise ValueError(f"received must be a boolean mask, got dtype {received.dtype}")
-    result = {
-        MAX_ERROR: max_abs_error(error_deg, start=start, where=np.broadcast_to(received, error_deg.shape)),
-        MEAN_ERROR: np.mean(np.abs(error_deg[..., start:]), axis=-1),
-        TIME_ABOVE: time_above_s(error_deg, threshold_deg, fs, start=start),
-    }
+    result = {MAX_ERROR: max_abs_error(error_deg, start=start, where=np.broadcast_to(received, error_deg.shape)),
+              MEAN_ERROR: np.mean(np.abs(error_deg[..., start:]), axis=-1),
+              TIME_ABOVE: time_above_s(error_deg, threshold_deg, fs, start=start)}
     if recovery_start is not None:
         result[RECOVERY] = recovery_time_s(error_deg, threshold_deg, fs, start=recovery_start)
     result[JERK] = angle_jerk_rms_deg(error_deg, fs)

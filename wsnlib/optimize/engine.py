@@ -68,12 +68,7 @@ from wsnlib.optimize.data import (
     format_subset,
 )
 from wsnlib.posture import DEFAULT_HEADING_TOL_M
-from wsnlib.radio.grid import (
-    knn_from_terms,
-    knn_grid_from_terms,
-    pknn_from_loglik,
-    pknn_grid_from_loglik,
-)
+from wsnlib.radio.grid import knn_from_terms, knn_grid_from_terms, pknn_from_loglik, pknn_grid_from_loglik
 
 #: Default bound on the numbers held by one array of a subset chunk.
 DEFAULT_CHUNK_ELEMENTS = 1 << 18  # ~2 MB per float array: stays in cache

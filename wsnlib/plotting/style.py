@@ -28,17 +28,9 @@ from wsnlib._files import atomic_path
 
 #: The Okabe–Ito palette (colour-blind safe): the only colours of the notebooks' figures, plus
 #: ``"grey"`` for references and context.  :func:`use_style` makes it matplotlib's colour cycle.
-OKABE_ITO = {
-    "blue": "#0072B2",
-    "orange": "#E69F00",
-    "bluish green": "#009E73",
-    "vermillion": "#D55E00",
-    "sky blue": "#56B4E9",
-    "reddish purple": "#CC79A7",
-    "yellow": "#F0E442",
-    "black": "#000000",
-    "grey": "#999999",
-}
+OKABE_ITO = {"blue": "#0072B2", "orange": "#E69F00", "bluish green": "#009E73", "vermillion": "#D55E00",
+             "sky blue": "#56B4E9", "reddish purple": "#CC79A7", "yellow": "#F0E442", "black": "#000000",
+             "grey": "#999999"}
 
 #: Colours per estimator, used consistently across notebooks (colour-blind safe, Okabe–Ito).
 #: With more methods than colours, a colour is reused across papers (never within a figure's

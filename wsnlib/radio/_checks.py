@@ -108,10 +108,8 @@ def _check_rss_range(X: np.ndarray, name: str) -> None:
     outside = (X < lo) | (X > hi)
     if np.any(outside):
         index = tuple(int(i) for i in np.argwhere(outside)[0])
-        raise ValueError(
-            f"{name} has an RSS of {X[index]:g} dBm at index {index}, outside the plausible range "
-            f"[{lo:g}, {hi:g}] dBm (a glitch, or not dBm?)"
-        )
+        raise ValueError(f"{name} has an RSS of {X[index]:g} dBm at index {index}, outside the plausible range "
+                         f"[{lo:g}, {hi:g}] dBm (a glitch, or not dBm?)")
 
 
 def _group_positions(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

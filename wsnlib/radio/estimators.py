@@ -161,9 +161,8 @@ class KNNFingerprint(_FingerprintEstimator):
 
     def _neighbors_chunk(self, X: np.ndarray, k: int):
         terms = self._terms(X)
-        est, dist, idx = _knn_batch(
-            terms, self.anchor_mask_[None, :], self.positions_, k, _check_power(self.power), self.metric
-        )
+        est, dist, idx = _knn_batch(terms, self.anchor_mask_[None, :], self.positions_, k, _check_power(self.power),
+                                    self.metric)
         return est[0], dist[0], idx[0]
 
     def kneighbors(self, X) -> tuple[np.ndarray, np.ndarray]:
@@ -233,19 +232,8 @@ class ProbabilisticKNN(_FingerprintEstimator):
         Parzen bandwidths (dB) used; only with ``pmf="parzen"``.
     """
 
-    def __init__(
-        self,
-        n_neighbors=3,
-        pmf="histogram",
-        floor_probability=1e-4,
-        bandwidth_db=None,
-        min_bandwidth_db=0.5,
-        n_components=2,
-        anchors=None,
-        floor_rss=-100.0,
-        grid_margin_db=10,
-        random_state=None,
-    ):
+    def __init__(self, n_neighbors=3, pmf="histogram", floor_probability=1e-4, bandwidth_db=None, min_bandwidth_db=0.5,
+                 n_components=2, anchors=None, floor_rss=-100.0, grid_margin_db=10, random_state=None):
         self.n_neighbors = n_neighbors
         self.pmf = pmf
         self.floor_probability = floor_probability
@@ -362,12 +350,8 @@ class ProbabilisticKNN(_FingerprintEstimator):
                 if n_comp == 1 and np.ptp(values) == 0:
                     means[pos, anchor, 0], sigmas[pos, anchor, 0], weights[pos, anchor, 0] = values[0], min_bw, 1.0
                     continue
-                gmm = GaussianMixture(
-                    n_components=n_comp,
-                    covariance_type="spherical",
-                    reg_covar=min_bw**2,
-                    random_state=int(seeds[pos, anchor]),
-                ).fit(values[:, None])
+                gmm = GaussianMixture(n_components=n_comp, covariance_type="spherical", reg_covar=min_bw**2,
+                                      random_state=int(seeds[pos, anchor])).fit(values[:, None])
                 means[pos, anchor, :n_comp] = gmm.means_[:, 0]
                 sigmas[pos, anchor, :n_comp] = np.sqrt(gmm.covariances_)
                 weights[pos, anchor, :n_comp] = gmm.weights_
