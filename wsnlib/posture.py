@@ -173,10 +173,8 @@ def pitch_from_acc(acc, *, method: str = "gating", xi: float = DEFAULT_XI_M_S2,
     if not np.all(accepted.any(axis=-1)):
         bad = tuple(int(i) for i in np.argwhere(~accepted.any(axis=-1))[0])
         where = f" (batch index {bad})" if bad else ""
-        raise ValueError(
-            f"no sample of acc has |a| within [g - xi, g + xi] = [{gravity - xi:.4g}, {gravity + xi:.4g}] m/s²"
-            f"{where}; increase xi or use method='lowpass'"
-        )
+        raise ValueError(f"no sample of acc has |a| within [g - xi, g + xi] = [{gravity - xi:.4g}, "
+                         f"{gravity + xi:.4g}] m/s²{where}; increase xi or use method='lowpass'")
     return np.take_along_axis(pitch, _hold_index(accepted, backfill=True), axis=-1)
 
 
@@ -358,9 +356,8 @@ def recursive_chain(radio_positions, pitch, chain: ArmChain, *, origin=(0.0, 0.0
     try:
         shape = np.broadcast_shapes(radio.shape[:-1], pitch.shape)
     except ValueError as exc:
-        raise ValueError(
-            f"radio_positions {radio.shape} and pitch {pitch.shape} do not fit: pitch must broadcast to (..., T, S)"
-        ) from exc
+        raise ValueError(f"radio_positions {radio.shape} and pitch {pitch.shape} do not fit: "
+                         "pitch must broadcast to (..., T, S)") from exc
     chain = _check_chain(chain, shape[-1], "radio_positions/pitch")
     heading_tol_m = check_nonnegative(heading_tol_m, "heading_tol_m")
     radio = np.broadcast_to(radio, shape + (3,))

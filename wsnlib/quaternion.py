@@ -55,9 +55,8 @@ def _broadcast(names: str, *shapes) -> tuple[int, ...]:
     try:
         return np.broadcast_shapes(*shapes)
     except ValueError:
-        raise ValueError(
-            f"{names} must broadcast against each other; got shapes {', '.join(map(str, shapes))}"
-        ) from None
+        raise ValueError(f"{names} must broadcast against each other; got shapes "
+                         f"{', '.join(map(str, shapes))}") from None
 
 
 def identity(shape: tuple[int, ...] = ()) -> np.ndarray:

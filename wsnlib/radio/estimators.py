@@ -72,15 +72,13 @@ class _FingerprintEstimator(BaseEstimator):
         if X.ndim != 2:
             raise ValueError(f"X must have shape (n_vectors, n_anchors); got {X.shape} (one vector: X.reshape(1, -1))")
         if X.shape[1] != self.n_features_in_:
-            raise ValueError(
-                f"X has vectors of length {X.shape[1]}, the estimator was fitted with {self.n_features_in_} anchors"
-            )
+            raise ValueError(f"X has vectors of length {X.shape[1]}, the estimator was fitted with "
+                             f"{self.n_features_in_} anchors")
         if np.any(np.isnan(X)):
             bad = tuple(int(i) for i in np.argwhere(np.isnan(X))[0])
-            raise ValueError(
-                f"X contains NaN (a missing reading, first at index {bad}); online vectors must be complete: "
-                f"fill missing readings first, e.g. np.where(np.isnan(X), {self.floor_rss!r}, X) (the floor_rss level)"
-            )
+            raise ValueError(f"X contains NaN (a missing reading, first at index {bad}); online vectors must be "
+                             "complete: fill missing readings first, e.g. "
+                             f"np.where(np.isnan(X), {self.floor_rss!r}, X) (the floor_rss level)")
         if np.any(np.isinf(X)):
             raise ValueError("X contains inf")
         return X
