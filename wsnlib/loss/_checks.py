@@ -4,17 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from wsnlib._validation import check_count
+
 # --------------------------------------------------------------------------------------------
 # Validation helpers
 # --------------------------------------------------------------------------------------------
-
-
-def _check_count(value, name: str, minimum: int = 0) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise ValueError(f"{name} must be an integer, got {value!r}")
-    if value < minimum:
-        raise ValueError(f"{name} must be >= {minimum}, got {value!r}")
-    return int(value)
 
 
 def _check_shape(shape, name: str = "shape") -> tuple[int, ...]:
@@ -24,7 +18,7 @@ def _check_shape(shape, name: str = "shape") -> tuple[int, ...]:
         shape = tuple(shape)
     except TypeError:
         raise ValueError(f"{name} must be a tuple of non-negative integers, got {shape!r}") from None
-    return tuple(_check_count(s, name) for s in shape)
+    return tuple(check_count(s, name, 0) for s in shape)
 
 
 def _check_mask(value, name: str, min_ndim: int = 1) -> np.ndarray:
@@ -46,9 +40,3 @@ def _check_rate(value, name: str, upper_inclusive: bool) -> float:
         interval = "[0, 1]" if upper_inclusive else "[0, 1)"
         raise ValueError(f"{name} must lie in {interval}, got {value!r}")
     return rate
-
-
-def _check_rng(rng) -> np.random.Generator:
-    if not isinstance(rng, np.random.Generator):
-        raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
-    return rng
