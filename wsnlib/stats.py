@@ -49,7 +49,7 @@ from collections.abc import Mapping
 import numpy as np
 from scipy.special import ndtr, ndtri
 
-from wsnlib._validation import as_float_array
+from wsnlib._validation import as_float_array, check_count, check_rng
 
 #: Accepted interval methods.
 CI_METHODS = ("bca", "percentile")
@@ -97,17 +97,10 @@ class BootstrapInterval:
         return 0.5 * (self.high - self.low)
 
 
-def _check_rng(rng) -> np.random.Generator:
-    if not isinstance(rng, np.random.Generator):
-        raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
-    return rng
-
-
 def _check_options(level, n_boot, method, statistic) -> tuple[float, int]:
     if isinstance(level, bool) or not isinstance(level, numbers.Real) or not 0.0 < float(level) < 1.0:
         raise ValueError(f"level must be a number in (0, 1), got {level!r}")
-    if isinstance(n_boot, bool) or not isinstance(n_boot, numbers.Integral) or n_boot < 100:
-        raise ValueError(f"n_boot must be an integer >= 100, got {n_boot!r}")
+    check_count(n_boot, "n_boot", 100)
     if method not in CI_METHODS:
         raise ValueError(f"method must be one of {CI_METHODS}, got {method!r}")
     if statistic not in STATISTICS:
@@ -206,7 +199,7 @@ def bootstrap_ci(values, *, rng: np.random.Generator, level: float = 0.95, n_boo
     BootstrapInterval
         ``estimate``, ``low``, ``high`` of shape ``values.shape[1:]``, same unit as ``values``.
     """
-    rng = _check_rng(rng)
+    rng = check_rng(rng)
     level, n_boot = _check_options(level, n_boot, method, statistic)
     values = _units(values, "values")
     estimate = _statistic(values, statistic)
@@ -339,7 +332,7 @@ def rank_with_ties(samples, *, rng: np.random.Generator, level: float = 0.95, n_
     """
     import pandas as pd
 
-    rng = _check_rng(rng)
+    rng = check_rng(rng)
     _check_options(level, n_boot, method, statistic)
     names, arrays = _as_samples(samples)
     sizes = {arr.size for arr in arrays}
@@ -444,7 +437,7 @@ def ratio_of_means_ci(a, b, *, rng: np.random.Generator, level: float = 0.95, n_
     BootstrapInterval
         Of the ratio (unitless), ``method="percentile"``.
     """
-    rng = _check_rng(rng)
+    rng = check_rng(rng)
     level, n_boot = _check_options(level, n_boot, "percentile", "mean")
     a, b = _units(a, "a"), _units(b, "b")
     if a.ndim != 1 or a.shape != b.shape:
