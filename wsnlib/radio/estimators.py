@@ -10,14 +10,12 @@ learned attributes end in ``_``.  Conventions (units, missing readings, anchors,
 
 from __future__ import annotations
 
-import numbers
-
 import numpy as np
 from scipy.special import logsumexp, ndtr
 from sklearn.base import BaseEstimator
 from sklearn.utils.validation import check_is_fitted
 
-from wsnlib._validation import check_count, check_nonnegative, check_positive
+from wsnlib._validation import check_count, check_positive
 from wsnlib.radio import _checks
 from wsnlib.radio._checks import (
     PMF_METHODS,
@@ -252,12 +250,8 @@ class ProbabilisticKNN(_FingerprintEstimator):
         if self.bandwidth_db is not None:
             check_positive(self.bandwidth_db, "bandwidth_db")
         check_positive(self.min_bandwidth_db, "min_bandwidth_db")
-        nc = self.n_components
-        check_count(nc, "n_components")
-        margin = self.grid_margin_db
-        if isinstance(margin, bool) or not isinstance(margin, numbers.Integral):
-            raise ValueError(f"grid_margin_db must be a non-negative integer, got {margin!r}")
-        check_nonnegative(margin, "grid_margin_db")
+        check_count(self.n_components, "n_components")
+        check_count(self.grid_margin_db, "grid_margin_db", 0)
         return eps
 
     def fit(self, X, y):
