@@ -108,10 +108,8 @@ def failing_cell(executed: Path) -> dict:
 def initial_entries(notebooks: list[Path], quick: bool, jobs: int = 1) -> list[dict]:
     """Manifest entries, all "not run", after moving aside what the last run listed for them."""
     previous = previous_outputs()
-    entries = [
-        {"notebook": notebook_name(nb), "status": "not run", "parameters": {}, "seconds": None, "outputs": []}
-        for nb in notebooks
-    ]
+    entries = [{"notebook": notebook_name(nb), "status": "not run", "parameters": {}, "seconds": None, "outputs": []}
+               for nb in notebooks]
     for entry in entries:  # before anything runs: nothing stale is left to look fresh
         moved = move_aside(previous.get(entry["notebook"], []))
         if moved:

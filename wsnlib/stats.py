@@ -115,10 +115,6 @@ def _units(values, name: str) -> np.ndarray:
     return arr
 
 
-def _statistic(values: np.ndarray, statistic: str, axis: int = 0) -> np.ndarray:
-    return np.mean(values, axis=axis) if statistic == "mean" else np.median(values, axis=axis)
-
-
 def _resampled(values: np.ndarray, statistic: str, rng: np.random.Generator, n_boot: int) -> np.ndarray:
     """The statistic of ``n_boot`` resamples of the units: ``(n_boot, ...)``."""
     n = values.shape[0]
@@ -202,7 +198,7 @@ def bootstrap_ci(values, *, rng: np.random.Generator, level: float = 0.95, n_boo
     rng = check_rng(rng)
     level, n_boot = _check_options(level, n_boot, method, statistic)
     values = _units(values, "values")
-    estimate = _statistic(values, statistic)
+    estimate = np.mean(values, axis=0) if statistic == "mean" else np.median(values, axis=0)
     boot = _resampled(values, statistic, rng, n_boot)
     low, high = _interval(values, boot, estimate, level, method, statistic)
     return BootstrapInterval(estimate=estimate, low=low, high=high, level=level, method=method,

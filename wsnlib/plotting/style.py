@@ -279,13 +279,9 @@ def effective_font_sizes(fig: mpl.figure.Figure, display_width_in: float = DISPL
     return sorted(sizes, key=lambda item: item[1])
 
 
-def _too_small(fig: mpl.figure.Figure) -> list[tuple[str, float]]:
-    return [(text, size) for text, size in effective_font_sizes(fig) if size < MIN_FONT_PT - 1e-9]
-
-
 def _check_legibility(fig: mpl.figure.Figure, name: str) -> None:
     """Raise (in the batch) or warn (interactively) when a text of ``fig`` is below :data:`MIN_FONT_PT`."""
-    small = _too_small(fig)
+    small = [(text, size) for text, size in effective_font_sizes(fig) if size < MIN_FONT_PT - 1e-9]
     if not small:
         return
     shown = ", ".join(f"{text!r} {size:.1f} pt" for text, size in small[:5])
