@@ -41,31 +41,27 @@ def check_nonzero_norm(arr: np.ndarray, name: str, what: str) -> np.ndarray:
     norm = np.linalg.norm(arr, axis=-1)
     if np.any(norm <= 0.0):
         bad = np.argwhere(norm <= 0.0)[0]
-        raise ValueError(
-            f"{name} has a zero-norm vector at index {tuple(int(i) for i in bad)} ({what})"
-        )
+        raise ValueError(f"{name} has a zero-norm vector at index {tuple(int(i) for i in bad)} ({what})")
     return norm
 
 
 def check_positive(value, name: str) -> float:
     """Return ``value`` as a float, raising ``ValueError`` unless it is finite and > 0."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a positive number, got {value!r}") from exc
-    if not math.isfinite(number) or number <= 0.0:
-        raise ValueError(f"{name} must be a positive finite number, got {value!r}")
-    return number
+    return _check_number(value, name, "positive", zero_ok=False)
 
 
 def check_nonnegative(value, name: str) -> float:
     """Return ``value`` as a float, raising ``ValueError`` unless it is finite and >= 0."""
+    return _check_number(value, name, "non-negative", zero_ok=True)
+
+
+def _check_number(value, name: str, what: str, zero_ok: bool) -> float:
     try:
         number = float(value)
     except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a non-negative number, got {value!r}") from exc
-    if not math.isfinite(number) or number < 0.0:
-        raise ValueError(f"{name} must be a non-negative finite number, got {value!r}")
+        raise ValueError(f"{name} must be a {what} number, got {value!r}") from exc
+    if not math.isfinite(number) or number < 0.0 or (number == 0.0 and not zero_ok):
+        raise ValueError(f"{name} must be a {what} finite number, got {value!r}")
     return number
 
 

@@ -121,19 +121,15 @@ class ArmGeometry:
             raise ValueError(f"device_offsets_m has {len(offsets)} entries but segment_lengths_m has {len(lengths)}")
         for i, (offset, length) in enumerate(zip(offsets, lengths, strict=True)):
             if offset > length:
-                raise ValueError(
-                    f"device_offsets_m[{i}] = {offset!r} exceeds segment_lengths_m[{i}] = {length!r}: "
-                    f"the device must sit on its segment"
-                )
+                raise ValueError(f"device_offsets_m[{i}] = {offset!r} exceeds segment_lengths_m[{i}] = {length!r}: "
+                                 f"the device must sit on its segment")
         if self.device_normal_offsets_m is None:
             normal = ((0.0, 0.0),) * len(lengths)
         else:
             arr = as_float_array(self.device_normal_offsets_m, "device_normal_offsets_m", last_dim=2)
             if arr.shape != (len(lengths), 2):
-                raise ValueError(
-                    f"device_normal_offsets_m must have shape ({len(lengths)}, 2) (y, z per segment, m), "
-                    f"got {arr.shape}"
-                )
+                raise ValueError(f"device_normal_offsets_m must have shape ({len(lengths)}, 2) (y, z per segment, m), "
+                                 f"got {arr.shape}")
             normal = tuple((float(y), float(z)) for y, z in arr)
         object.__setattr__(self, "segment_lengths_m", lengths)
         object.__setattr__(self, "device_offsets_m", offsets)
@@ -165,14 +161,10 @@ class ArmGeometry:
         return cls(segment_lengths_m, device_offsets_m, None)
 
     @classmethod
-    def from_height(
-        cls,
-        height_m: float,
-        humerus_node_fraction: float = PAPER001_NODE_FRACTIONS[0],
-        forearm_node_fraction: float = PAPER001_NODE_FRACTIONS[1],
-        humerus_node_offset_m: float = PAPER001_NODE_DORSAL_M[0],
-        forearm_node_offset_m: float = PAPER001_NODE_DORSAL_M[1],
-    ) -> ArmGeometry:
+    def from_height(cls, height_m: float, humerus_node_fraction: float = PAPER001_NODE_FRACTIONS[0],
+                    forearm_node_fraction: float = PAPER001_NODE_FRACTIONS[1],
+                    humerus_node_offset_m: float = PAPER001_NODE_DORSAL_M[0],
+                    forearm_node_offset_m: float = PAPER001_NODE_DORSAL_M[1]) -> ArmGeometry:
         """Arm of an adult of body height ``height_m`` (m), Winter's proportions.
 
         Parameters
@@ -188,16 +180,12 @@ class ArmGeometry:
         height = check_positive(height_m, "height_m")
         upper = UPPER_ARM_FRACTION * height
         fore = FOREARM_FRACTION * height
-        return cls(
-            (upper, fore),
-            (humerus_node_fraction * upper, forearm_node_fraction * fore),
-            ((0.0, float(humerus_node_offset_m)), (0.0, float(forearm_node_offset_m))),
-        )
+        return cls((upper, fore), (humerus_node_fraction * upper, forearm_node_fraction * fore),
+                   ((0.0, float(humerus_node_offset_m)), (0.0, float(forearm_node_offset_m))))
 
     @classmethod
-    def from_node_points(
-        cls, humerus_length_m: float, forearm_length_m: float, humerus_node_m, forearm_node_m
-    ) -> ArmGeometry:
+    def from_node_points(cls, humerus_length_m: float, forearm_length_m: float, humerus_node_m,
+                         forearm_node_m) -> ArmGeometry:
         """Geometry from segment lengths and node points ``(x, y, z)`` in each segment frame (m).
 
         The form of the former ``wsnlib.sim.arm.ArmGeometry`` constructor.
@@ -208,11 +196,8 @@ class ArmGeometry:
             if arr.shape != (3,):
                 raise ValueError(f"{name} must be 3 numbers (x, y, z, m), got shape {arr.shape}")
             points.append(arr)
-        return cls(
-            (humerus_length_m, forearm_length_m),
-            (points[0][0], points[1][0]),
-            (tuple(points[0][1:]), tuple(points[1][1:])),
-        )
+        return cls((humerus_length_m, forearm_length_m), (points[0][0], points[1][0]),
+                   (tuple(points[0][1:]), tuple(points[1][1:])))
 
     @property
     def n_segments(self) -> int:
@@ -247,11 +232,8 @@ class ArmGeometry:
 
     def to_dict(self) -> dict:
         """JSON-ready fields (lists)."""
-        return {
-            "segment_lengths_m": list(self.segment_lengths_m),
-            "device_offsets_m": list(self.device_offsets_m),
-            "device_normal_offsets_m": [list(p) for p in self.device_normal_offsets_m],
-        }
+        return {"segment_lengths_m": list(self.segment_lengths_m), "device_offsets_m": list(self.device_offsets_m),
+                "device_normal_offsets_m": [list(p) for p in self.device_normal_offsets_m]}
 
 
 @dataclass(frozen=True, eq=False)
@@ -313,15 +295,8 @@ class ArmKinematics:
         if t.ndim != 1:
             raise ValueError(f"time_s must be 1-D, got shape {t.shape}")
         n = t.size
-        for name, shape in (
-            ("quat", (2, n, 4)),
-            ("gyr", (2, n, 3)),
-            ("ang_acc", (2, n, 3)),
-            ("pos", (2, n, 3)),
-            ("vel", (2, n, 3)),
-            ("acc_lin", (2, n, 3)),
-            ("joint_pos", (3, n, 3)),
-        ):
+        for name, shape in (("quat", (2, n, 4)), ("gyr", (2, n, 3)), ("ang_acc", (2, n, 3)), ("pos", (2, n, 3)),
+                            ("vel", (2, n, 3)), ("acc_lin", (2, n, 3)), ("joint_pos", (3, n, 3))):
             arr = np.asarray(getattr(self, name), dtype=float)
             if arr.shape != shape:
                 raise ValueError(f"{name} must have shape {shape} (node, T, C), got {arr.shape}")
@@ -385,13 +360,5 @@ class ArmKinematics:
         return heading, pitch
 
 
-__all__ = [
-    "DEFAULT_BODY_HEIGHT_M",
-    "FOREARM_FRACTION",
-    "JOINT_NAMES",
-    "NODE_NAMES",
-    "Q_REFERENCE",
-    "UPPER_ARM_FRACTION",
-    "ArmGeometry",
-    "ArmKinematics",
-]
+__all__ = ["DEFAULT_BODY_HEIGHT_M", "FOREARM_FRACTION", "JOINT_NAMES", "NODE_NAMES", "Q_REFERENCE",
+           "UPPER_ARM_FRACTION", "ArmGeometry", "ArmKinematics"]

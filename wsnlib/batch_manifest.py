@@ -80,8 +80,7 @@ def last_started_cell(executed: Path) -> dict:
         nb = nbformat.read(executed, as_version=4)
     except Exception:  # missing or half-written copy
         return {}
-    started = [i for i, cell in enumerate(nb.cells)
-               if cell.get("metadata", {}).get("papermill", {}).get("start_time")]
+    started = [i for i, cell in enumerate(nb.cells) if cell.get("metadata", {}).get("papermill", {}).get("start_time")]
     if not started:
         return {}
     index = started[-1]
@@ -109,10 +108,8 @@ def failing_cell(executed: Path) -> dict:
 def initial_entries(notebooks: list[Path], quick: bool, jobs: int = 1) -> list[dict]:
     """Manifest entries, all "not run", after moving aside what the last run listed for them."""
     previous = previous_outputs()
-    entries = [
-        {"notebook": notebook_name(nb), "status": "not run", "parameters": {}, "seconds": None, "outputs": []}
-        for nb in notebooks
-    ]
+    entries = [{"notebook": notebook_name(nb), "status": "not run", "parameters": {}, "seconds": None, "outputs": []}
+               for nb in notebooks]
     for entry in entries:  # before anything runs: nothing stale is left to look fresh
         moved = move_aside(previous.get(entry["notebook"], []))
         if moved:

@@ -80,10 +80,8 @@ def check_parameters(notebooks: list[Path], parameters: dict) -> None:
         known = notebook_parameters(notebook)
         unknown = [name for name in parameters if name not in known]
         if unknown:
-            problems.append(
-                f"{notebook_name(notebook)} has no parameter {', '.join(map(repr, unknown))}; "
-                f"its parameters are {', '.join(known) if known else '(none)'}"
-            )
+            problems.append(f"{notebook_name(notebook)} has no parameter {', '.join(map(repr, unknown))}; "
+                            f"its parameters are {', '.join(known) if known else '(none)'}")
     if problems:
         raise ValueError("unknown -p parameter: " + "; ".join(problems))
 

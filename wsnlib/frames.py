@@ -25,9 +25,7 @@ def gravity_specific_force_enu(gravity: float = STANDARD_GRAVITY) -> np.ndarray:
     return np.array([0.0, 0.0, gravity])
 
 
-def magnetic_field_enu(
-    intensity_ut: float = MAGNETIC_INTENSITY_UT, dip_deg: float = MAGNETIC_DIP_DEG
-) -> np.ndarray:
+def magnetic_field_enu(intensity_ut: float = MAGNETIC_INTENSITY_UT, dip_deg: float = MAGNETIC_DIP_DEG) -> np.ndarray:
     """Earth magnetic field in ENU (µT): horizontal part towards north, dipping below the horizon."""
     dip = np.radians(dip_deg)
     return intensity_ut * np.array([0.0, np.cos(dip), -np.sin(dip)])

@@ -348,8 +348,7 @@ def _widget(knob: _Knob):
     style = {"description_width": "initial"}
     if _is_numeric_ramp(knob.values):
         return ipywidgets.SelectionSlider(options=list(knob.choices), value=knob.initial, description=knob.name,
-                                          continuous_update=False, style=style,
-                                          layout=ipywidgets.Layout(width="28em"))
+                                          continuous_update=False, style=style, layout=ipywidgets.Layout(width="28em"))
     return ipywidgets.Dropdown(options=list(knob.choices), value=knob.initial, description=knob.name, style=style)
 
 

@@ -96,17 +96,9 @@ def gravity_gate(acc, *, xi: float = DEFAULT_XI_M_S2, gravity: float = frames.ST
     return np.abs(np.linalg.norm(acc, axis=-1) - gravity) <= xi
 
 
-def pitch_from_acc(
-    acc,
-    *,
-    method: str = "gating",
-    xi: float = DEFAULT_XI_M_S2,
-    gravity: float = frames.STANDARD_GRAVITY,
-    fs: float | None = None,
-    cutoff_hz: float = DEFAULT_CUTOFF_HZ,
-    order: int = 2,
-    segment_axis=SEGMENT_AXIS,
-) -> np.ndarray:
+def pitch_from_acc(acc, *, method: str = "gating", xi: float = DEFAULT_XI_M_S2,
+                   gravity: float = frames.STANDARD_GRAVITY, fs: float | None = None,
+                   cutoff_hz: float = DEFAULT_CUTOFF_HZ, order: int = 2, segment_axis=SEGMENT_AXIS) -> np.ndarray:
     """Segment pitch θ (rad) from accelerometer readings, eqs. (6)–(7), ``(..., T, 3) → (..., T)``.
 
     ``θ = arcsin(a · u / |a|)`` with ``u`` the device axis along the segment (pointing
@@ -181,10 +173,8 @@ def pitch_from_acc(
     if not np.all(accepted.any(axis=-1)):
         bad = tuple(int(i) for i in np.argwhere(~accepted.any(axis=-1))[0])
         where = f" (batch index {bad})" if bad else ""
-        raise ValueError(
-            f"no sample of acc has |a| within [g - xi, g + xi] = [{gravity - xi:.4g}, {gravity + xi:.4g}] m/s²"
-            f"{where}; increase xi or use method='lowpass'"
-        )
+        raise ValueError(f"no sample of acc has |a| within [g - xi, g + xi] = [{gravity - xi:.4g}, "
+                         f"{gravity + xi:.4g}] m/s²{where}; increase xi or use method='lowpass'")
     return np.take_along_axis(pitch, _hold_index(accepted, backfill=True), axis=-1)
 
 
@@ -317,14 +307,8 @@ def forward_chain(heading, pitch, chain: ArmChain, *, origin=(0.0, 0.0, 0.0)) ->
     return {"devices": devices, "joints": joints}
 
 
-def recursive_chain(
-    radio_positions,
-    pitch,
-    chain: ArmChain,
-    *,
-    origin=(0.0, 0.0, 0.0),
-    heading_tol_m: float = DEFAULT_HEADING_TOL_M,
-) -> dict[str, np.ndarray]:
+def recursive_chain(radio_positions, pitch, chain: ArmChain, *, origin=(0.0, 0.0, 0.0),
+                    heading_tol_m: float = DEFAULT_HEADING_TOL_M) -> dict[str, np.ndarray]:
     """The paper's recursive estimation process, eqs. (8)–(10), over any chain (footnote 5).
 
     For segment ``s = 0, 1, …`` with proximal joint ``A`` (the origin for ``s = 0``, else the
@@ -372,9 +356,8 @@ def recursive_chain(
     try:
         shape = np.broadcast_shapes(radio.shape[:-1], pitch.shape)
     except ValueError as exc:
-        raise ValueError(
-            f"radio_positions {radio.shape} and pitch {pitch.shape} do not fit: pitch must broadcast to (..., T, S)"
-        ) from exc
+        raise ValueError(f"radio_positions {radio.shape} and pitch {pitch.shape} do not fit: "
+                         "pitch must broadcast to (..., T, S)") from exc
     chain = _check_chain(chain, shape[-1], "radio_positions/pitch")
     heading_tol_m = check_nonnegative(heading_tol_m, "heading_tol_m")
     radio = np.broadcast_to(radio, shape + (3,))

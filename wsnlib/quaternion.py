@@ -55,9 +55,8 @@ def _broadcast(names: str, *shapes) -> tuple[int, ...]:
     try:
         return np.broadcast_shapes(*shapes)
     except ValueError:
-        raise ValueError(
-            f"{names} must broadcast against each other; got shapes {', '.join(map(str, shapes))}"
-        ) from None
+        raise ValueError(f"{names} must broadcast against each other; got shapes "
+                         f"{', '.join(map(str, shapes))}") from None
 
 
 def identity(shape: tuple[int, ...] = ()) -> np.ndarray:
@@ -69,9 +68,7 @@ def identity(shape: tuple[int, ...] = ()) -> np.ndarray:
 
 def normalize(q) -> np.ndarray:
     """Scale quaternions to unit norm. Raises ``ValueError`` on a zero quaternion."""
-    q = as_float_array(q, "q", last_dim=4)
-    norm = check_nonzero_norm(q, "q", "a zero quaternion is not a rotation")
-    return q / norm[..., None]
+    return _unit(q, "q")
 
 
 def _unit(q, name: str) -> np.ndarray:

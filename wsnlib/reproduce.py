@@ -221,11 +221,9 @@ def _execute(notebook: Path, executed: Path, params: dict, kernel: str, cell_tim
     from nbclient.exceptions import CellTimeoutError
 
     try:
-        papermill.execute_notebook(
-            str(notebook), str(executed), parameters=params, kernel_name=kernel,
-            cwd=str(notebook.parent), progress_bar=False, log_output=False,
-            execution_timeout=cell_timeout, kernel_manager_class=kernel_manager_class,
-        )
+        papermill.execute_notebook(str(notebook), str(executed), parameters=params, kernel_name=kernel,
+                                   cwd=str(notebook.parent), progress_bar=False, log_output=False,
+                                   execution_timeout=cell_timeout, kernel_manager_class=kernel_manager_class)
     except papermill.PapermillExecutionError as exc:
         return "failed", {"cell_index": exc.cell_index, "ename": exc.ename, "evalue": exc.evalue,
                           **failing_cell(executed)}, _EXIT_FAILED

@@ -49,7 +49,7 @@ from collections.abc import Mapping
 import numpy as np
 from scipy.special import ndtr, ndtri
 
-from wsnlib._validation import as_float_array
+from wsnlib._validation import as_float_array, check_count, check_rng
 
 #: Accepted interval methods.
 CI_METHODS = ("bca", "percentile")
@@ -97,17 +97,10 @@ class BootstrapInterval:
         return 0.5 * (self.high - self.low)
 
 
-def _check_rng(rng) -> np.random.Generator:
-    if not isinstance(rng, np.random.Generator):
-        raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
-    return rng
-
-
 def _check_options(level, n_boot, method, statistic) -> tuple[float, int]:
     if isinstance(level, bool) or not isinstance(level, numbers.Real) or not 0.0 < float(level) < 1.0:
         raise ValueError(f"level must be a number in (0, 1), got {level!r}")
-    if isinstance(n_boot, bool) or not isinstance(n_boot, numbers.Integral) or n_boot < 100:
-        raise ValueError(f"n_boot must be an integer >= 100, got {n_boot!r}")
+    check_count(n_boot, "n_boot", 100)
     if method not in CI_METHODS:
         raise ValueError(f"method must be one of {CI_METHODS}, got {method!r}")
     if statistic not in STATISTICS:
@@ -120,10 +113,6 @@ def _units(values, name: str) -> np.ndarray:
     if arr.shape[0] < 2:
         raise ValueError(f"{name} needs at least 2 units along axis 0 to resample, got shape {arr.shape}")
     return arr
-
-
-def _statistic(values: np.ndarray, statistic: str, axis: int = 0) -> np.ndarray:
-    return np.mean(values, axis=axis) if statistic == "mean" else np.median(values, axis=axis)
 
 
 def _resampled(values: np.ndarray, statistic: str, rng: np.random.Generator, n_boot: int) -> np.ndarray:
@@ -206,10 +195,10 @@ def bootstrap_ci(values, *, rng: np.random.Generator, level: float = 0.95, n_boo
     BootstrapInterval
         ``estimate``, ``low``, ``high`` of shape ``values.shape[1:]``, same unit as ``values``.
     """
-    rng = _check_rng(rng)
+    rng = check_rng(rng)
     level, n_boot = _check_options(level, n_boot, method, statistic)
     values = _units(values, "values")
-    estimate = _statistic(values, statistic)
+    estimate = np.mean(values, axis=0) if statistic == "mean" else np.median(values, axis=0)
     boot = _resampled(values, statistic, rng, n_boot)
     low, high = _interval(values, boot, estimate, level, method, statistic)
     return BootstrapInterval(estimate=estimate, low=low, high=high, level=level, method=method,
@@ -310,9 +299,8 @@ def _as_samples(samples) -> tuple[list[str], list[np.ndarray]]:
     return names, arrays
 
 
-def rank_with_ties(samples, *, rng: np.random.Generator, level: float = 0.95, n_boot: int = 2000,
-                   method: str = "bca", statistic: str = "mean", paired: bool = True,
-                   lower_is_better: bool = True):
+def rank_with_ties(samples, *, rng: np.random.Generator, level: float = 0.95, n_boot: int = 2000, method: str = "bca",
+                   statistic: str = "mean", paired: bool = True, lower_is_better: bool = True):
     """Rank methods by their per-unit values with bootstrap intervals; overlapping → tie.
 
     Parameters
@@ -340,7 +328,7 @@ def rank_with_ties(samples, *, rng: np.random.Generator, level: float = 0.95, n_
     """
     import pandas as pd
 
-    rng = _check_rng(rng)
+    rng = check_rng(rng)
     _check_options(level, n_boot, method, statistic)
     names, arrays = _as_samples(samples)
     sizes = {arr.size for arr in arrays}
@@ -418,8 +406,7 @@ def describe_ranking(ranking, *, what: str = "error", unit: str = "", decimals: 
     if len(first) > 1:
         names = list(first.index)
         listed = ", ".join(names[:-1]) + f" and {names[-1]}"
-        return (f"{listed} cannot be told apart on {what} — a tie: " + "; ".join(fmt(n) for n in names)
-                + f" {scope}.")
+        return f"{listed} cannot be told apart on {what} — a tie: " + "; ".join(fmt(n) for n in names) + f" {scope}."
     best = first.index[0]
     if len(ranking) == 1:
         return f"{fmt(best)} {scope}."
@@ -427,8 +414,7 @@ def describe_ranking(ranking, *, what: str = "error", unit: str = "", decimals: 
     return f"{best} has the best {what}, separated from the runner-up: {fmt(best)} vs {fmt(runner)} {scope}."
 
 
-def ratio_of_means_ci(a, b, *, rng: np.random.Generator, level: float = 0.95,
-                      n_boot: int = 2000) -> BootstrapInterval:
+def ratio_of_means_ci(a, b, *, rng: np.random.Generator, level: float = 0.95, n_boot: int = 2000) -> BootstrapInterval:
     """Percentile bootstrap interval of ``mean(a) / mean(b)`` over paired units.
 
     The units (rows of ``a`` and ``b`` together) are resampled; each resample's ratio of means
@@ -447,7 +433,7 @@ def ratio_of_means_ci(a, b, *, rng: np.random.Generator, level: float = 0.95,
     BootstrapInterval
         Of the ratio (unitless), ``method="percentile"``.
     """
-    rng = _check_rng(rng)
+    rng = check_rng(rng)
     level, n_boot = _check_options(level, n_boot, "percentile", "mean")
     a, b = _units(a, "a"), _units(b, "b")
     if a.ndim != 1 or a.shape != b.shape:

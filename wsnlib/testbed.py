@@ -24,15 +24,7 @@ TARGET_NAMES: tuple[str, str] = ("T1", "T2")
 ANCHOR_NAMES: tuple[str, ...] = ("A1", "A2", "A3", "A4", "A5", "A6", "A7")
 
 #: Which anchors are worn on the body (paper 002, Fig. 4 caption: A1, A4, A6, A7).
-ANCHOR_WORN: dict[str, bool] = {
-    "A1": True,
-    "A2": False,
-    "A3": False,
-    "A4": True,
-    "A5": False,
-    "A6": True,
-    "A7": True,
-}
+ANCHOR_WORN: dict[str, bool] = {"A1": True, "A2": False, "A3": False, "A4": True, "A5": False, "A6": True, "A7": True}
 
 #: Paper 002, Table 1: fingerprint positions (cm) relative to the shoulder, per posture,
 #: ``{posture: ((x, y, z) of T1, (x, y, z) of T2)}``.  Verbatim, including P5's entries that
@@ -57,23 +49,16 @@ def _p5_direction() -> np.ndarray:
 
 
 #: Unit arm direction of each posture in the shoulder frame (module docstring).
-POSTURE_DIRECTIONS: dict[str, np.ndarray] = {
-    "P1": np.array([0.0, 0.0, -1.0]),
-    "P2": np.array([0.0, 0.0, 1.0]),
-    "P3": np.array([0.0, 1.0, 0.0]),
-    "P4": np.array([1.0, 0.0, 0.0]),
-    "P5": _p5_direction(),
-}
+POSTURE_DIRECTIONS: dict[str, np.ndarray] = {"P1": np.array([0.0, 0.0, -1.0]), "P2": np.array([0.0, 0.0, 1.0]),
+                                              "P3": np.array([0.0, 1.0, 0.0]), "P4": np.array([1.0, 0.0, 0.0]),
+                                              "P5": _p5_direction()}
 for _u in POSTURE_DIRECTIONS.values():
     _u.setflags(write=False)
 
 #: The paper's four transitional movements (Sec. 4.1, Fig. 5): name → postures visited.
-MOVEMENTS: dict[str, tuple[str, ...]] = {
-    "lower_P2_P3_P1": ("P2", "P3", "P1"),
-    "horizontal_P4_P3_P5": ("P4", "P3", "P5"),
-    "raise_P1_P3": ("P1", "P3"),
-    "horizontal_P3_P4": ("P3", "P4"),
-}
+MOVEMENTS: dict[str, tuple[str, ...]] = {"lower_P2_P3_P1": ("P2", "P3", "P1"),
+                                         "horizontal_P4_P3_P5": ("P4", "P3", "P5"),
+                                         "raise_P1_P3": ("P1", "P3"), "horizontal_P3_P4": ("P3", "P4")}
 
 #: Label of the unrecorded arm moves between postures in a session.
 TRANSITION_LABEL = "transition"

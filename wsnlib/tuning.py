@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from tqdm.auto import tqdm
 
-from wsnlib._validation import as_float_array
+from wsnlib._validation import as_float_array, check_count
 
 
 def pareto_front(cost_a, cost_b) -> np.ndarray:
@@ -77,8 +77,7 @@ def bootstrap_knee(cost_a, cost_b, *, rng: np.random.Generator, n_boot: int = 10
     b = as_float_array(cost_b, "cost_b", min_ndim=2)
     if a.shape != b.shape or a.ndim != 2:
         raise ValueError(f"cost_a and cost_b must both have shape (N, R), got {a.shape} and {b.shape}")
-    if not isinstance(n_boot, int | np.integer) or n_boot < 1:
-        raise ValueError(f"n_boot must be a positive integer, got {n_boot!r}")
+    check_count(n_boot, "n_boot")
     n_real = a.shape[1]
     knees = np.empty(n_boot, dtype=int)
     for i in tqdm(range(n_boot), desc="bootstrap", disable=not progress):

@@ -35,8 +35,6 @@ from wsnlib.exercises.orientation import (
     check_triad,
 )
 
-__all__ = [
-    "ExerciseReport", "check_gain_after_gap", "check_gated_pitch", "check_gyro_interpolation", "check_knee_point",
-    "check_madgwick_step", "check_mean_position_error", "check_precision_at_accuracy", "check_shepard_knn",
-    "check_slerp", "check_slerp_weight", "check_triad",
-]
+__all__ = ["ExerciseReport", "check_gain_after_gap", "check_gated_pitch", "check_gyro_interpolation",
+           "check_knee_point", "check_madgwick_step", "check_mean_position_error", "check_precision_at_accuracy",
+           "check_shepard_knn", "check_slerp", "check_slerp_weight", "check_triad"]

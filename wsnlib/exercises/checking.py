@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from wsnlib import fixed_order
+from wsnlib._validation import check_count, check_positive, check_rng
 
 
 @dataclass(frozen=True)
@@ -43,18 +44,6 @@ class ExerciseReport:
 # ------------------------------------------------------------------------------------------
 
 
-def _check_arguments(student_function, rng, n_cases: int, atol: float) -> np.random.Generator:
-    if not callable(student_function):
-        raise ValueError(f"student_function must be callable, got {type(student_function).__name__}")
-    if not isinstance(rng, np.random.Generator):
-        raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
-    if not isinstance(n_cases, int | np.integer) or n_cases < 1:
-        raise ValueError(f"n_cases must be a positive integer, got {n_cases!r}")
-    if not np.isfinite(atol) or atol <= 0:
-        raise ValueError(f"atol must be a positive finite number, got {atol!r}")
-    return rng
-
-
 def _as_output(value, shape: tuple[int, ...], exercise: str, inputs: str) -> np.ndarray:
     try:
         arr = np.asarray(value, dtype=float)
@@ -62,15 +51,13 @@ def _as_output(value, shape: tuple[int, ...], exercise: str, inputs: str) -> np.
         raise AssertionError(f"{exercise}: your function returned {value!r} for {inputs}, "
                              f"which is not an array of numbers ({error})") from None
     if arr.shape != shape:
-        raise AssertionError(f"{exercise}: your function returned shape {arr.shape} for {inputs}, "
-                             f"expected {shape}")
+        raise AssertionError(f"{exercise}: your function returned shape {arr.shape} for {inputs}, expected {shape}")
     if not np.all(np.isfinite(arr)):
         raise AssertionError(f"{exercise}: your function returned non-finite values {arr} for {inputs}")
     return arr
 
 
-def _compare(got: np.ndarray, expected: np.ndarray, atol: float, exercise: str, inputs: str,
-             hint: str = "") -> float:
+def _compare(got: np.ndarray, expected: np.ndarray, atol: float, exercise: str, inputs: str, hint: str = "") -> float:
     difference = float(np.max(np.abs(got - expected))) if got.size else 0.0
     if not difference <= atol:
         message = (f"{exercise}: for {inputs}\n  expected {np.array2string(expected, precision=6)}\n"
@@ -101,13 +88,19 @@ class _Case:
     arguments: tuple
 
 
-def _run_cases(exercise: str, student_function, draw, *, n_cases: int, atol: float, hint: str,
+def _run_cases(exercise: str, student_function, draw, *, rng, n_cases: int, atol: float, hint: str,
                rotation: bool = False) -> ExerciseReport:
     """Call ``student_function(*case.arguments)`` on ``draw(0)`` … ``draw(n_cases - 1)`` and compare.
 
-    ``rotation``: the outputs are quaternions, compared after choosing the sign nearer the
-    library's (q and −q are the same rotation).
+    The arguments are checked first (``rng`` is the generator ``draw`` uses).  ``rotation``: the
+    outputs are quaternions, compared after choosing the sign nearer the library's (q and −q
+    are the same rotation).
     """
+    if not callable(student_function):
+        raise ValueError(f"student_function must be callable, got {type(student_function).__name__}")
+    check_rng(rng)
+    check_count(n_cases, "n_cases")
+    check_positive(atol, "atol")
     worst = 0.0
     for index in range(n_cases):
         case = draw(index)

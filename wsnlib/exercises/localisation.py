@@ -4,12 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wsnlib.exercises.checking import (
-    ExerciseReport,
-    _Case,
-    _check_arguments,
-    _run_cases,
-)
+from wsnlib.exercises.checking import ExerciseReport, _Case, _run_cases
 
 
 def check_shepard_knn(student_function, *, rng: np.random.Generator, n_cases: int = 300,
@@ -41,8 +36,6 @@ def check_shepard_knn(student_function, *, rng: np.random.Generator, n_cases: in
     """
     from wsnlib.radio.estimators import KNNFingerprint
 
-    rng = _check_arguments(student_function, rng, n_cases, atol)
-
     def draw(case: int) -> _Case:
         n_fingerprints = int(rng.integers(1, 12))
         n_anchors = int(rng.integers(1, 9))
@@ -60,10 +53,9 @@ def check_shepard_knn(student_function, *, rng: np.random.Generator, n_cases: in
                   f"radio_map={np.array2string(radio_map, precision=1)}, rss={np.array2string(rss, precision=1)}")
         return _Case(inputs, expected, (radio_map.copy(), positions.copy(), rss.copy(), n_neighbors, power, metric))
 
-    return _run_cases("shepard_knn", student_function, draw, n_cases=n_cases, atol=atol,
+    return _run_cases("shepard_knn", student_function, draw, rng=rng, n_cases=n_cases, atol=atol,
                       hint="distances over all anchors (Euclidean: sqrt of the summed squares), keep "
-                      "the k smallest, weights 1/(d**power + wsnlib.radio.SHEPARD_EPS) "
-                      "divided by their sum")
+                      "the k smallest, weights 1/(d**power + wsnlib.radio.SHEPARD_EPS) divided by their sum")
 
 
 def check_gated_pitch(student_function, *, rng: np.random.Generator, n_cases: int = 200,
@@ -93,8 +85,6 @@ def check_gated_pitch(student_function, *, rng: np.random.Generator, n_cases: in
     """
     from wsnlib.posture import pitch_from_acc
 
-    rng = _check_arguments(student_function, rng, n_cases, atol)
-
     def draw(case: int) -> _Case:
         n_samples = int(rng.integers(1, 80))
         gravity = 9.80665 if case % 4 else float(rng.uniform(9.7, 9.9))
@@ -111,7 +101,7 @@ def check_gated_pitch(student_function, *, rng: np.random.Generator, n_cases: in
         inputs = f"xi={xi:.3f}, gravity={gravity:.5f}, acc={np.array2string(acc, precision=3)}"
         return _Case(inputs, expected, (acc.copy(), xi, gravity))
 
-    return _run_cases("gated_pitch", student_function, draw, n_cases=n_cases, atol=atol,
+    return _run_cases("gated_pitch", student_function, draw, rng=rng, n_cases=n_cases, atol=atol,
                       hint="| |a| − g | <= xi keeps a sample (inclusive); rejected samples hold the last "
                       "kept pitch, and those before the first kept sample take its pitch")
 
@@ -137,8 +127,6 @@ def check_mean_position_error(student_function, *, rng: np.random.Generator, n_c
     """
     from wsnlib.metrics import position_error
 
-    rng = _check_arguments(student_function, rng, n_cases, atol)
-
     def draw(case: int) -> _Case:
         n_samples = int(rng.integers(1, 60))
         true = rng.uniform(-0.6, 0.6, size=(n_samples, 3))
@@ -149,7 +137,7 @@ def check_mean_position_error(student_function, *, rng: np.random.Generator, n_c
         inputs = f"estimated={np.array2string(estimated, precision=3)}, true={np.array2string(true, precision=3)}"
         return _Case(inputs, expected, (estimated.copy(), true.copy()))
 
-    return _run_cases("mean_position_error", student_function, draw, n_cases=n_cases, atol=atol,
+    return _run_cases("mean_position_error", student_function, draw, rng=rng, n_cases=n_cases, atol=atol,
                       hint="the distance per sample is the norm over the 3 coordinates (axis=-1); "
                       "then average over the samples (not the RMS)")
 
@@ -176,8 +164,6 @@ def check_precision_at_accuracy(student_function, *, rng: np.random.Generator, n
     """
     from wsnlib.metrics import precision_at_accuracy
 
-    rng = _check_arguments(student_function, rng, n_cases, atol)
-
     def draw(case: int) -> _Case:
         n_errors = int(rng.integers(1, 200))
         errors = rng.gamma(2.0, float(rng.uniform(1.0, 10.0)), size=n_errors)
@@ -190,6 +176,6 @@ def check_precision_at_accuracy(student_function, *, rng: np.random.Generator, n
         inputs = f"accuracy={accuracy:g}, errors={np.array2string(errors, precision=2, threshold=20)}"
         return _Case(inputs, expected, (errors.copy(), accuracy))
 
-    return _run_cases("precision_at_accuracy", student_function, draw, n_cases=n_cases, atol=atol,
+    return _run_cases("precision_at_accuracy", student_function, draw, rng=rng, n_cases=n_cases, atol=atol,
                       hint="count the errors lower than OR EQUAL TO the accuracy, and divide by all "
                       "the errors (a fraction, not a percentage)")

@@ -4,13 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wsnlib.exercises.checking import (
-    ExerciseReport,
-    _Case,
-    _check_arguments,
-    _random_unit_quaternion,
-    _run_cases,
-)
+from wsnlib.exercises.checking import ExerciseReport, _Case, _random_unit_quaternion, _run_cases
 
 
 def check_madgwick_step(student_function, *, rng: np.random.Generator, n_cases: int = 200,
@@ -41,8 +35,6 @@ def check_madgwick_step(student_function, *, rng: np.random.Generator, n_cases: 
     """
     from wsnlib.orientation import madgwick_step
 
-    rng = _check_arguments(student_function, rng, n_cases, atol)
-
     def draw(case: int) -> _Case:
         q = _random_unit_quaternion(rng)
         gyr = rng.normal(scale=2.0, size=3)
@@ -54,7 +46,7 @@ def check_madgwick_step(student_function, *, rng: np.random.Generator, n_cases: 
         inputs = f"q={q}, gyr={gyr}, acc={acc}, mag={mag}, dt={dt:.4f}, beta={beta:.4f}"
         return _Case(inputs, expected, (q.copy(), gyr.copy(), acc.copy(), mag.copy(), dt, beta))
 
-    return _run_cases("madgwick_step", student_function, draw, n_cases=n_cases, atol=atol, rotation=True,
+    return _run_cases("madgwick_step", student_function, draw, rng=rng, n_cases=n_cases, atol=atol, rotation=True,
                       hint="ENU in and out; Madgwick's report works in NWU (x north, y west); "
                            "with beta = 0 only the gyroscope term q + ½ q ⊗ [0, ω] Δt remains")
 
@@ -78,8 +70,6 @@ def check_slerp_weight(student_function, *, rng: np.random.Generator, n_cases: i
     """
     from wsnlib.orientation import slerp_weight
 
-    rng = _check_arguments(student_function, rng, n_cases, atol)
-
     def draw(case: int) -> _Case:
         lost_run = 0 if case == 0 else int(rng.integers(0, 200))
         rho = float(rng.uniform(0.05, 10.0))
@@ -88,7 +78,7 @@ def check_slerp_weight(student_function, *, rng: np.random.Generator, n_cases: i
         inputs = f"lost_run={lost_run}, rho={rho:.4f}, tau={tau:.4f}"
         return _Case(inputs, expected, (lost_run, rho, tau))
 
-    return _run_cases("slerp_weight", student_function, draw, n_cases=n_cases, atol=atol,
+    return _run_cases("slerp_weight", student_function, draw, rng=rng, n_cases=n_cases, atol=atol,
                       hint="μ = 1 with nothing lost, and μ = 1/2 at λ = ρτ")
 
 
@@ -114,8 +104,6 @@ def check_slerp(student_function, *, rng: np.random.Generator, n_cases: int = 50
     """
     from wsnlib.quaternion import slerp
 
-    rng = _check_arguments(student_function, rng, n_cases, atol)
-
     def draw(case: int) -> _Case:
         q_a = _random_unit_quaternion(rng)
         q_b = _random_unit_quaternion(rng) * (-1.0 if case % 3 == 0 else 1.0)  # some on the far arc
@@ -126,7 +114,7 @@ def check_slerp(student_function, *, rng: np.random.Generator, n_cases: int = 50
         inputs = f"q_a={q_a}, q_b={q_b}, mu={mu:.4f}"
         return _Case(inputs, expected, (q_a.copy(), q_b.copy(), mu))
 
-    return _run_cases("slerp", student_function, draw, n_cases=n_cases, atol=atol, rotation=True,
+    return _run_cases("slerp", student_function, draw, rng=rng, n_cases=n_cases, atol=atol, rotation=True,
                       hint="flip one quaternion when their dot product is negative (shorter arc), "
                       "and handle q_a = q_b without dividing by sin 0")
 
@@ -155,8 +143,6 @@ def check_knee_point(student_function, *, rng: np.random.Generator, n_cases: int
     """
     from wsnlib.tuning import knee_point
 
-    rng = _check_arguments(student_function, rng, n_cases, atol)
-
     def draw(case: int) -> _Case:
         n_points = int(rng.integers(1, 40))
         if case % 4 == 0:  # a trade-off curve with noise, like the tuning grid
@@ -169,7 +155,7 @@ def check_knee_point(student_function, *, rng: np.random.Generator, n_cases: int
         inputs = f"cost_a={np.array2string(cost_a, precision=3)}, cost_b={np.array2string(cost_b, precision=3)}"
         return _Case(inputs, knee_point(cost_a, cost_b), (cost_a.copy(), cost_b.copy()))
 
-    return _run_cases("knee_point", student_function, draw, n_cases=n_cases, atol=atol,
+    return _run_cases("knee_point", student_function, draw, rng=rng, n_cases=n_cases, atol=atol,
                       hint="scale each cost to [0, 1] over the Pareto points only, and never pick a dominated point")
 
 
@@ -205,8 +191,6 @@ def check_gyro_interpolation(student_function, *, rng: np.random.Generator, n_ca
     """
     from wsnlib import loss
 
-    rng = _check_arguments(student_function, rng, n_cases, atol)
-
     def draw(case: int) -> _Case:
         n_samples = int(rng.integers(5, 120))
         packets = loss.gilbert_elliott(n_samples, loss_rate=float(rng.uniform(0.05, 0.5)),
@@ -224,7 +208,7 @@ def check_gyro_interpolation(student_function, *, rng: np.random.Generator, n_ca
         inputs = f"received={received.astype(int)} (T={n_samples})"
         return _Case(inputs, expected, (gyr_seen.copy(), received.copy()))
 
-    return _run_cases("gyro_interpolation", student_function, draw, n_cases=n_cases, atol=atol,
+    return _run_cases("gyro_interpolation", student_function, draw, rng=rng, n_cases=n_cases, atol=atol,
                       hint="never read gyr on a lost sample; the weight of the sample after the gap "
                            "is (t − t_before)/(t_after − t_before)")
 
@@ -251,8 +235,6 @@ def check_triad(student_function, *, rng: np.random.Generator, n_cases: int = 30
     """
     from wsnlib.orientation import triad
 
-    rng = _check_arguments(student_function, rng, n_cases, atol)
-
     def draw(case: int) -> _Case:
         acc = rng.normal(scale=9.81, size=3)
         mag = rng.normal(scale=45.0, size=3)
@@ -260,10 +242,9 @@ def check_triad(student_function, *, rng: np.random.Generator, n_cases: int = 30
         inputs = f"acc={acc}, mag={mag}"
         return _Case(inputs, expected, (acc.copy(), mag.copy()))
 
-    return _run_cases("triad", student_function, draw, n_cases=n_cases, atol=atol, rotation=True,
+    return _run_cases("triad", student_function, draw, rng=rng, n_cases=n_cases, atol=atol, rotation=True,
                       hint="build the same orthonormal triad (a, a×m/|a×m|, a × that) in the body and "
-                      "from the ENU references (up, and wsnlib.frames.magnetic_field_enu()), "
-                      "then R = M_ref M_bodyᵀ")
+                      "from the ENU references (up, and wsnlib.frames.magnetic_field_enu()), then R = M_ref M_bodyᵀ")
 
 
 def _reference_gain_after_gap(prior_variance, gap_rate_std, n_lost, fs, measurement_variance):
@@ -296,8 +277,6 @@ def check_gain_after_gap(student_function, *, rng: np.random.Generator, n_cases:
     -------
     ExerciseReport
     """
-    rng = _check_arguments(student_function, rng, n_cases, atol)
-
     def draw(case: int) -> _Case:
         arguments = (float(rng.uniform(1e-6, 1e-2)), float(rng.uniform(0.05, 2.0)),
                      int(rng.integers(0, 100)) if case % 4 else 0, float(rng.choice([50.0, 100.0, 285.7])),
@@ -307,6 +286,6 @@ def check_gain_after_gap(student_function, *, rng: np.random.Generator, n_cases:
             *arguments)
         return _Case(inputs, expected, arguments)
 
-    return _run_cases("gain_after_gap", student_function, draw, n_cases=n_cases, atol=atol,
+    return _run_cases("gain_after_gap", student_function, draw, rng=rng, n_cases=n_cases, atol=atol,
                       hint="the added variance is the square of the angle the rate error turns over the gap, "
                            "(σ_gap · λ/fs)², not σ_gap² · λ/fs")

@@ -63,8 +63,6 @@ from wsnlib.loss.models import (
 )
 from wsnlib.loss.profiles import LossProfile
 
-__all__ = [
-    "LossProfile", "SAMPLES_PER_PACKET", "bernoulli_loss", "burst_lengths", "burst_loss", "burst_mask", "burst_train",
-    "gilbert_elliott", "gilbert_elliott_probabilities", "hold_last", "loss_fraction", "loss_trace_from_file",
-    "lost_run_length", "n_packets_for", "packets_to_samples",
-]
+__all__ = ["LossProfile", "SAMPLES_PER_PACKET", "bernoulli_loss", "burst_lengths", "burst_loss", "burst_mask",
+           "burst_train", "gilbert_elliott", "gilbert_elliott_probabilities", "hold_last", "loss_fraction",
+           "loss_trace_from_file", "lost_run_length", "n_packets_for", "packets_to_samples"]

@@ -4,17 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from wsnlib._validation import check_count
+
 # --------------------------------------------------------------------------------------------
 # Validation helpers
 # --------------------------------------------------------------------------------------------
-
-
-def _check_count(value, name: str, minimum: int = 0) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise ValueError(f"{name} must be an integer, got {value!r}")
-    if value < minimum:
-        raise ValueError(f"{name} must be >= {minimum}, got {value!r}")
-    return int(value)
 
 
 def _check_shape(shape, name: str = "shape") -> tuple[int, ...]:
@@ -23,10 +17,8 @@ def _check_shape(shape, name: str = "shape") -> tuple[int, ...]:
     try:
         shape = tuple(shape)
     except TypeError:
-        raise ValueError(
-            f"{name} must be a tuple of non-negative integers, got {shape!r}"
-        ) from None
-    return tuple(_check_count(s, name) for s in shape)
+        raise ValueError(f"{name} must be a tuple of non-negative integers, got {shape!r}") from None
+    return tuple(check_count(s, name, 0) for s in shape)
 
 
 def _check_mask(value, name: str, min_ndim: int = 1) -> np.ndarray:
@@ -34,9 +26,7 @@ def _check_mask(value, name: str, min_ndim: int = 1) -> np.ndarray:
     if arr.dtype != np.bool_:
         raise ValueError(f"{name} must be a boolean mask (True = received), got dtype {arr.dtype}")
     if arr.ndim < min_ndim:
-        raise ValueError(
-            f"{name} must have at least {min_ndim} dimension(s), got shape {arr.shape}"
-        )
+        raise ValueError(f"{name} must have at least {min_ndim} dimension(s), got shape {arr.shape}")
     return arr
 
 
@@ -50,9 +40,3 @@ def _check_rate(value, name: str, upper_inclusive: bool) -> float:
         interval = "[0, 1]" if upper_inclusive else "[0, 1)"
         raise ValueError(f"{name} must lie in {interval}, got {value!r}")
     return rate
-
-
-def _check_rng(rng) -> np.random.Generator:
-    if not isinstance(rng, np.random.Generator):
-        raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
-    return rng

@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from wsnlib.loss._checks import _check_count, _check_mask
+from wsnlib._validation import check_count
+from wsnlib.loss._checks import _check_mask
 
 #: Samples per packet in paper 001, Section IV.
 SAMPLES_PER_PACKET = 6
@@ -21,16 +22,13 @@ SAMPLES_PER_PACKET = 6
 
 def n_packets_for(n_samples: int, samples_per_packet: int = SAMPLES_PER_PACKET) -> int:
     """Packets needed to carry ``n_samples`` samples: ``ceil(n_samples / samples_per_packet)``."""
-    n_samples = _check_count(n_samples, "n_samples")
-    spp = _check_count(samples_per_packet, "samples_per_packet", 1)
+    n_samples = check_count(n_samples, "n_samples", 0)
+    spp = check_count(samples_per_packet, "samples_per_packet")
     return -(-n_samples // spp)
 
 
-def packets_to_samples(
-    packet_received,
-    samples_per_packet: int = SAMPLES_PER_PACKET,
-    n_samples: int | None = None,
-) -> np.ndarray:
+def packets_to_samples(packet_received, samples_per_packet: int = SAMPLES_PER_PACKET,
+                       n_samples: int | None = None) -> np.ndarray:
     """Expand a per-packet mask to a per-sample mask.
 
     Parameters
@@ -51,18 +49,16 @@ def packets_to_samples(
         True where the sample was received.
     """
     mask = _check_mask(packet_received, "packet_received")
-    spp = _check_count(samples_per_packet, "samples_per_packet", 1)
+    spp = check_count(samples_per_packet, "samples_per_packet")
     n_packets = mask.shape[-1]
     samples = np.repeat(mask, spp, axis=-1)
     if n_samples is None:
         return samples
-    n_samples = _check_count(n_samples, "n_samples")
+    n_samples = check_count(n_samples, "n_samples", 0)
     needed = n_packets_for(n_samples, spp)
     if n_packets != needed:
-        raise ValueError(
-            f"packet_received has {n_packets} packets, but n_samples = {n_samples} at "
-            f"{spp} samples per packet needs {needed}"
-        )
+        raise ValueError(f"packet_received has {n_packets} packets, but n_samples = {n_samples} at "
+                         f"{spp} samples per packet needs {needed}")
     return samples[..., :n_samples]
 
 

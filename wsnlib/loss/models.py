@@ -12,7 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from wsnlib.loss._checks import _check_count, _check_rate, _check_rng, _check_shape
+from wsnlib._validation import check_count, check_rng
+from wsnlib.loss._checks import _check_rate, _check_shape
 from wsnlib.loss.masks import SAMPLES_PER_PACKET
 
 # --------------------------------------------------------------------------------------------
@@ -37,24 +38,18 @@ def burst_loss(n_packets: int, start_packet: int, n_lost: int) -> np.ndarray:
     numpy.ndarray of bool, shape (n_packets,)
         False on ``start_packet … start_packet + n_lost − 1``, True elsewhere.
     """
-    n_packets = _check_count(n_packets, "n_packets")
-    start = _check_count(start_packet, "start_packet")
+    n_packets = check_count(n_packets, "n_packets", 0)
+    start = check_count(start_packet, "start_packet", 0)
     if start > n_packets:
         raise ValueError(f"start_packet must be <= n_packets = {n_packets}, got {start}")
-    n_lost = _check_count(n_lost, "n_lost")
+    n_lost = check_count(n_lost, "n_lost", 0)
     mask = np.ones(n_packets, dtype=bool)
     mask[start : start + n_lost] = False
     return mask
 
 
-def burst_mask(
-    n_samples: int,
-    start_sample: int,
-    n_packets: int,
-    samples_per_packet: int = SAMPLES_PER_PACKET,
-    *,
-    align: str = "next",
-) -> np.ndarray:
+def burst_mask(n_samples: int, start_sample: int, n_packets: int, samples_per_packet: int = SAMPLES_PER_PACKET, *,
+               align: str = "next") -> np.ndarray:
     """Per-sample mask with ``n_packets`` whole packets lost "right after ``start_sample`` samples".
 
     Parameters
@@ -85,12 +80,12 @@ def burst_mask(
     -------
     numpy.ndarray of bool, shape (n_samples,)
     """
-    n_samples = _check_count(n_samples, "n_samples")
-    start = _check_count(start_sample, "start_sample")
+    n_samples = check_count(n_samples, "n_samples", 0)
+    start = check_count(start_sample, "start_sample", 0)
     if start > n_samples:
         raise ValueError(f"start_sample must be <= n_samples = {n_samples}, got {start}")
-    n_lost = _check_count(n_packets, "n_packets")
-    spp = _check_count(samples_per_packet, "samples_per_packet", 1)
+    n_lost = check_count(n_packets, "n_packets", 0)
+    spp = check_count(samples_per_packet, "samples_per_packet")
     if align == "next":
         first = -(-start // spp) * spp
     elif align == "exact":
@@ -117,10 +112,10 @@ def burst_train(n_samples: int, start_sample: int, period_samples: int, n_packet
         Index of the first received sample after each burst (for
         :func:`wsnlib.metrics.burst_response`).
     """
-    n_samples = _check_count(n_samples, "n_samples")
-    period = _check_count(period_samples, "period_samples", minimum=1)
-    n_packets = _check_count(n_packets, "n_packets", minimum=1)
-    start = _check_count(start_sample, "start_sample")
+    n_samples = check_count(n_samples, "n_samples", 0)
+    period = check_count(period_samples, "period_samples")
+    n_packets = check_count(n_packets, "n_packets")
+    start = check_count(start_sample, "start_sample", 0)
     length = n_packets * samples_per_packet
     if period <= length:
         raise ValueError(f"period_samples ({period}) must exceed the burst length ({length} samples)")
@@ -141,9 +136,7 @@ def burst_train(n_samples: int, start_sample: int, period_samples: int, n_packet
 # --------------------------------------------------------------------------------------------
 
 
-def bernoulli_loss(
-    n_packets: int, loss_rate: float, *, rng: np.random.Generator, shape=()
-) -> np.ndarray:
+def bernoulli_loss(n_packets: int, loss_rate: float, *, rng: np.random.Generator, shape=()) -> np.ndarray:
     """Independent packet losses with probability ``loss_rate``.
 
     Parameters
@@ -161,10 +154,10 @@ def bernoulli_loss(
     numpy.ndarray of bool, shape (*shape, n_packets)
         True = received.
     """
-    n_packets = _check_count(n_packets, "n_packets")
+    n_packets = check_count(n_packets, "n_packets", 0)
     rate = _check_rate(loss_rate, "loss_rate", upper_inclusive=True)
     shape = _check_shape(shape)
-    rng = _check_rng(rng)
+    rng = check_rng(rng)
     return rng.random(shape + (n_packets,)) >= rate
 
 
@@ -192,21 +185,13 @@ def gilbert_elliott_probabilities(loss_rate: float, mean_burst: float) -> tuple[
     p_bg = 1.0 / burst
     p_gb = rate * p_bg / (1.0 - rate)
     if p_gb > 1.0:
-        raise ValueError(
-            f"loss_rate = {rate:g} cannot be reached with mean_burst = {burst:g}: "
-            f"loss_rate must be <= mean_burst / (1 + mean_burst) = {burst / (1.0 + burst):g}"
-        )
+        raise ValueError(f"loss_rate = {rate:g} cannot be reached with mean_burst = {burst:g}: "
+                         f"loss_rate must be <= mean_burst / (1 + mean_burst) = {burst / (1.0 + burst):g}")
     return p_gb, p_bg
 
 
-def gilbert_elliott(
-    n_packets: int,
-    loss_rate: float,
-    mean_burst: float,
-    *,
-    rng: np.random.Generator,
-    shape=(),
-) -> np.ndarray:
+def gilbert_elliott(n_packets: int, loss_rate: float, mean_burst: float, *, rng: np.random.Generator,
+                    shape=()) -> np.ndarray:
     """Bursty packet loss from the two-state Gilbert–Elliott Markov chain.
 
     States: Good (packet received) and Bad (packet lost).  ``p(B→G) = 1 / mean_burst`` and
@@ -232,10 +217,10 @@ def gilbert_elliott(
     numpy.ndarray of bool, shape (*shape, n_packets)
         True = received.
     """
-    n_packets = _check_count(n_packets, "n_packets")
+    n_packets = check_count(n_packets, "n_packets", 0)
     p_gb, p_bg = gilbert_elliott_probabilities(loss_rate, mean_burst)
     shape = _check_shape(shape)
-    rng = _check_rng(rng)
+    rng = check_rng(rng)
     u = rng.random(shape + (n_packets,))
     lost = np.empty(shape + (n_packets,), dtype=bool)
     if n_packets == 0:
@@ -295,10 +280,8 @@ def loss_trace_from_file(path) -> np.ndarray:
         for tok in tokens:
             flag = values.get(tok.lower())
             if flag is None:
-                raise ValueError(
-                    f"{path}: line {line_no}: {tok!r} is not a packet flag "
-                    "(1/0 or true/false, 1 = received)"
-                )
+                raise ValueError(f"{path}: line {line_no}: {tok!r} is not a packet flag "
+                                 "(1/0 or true/false, 1 = received)")
             flags.append(flag)
     if not flags:
         raise ValueError(f"{path}: holds no packet flags")

@@ -36,10 +36,7 @@ def max_abs_error(error, start: int = 0, where=None) -> np.ndarray:
     _check_start(start, error.shape[-1])
     magnitude = np.abs(error)
     if where is not None:
-        where = np.asarray(where)
-        if where.dtype != np.bool_:
-            raise ValueError(f"where must be a boolean mask, got dtype {where.dtype}")
-        magnitude = np.where(where, magnitude, 0.0)
+        magnitude = np.where(as_bool_mask(where, "where", magnitude.shape), magnitude, 0.0)
     return np.max(magnitude[..., start:], axis=-1)
 
 
@@ -259,24 +256,19 @@ def loss_figures_of_merit(error_deg, *, fs, received, threshold_deg=5.0, start: 
         ``start``, :func:`quantile_error`).
     """
     error_deg = as_float_array(error_deg, "error_deg")
-    received = np.asarray(received)
-    if received.dtype != np.bool_:
-        raise ValueError(f"received must be a boolean mask, got dtype {received.dtype}")
-    result = {
-        MAX_ERROR: max_abs_error(error_deg, start=start, where=np.broadcast_to(received, error_deg.shape)),
-        MEAN_ERROR: np.mean(np.abs(error_deg[..., start:]), axis=-1),
-        TIME_ABOVE: time_above_s(error_deg, threshold_deg, fs, start=start),
-    }
+    received = as_bool_mask(received, "received", error_deg.shape)
+    result = {MAX_ERROR: max_abs_error(error_deg, start=start, where=received),
+              MEAN_ERROR: np.mean(np.abs(error_deg[..., start:]), axis=-1),
+              TIME_ABOVE: time_above_s(error_deg, threshold_deg, fs, start=start)}
     if recovery_start is not None:
         result[RECOVERY] = recovery_time_s(error_deg, threshold_deg, fs, start=recovery_start)
     result[JERK] = angle_jerk_rms_deg(error_deg, fs)
     if extended:
-        full_received = np.broadcast_to(received, error_deg.shape)
-        steps = gap_end_steps_deg(error_deg, full_received)
+        steps = gap_end_steps_deg(error_deg, received)
         result[GAP_STEP_MAX] = steps["max_deg"]
         result[GAP_STEP_MEAN] = steps["mean_deg"]
-        result[JITTER] = angle_jitter_rms_deg(error_deg, fs, full_received)
-        result[P95_ERROR] = quantile_error(error_deg[..., start:], 0.95, where=full_received[..., start:])
+        result[JITTER] = angle_jitter_rms_deg(error_deg, fs, received)
+        result[P95_ERROR] = quantile_error(error_deg[..., start:], 0.95, where=received[..., start:])
     return result
 
 

@@ -164,8 +164,6 @@ def broad_rmse_deg(quat_est, quat_ref, movement) -> dict[str, np.ndarray]:
     if np.any(count == 0):
         bad = tuple(int(i) for i in np.argwhere(count == 0)[0])
         where = f" (batch index {bad})" if bad else ""
-        raise ValueError(
-            f"no sample is both in the movement phase and has a reference (non-NaN quat_ref){where}; "
-            f"the RMSE is undefined"
-        )
+        raise ValueError(f"no sample is both in the movement phase and has a reference (non-NaN quat_ref){where}; "
+                         f"the RMSE is undefined")
     return {key: np.sqrt(np.sum(np.where(valid, value, 0.0) ** 2, axis=-1) / count) for key, value in errors.items()}

@@ -31,22 +31,9 @@ Anchors are numbered from 1 in tables and ``anchors`` tuples, as in the paper ("
 boolean masks and column indices are 0-based.
 """
 
-from wsnlib.optimize.data import (
-    APPROACHES,
-    ESTIMATES,
-    SearchData,
-    SearchGrid,
-    Setting,
-    format_subset,
-    parse_subset,
-)
+from wsnlib.optimize.data import APPROACHES, ESTIMATES, SearchData, SearchGrid, Setting, format_subset, parse_subset
 from wsnlib.optimize.engine import DEFAULT_CHUNK_ELEMENTS, evaluate_setting, search
-from wsnlib.optimize.regret import (
-    REGRET_COLUMNS,
-    SPLITS,
-    coupled_selection_regret,
-    selection_regret,
-)
+from wsnlib.optimize.regret import REGRET_COLUMNS, SPLITS, coupled_selection_regret, selection_regret
 from wsnlib.optimize.selection import (
     TIE_TOL_CM,
     average_over_users,
@@ -55,38 +42,10 @@ from wsnlib.optimize.selection import (
     proximal_from_selection,
     select_settings,
 )
-from wsnlib.optimize.tables import (
-    PaperTables,
-    best_global,
-    best_per_movement,
-    paper_tables,
-    union_of_subsets,
-)
+from wsnlib.optimize.tables import PaperTables, best_global, best_per_movement, paper_tables, union_of_subsets
 
-__all__ = [
-    "APPROACHES",
-    "DEFAULT_CHUNK_ELEMENTS",
-    "ESTIMATES",
-    "REGRET_COLUMNS",
-    "SPLITS",
-    "TIE_TOL_CM",
-    "PaperTables",
-    "SearchData",
-    "SearchGrid",
-    "Setting",
-    "average_over_users",
-    "best_global",
-    "best_per_movement",
-    "coupled_selection_regret",
-    "evaluate_chain",
-    "evaluate_selection",
-    "evaluate_setting",
-    "format_subset",
-    "paper_tables",
-    "parse_subset",
-    "proximal_from_selection",
-    "search",
-    "select_settings",
-    "selection_regret",
-    "union_of_subsets",
-]
+__all__ = ["APPROACHES", "DEFAULT_CHUNK_ELEMENTS", "ESTIMATES", "REGRET_COLUMNS", "SPLITS", "TIE_TOL_CM", "PaperTables",
+           "SearchData", "SearchGrid", "Setting", "average_over_users", "best_global", "best_per_movement",
+           "coupled_selection_regret", "evaluate_chain", "evaluate_selection", "evaluate_setting", "format_subset",
+           "paper_tables", "parse_subset", "proximal_from_selection", "search", "select_settings", "selection_regret",
+           "union_of_subsets"]

@@ -33,15 +33,22 @@ APPROACHES = ("deterministic", "probabilistic")
 ESTIMATES = ("hybrid", "radio")
 
 
-def _int_tuple(values, name: str, *, positive: bool = True) -> tuple[int, ...]:
+def _grid_values(values, name: str, what: str, ok) -> tuple:
+    """``values`` as a non-empty tuple without duplicates whose every value passes ``ok`` (a ``what``)."""
     values = tuple(np.atleast_1d(np.asarray(values, dtype=object)).tolist())
     if not values:
         raise ValueError(f"{name} must hold at least one value (empty grid)")
     for v in values:
-        if isinstance(v, bool) or not isinstance(v, numbers.Integral) or (positive and v < 1):
-            raise ValueError(f"{name} must hold positive integers, got {v!r}")
+        if not ok(v):
+            raise ValueError(f"{name} must hold {what}, got {v!r}")
     if len(set(values)) != len(values):
         raise ValueError(f"{name} holds duplicate values: {list(values)}")
+    return values
+
+
+def _int_tuple(values, name: str) -> tuple[int, ...]:
+    values = _grid_values(values, name, "positive integers",
+                          lambda v: not isinstance(v, bool) and isinstance(v, numbers.Integral) and v >= 1)
     return tuple(sorted(int(v) for v in values))
 
 
@@ -72,22 +79,9 @@ class SearchGrid:
     pknn_neighbors: tuple[int, ...] = (1, 2, 3, 4, 5)
 
     def __post_init__(self):
-        metrics = tuple(np.atleast_1d(np.asarray(self.metrics, dtype=object)).tolist())
-        if not metrics:
-            raise ValueError("metrics must hold at least one distance (empty grid)")
-        for m in metrics:
-            if m not in METRICS:
-                raise ValueError(f"metrics must be among {METRICS}, got {m!r}")
-        if len(set(metrics)) != len(metrics):
-            raise ValueError(f"metrics holds duplicates: {list(metrics)}")
-        powers = tuple(np.atleast_1d(np.asarray(self.powers, dtype=object)).tolist())
-        if not powers:
-            raise ValueError("powers must hold at least one value (empty grid)")
-        for p in powers:
-            if isinstance(p, bool) or not isinstance(p, numbers.Real) or not math.isfinite(p) or p <= 0:
-                raise ValueError(f"powers must hold positive finite numbers, got {p!r}")
-        if len(set(powers)) != len(powers):
-            raise ValueError(f"powers holds duplicate values: {list(powers)}")
+        metrics = _grid_values(self.metrics, "metrics", f"distances among {METRICS}", lambda m: m in METRICS)
+        powers = _grid_values(self.powers, "powers", "positive finite numbers",
+                              lambda p: isinstance(p, numbers.Real) and not isinstance(p, bool) and 0 < p < math.inf)
         object.__setattr__(self, "metrics", metrics)
         object.__setattr__(self, "powers", tuple(sorted(powers)))
         object.__setattr__(self, "knn_neighbors", _int_tuple(self.knn_neighbors, "knn_neighbors"))

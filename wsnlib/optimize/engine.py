@@ -68,12 +68,7 @@ from wsnlib.optimize.data import (
     format_subset,
 )
 from wsnlib.posture import DEFAULT_HEADING_TOL_M
-from wsnlib.radio.grid import (
-    knn_from_terms,
-    knn_grid_from_terms,
-    pknn_from_loglik,
-    pknn_grid_from_loglik,
-)
+from wsnlib.radio.grid import knn_from_terms, knn_grid_from_terms, pknn_from_loglik, pknn_grid_from_loglik
 
 #: Default bound on the numbers held by one array of a subset chunk.
 DEFAULT_CHUNK_ELEMENTS = 1 << 18  # ~2 MB per float array: stays in cache
@@ -216,13 +211,11 @@ def _settings_table(grid: SearchGrid, masks: np.ndarray, approach: str) -> pd.Da
     return table
 
 
-def _knn_rows_per_subset(grid: SearchGrid) -> int:
-    """Estimates per subset in the largest kNN array of a chunk, (K · P) of knn_grid_from_terms."""
-    return len(grid.knn_neighbors) * len(grid.powers)
-
-
-def _chunk_size(n_rows_per_subset: int, n_vectors: int, chunk_elements: int) -> int:
-    return max(1, int(chunk_elements) // max(1, n_rows_per_subset * n_vectors * 3))
+def _chunk_size(grid: SearchGrid, approach: str, n_vectors: int, chunk_elements: int) -> int:
+    """Subsets per chunk: estimates per subset in the largest array of a chunk (kNN: K · P of
+    knn_grid_from_terms; p-kNN: K) × ``n_vectors`` × 3 coordinates stay within ``chunk_elements``."""
+    per = len(grid.knn_neighbors) * len(grid.powers) if approach == "deterministic" else len(grid.pknn_neighbors)
+    return max(1, int(chunk_elements) // max(1, per * n_vectors * 3))
 
 
 def _user_pe(data: SearchData, approach: str, grid: SearchGrid, masks: np.ndarray, ctx: _Context,
@@ -237,14 +230,10 @@ def _user_pe(data: SearchData, approach: str, grid: SearchGrid, masks: np.ndarra
         # (k index, p index) of each unique setting per (subset, metric): k = 1 once, at p index 0
         k_idx = np.array([grid.knn_neighbors.index(k) for k, _ in knn_cfg])
         p_idx = np.array([0 if p is None else grid.powers.index(p) for _, p in knn_cfg])
-        terms = {}
-        for metric in grid.metrics:
-            est_m = copy.copy(est)
-            est_m.metric = metric
-            terms[metric] = est_m.anchor_terms(data.online_rss)
+        terms = {m: copy.copy(est).set_params(metric=m).anchor_terms(data.online_rss) for m in grid.metrics}
         n_metrics = len(grid.metrics)
         out = np.empty((ctx.n_variants, masks.shape[0] * n_metrics * per, ctx.movements.size))
-        step = _chunk_size(_knn_rows_per_subset(grid), n, chunk_elements)
+        step = _chunk_size(grid, approach, n, chunk_elements)
         for start in range(0, masks.shape[0], step):
             chunk = np.arange(start, min(start + step, masks.shape[0]))
             for mi, metric in enumerate(grid.metrics):
@@ -259,7 +248,7 @@ def _user_pe(data: SearchData, approach: str, grid: SearchGrid, masks: np.ndarra
     loglik = est.anchor_log_likelihoods(data.online_rss)
     per = len(grid.pknn_neighbors)
     out = np.empty((ctx.n_variants, masks.shape[0] * per, ctx.movements.size))
-    step = _chunk_size(per, n, chunk_elements)
+    step = _chunk_size(grid, approach, n, chunk_elements)
     for start in range(0, masks.shape[0], step):
         chunk = np.arange(start, min(start + step, masks.shape[0]))
         radio = pknn_grid_from_loglik(loglik, masks[chunk], est.positions_, grid.pknn_neighbors,
@@ -268,14 +257,6 @@ def _user_pe(data: SearchData, approach: str, grid: SearchGrid, masks: np.ndarra
         out[:, ids] = ctx.movement_pe(radio.reshape(3, -1, n))
         bar.update(1)
     return out
-
-
-def _n_chunks(grid: SearchGrid, n_subsets: int, n_vectors: int, approach: str, chunk_elements: int) -> int:
-    if approach == "deterministic":
-        step = _chunk_size(_knn_rows_per_subset(grid), n_vectors, chunk_elements)
-    else:
-        step = _chunk_size(len(grid.pknn_neighbors), n_vectors, chunk_elements)
-    return -(-n_subsets // step)
 
 
 def _check_fitted_positions(users: list[SearchData], approach: str, grid: SearchGrid) -> None:
@@ -294,7 +275,7 @@ def _search(labels, users, approaches, estimate, grid, proximals, progress, chun
     n_anchors = users[0].n_anchors
     masks = grid.subset_masks(n_anchors)
     n_variants = 1 if estimate == "radio" else proximals[0][approaches[0]].shape[0]
-    total = sum(_n_chunks(grid, masks.shape[0], u.online_rss.shape[0], a, chunk_elements)
+    total = sum(-(-masks.shape[0] // _chunk_size(grid, a, u.online_rss.shape[0], chunk_elements))
                 for u in users for a in approaches)
     frames: list[list[pd.DataFrame]] = [[] for _ in range(n_variants)]
     with tqdm(total=total, desc="subset chunks", unit="chunk", disable=not progress) as bar:
@@ -371,8 +352,7 @@ def evaluate_setting(data: SearchData, setting: Setting, *, estimate: str = "hyb
     data = data.fitted(setting.approach)
     mask = setting.mask(data.n_anchors)
     if setting.approach == "deterministic":
-        est = copy.copy(data.knn)
-        est.metric = setting.metric
+        est = copy.copy(data.knn).set_params(metric=setting.metric)
         radio = knn_from_terms(est.anchor_terms(data.online_rss), mask, est.positions_, setting.k,
                                1 if setting.p_s is None else setting.p_s, setting.metric)
     else:

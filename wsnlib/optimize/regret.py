@@ -158,8 +158,7 @@ def _summarise_units(units: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
     summary["n_units"] = n_units
     order = {"split": SPLITS, "selection": ("global", "per_movement"), "approach": APPROACHES}
     position = {key: {v: i for i, v in enumerate(values)} for key, values in order.items()}
-    summary = summary.sort_index(key=lambda level: level.map(position[level.name]) if level.name in position
-                                 else level)
+    summary = summary.sort_index(key=lambda level: level.map(position[level.name]) if level.name in position else level)
     return summary[list(REGRET_COLUMNS)]
 
 
@@ -315,8 +314,7 @@ def coupled_selection_regret(target1, target2, *, approaches=APPROACHES, grid: S
                 fold2 = _folds(cube2, first, second, splits)[index]
                 picks2 = _fold_picks(cube2, fold2)
                 rows2 += [{"approach": approach, **r} for r in _fold_units(cube2, fold2, selection, picks2[selection])]
-    units = pd.concat([pd.DataFrame(rows1).assign(target=1), pd.DataFrame(rows2).assign(target=2)],
-                      ignore_index=True)
+    units = pd.concat([pd.DataFrame(rows1).assign(target=1), pd.DataFrame(rows2).assign(target=2)], ignore_index=True)
     if by_unit:
         return units
     return _summarise_units(units, ["target", "approach", "split", "selection"])

@@ -31,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from wsnlib._validation import check_type
 from wsnlib.optimize.data import APPROACHES, SearchData, Setting, _check_approach
 from wsnlib.optimize.engine import evaluate_setting
 
@@ -74,17 +75,18 @@ class _Cube:
 
     def user_mean(self, users=None) -> np.ndarray:
         """Mean over ``users`` (indices; default all) of the PE: ``(C, M)``, NaN where nobody has it."""
-        pe = self.pe if users is None else self.pe[..., users]
-        count = np.sum(~np.isnan(pe), axis=-1)
-        total = np.nansum(pe, axis=-1)
-        return np.where(count > 0, total / np.maximum(count, 1), np.nan)
+        return _nan_mean(self.pe if users is None else self.pe[..., users])
 
     @staticmethod
     def movement_mean(pe: np.ndarray, movements=None) -> np.ndarray:
         """Equal-weight mean over ``movements`` (indices; default all) of ``(C, M)``: ``(C,)``."""
-        pe = pe if movements is None else pe[:, movements]
-        count = np.sum(~np.isnan(pe), axis=-1)
-        return np.where(count > 0, np.nansum(pe, axis=-1) / np.maximum(count, 1), np.nan)
+        return _nan_mean(pe if movements is None else pe[:, movements])
+
+
+def _nan_mean(pe: np.ndarray) -> np.ndarray:
+    """Mean over the last axis of the values that are not NaN (NaN where there are none)."""
+    count = np.sum(~np.isnan(pe), axis=-1)
+    return np.where(count > 0, np.nansum(pe, axis=-1) / np.maximum(count, 1), np.nan)
 
 
 def _argbest(values: np.ndarray) -> int:
@@ -103,9 +105,7 @@ def _cubes(results: pd.DataFrame) -> dict[str, _Cube]:
 
 
 def _setting_record(cube: _Cube, index: int) -> dict:
-    record = {"config": int(cube.configs[index])}
-    record.update(cube.settings.iloc[index].to_dict())
-    return record
+    return {"config": int(cube.configs[index]), **cube.settings.iloc[index].to_dict()}
 
 
 def average_over_users(results: pd.DataFrame) -> pd.DataFrame:
@@ -265,9 +265,8 @@ def evaluate_chain(target1: SearchData, target2: SearchData, selection1, selecti
     ValueError
         ``target1`` or ``target2`` is not a :class:`SearchData`, or their rows are not paired.
     """
-    for name, data in (("target1", target1), ("target2", target2)):
-        if not isinstance(data, SearchData):
-            raise ValueError(f"{name} must be a SearchData, got {type(data).__name__}")
+    check_type(target1, SearchData, "target1")
+    check_type(target2, SearchData, "target2")
     if target1.online_rss.shape[0] != target2.online_rss.shape[0] or not np.array_equal(target1.movement,
                                                                                        target2.movement):
         raise ValueError("target1 and target2 must have the same online rows (movement): target 2's elbow "
@@ -275,7 +274,5 @@ def evaluate_chain(target1: SearchData, target2: SearchData, selection1, selecti
     selection2 = selection1 if selection2 is None else selection2
     first = evaluate_selection(target1, selection1, approach=approach)
     second = evaluate_selection(target2.with_proximal(first["joints"]), selection2, approach=approach)
-    out = {}
-    for key, result, data in (("T1", first, target1), ("T2", second, target2)):
-        out[key] = {**result, "radio_pe_m": np.linalg.norm(result["radio"] - data.true_positions, axis=-1)}
-    return out
+    return {key: {**result, "radio_pe_m": np.linalg.norm(result["radio"] - data.true_positions, axis=-1)}
+            for key, result, data in (("T1", first, target1), ("T2", second, target2))}

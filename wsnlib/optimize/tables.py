@@ -193,9 +193,8 @@ class PaperTables:
     deployable: pd.DataFrame
 
 
-def paper_tables(target1, target2, *, approaches=APPROACHES, estimate: str = "hybrid",
-                 grid: SearchGrid | None = None, progress: bool = False,
-                 chunk_elements: int = DEFAULT_CHUNK_ELEMENTS) -> PaperTables:
+def paper_tables(target1, target2, *, approaches=APPROACHES, estimate: str = "hybrid", grid: SearchGrid | None = None,
+                 progress: bool = False, chunk_elements: int = DEFAULT_CHUNK_ELEMENTS) -> PaperTables:
     """Tables 2 and 3: search target 1, derive the elbows, search target 2 (see the module docstring).
 
     Parameters

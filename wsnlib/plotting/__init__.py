@@ -40,10 +40,8 @@ from wsnlib.plotting.traces import (
     plot_tradeoff,
 )
 
-__all__ = [
-    "ANNOTATION_FONT_PT", "DISPLAY_WIDTH_IN", "METHOD_COLORS", "METHOD_MARKERS", "MIN_FONT_PT", "OKABE_ITO",
-    "break_at_gaps", "effective_font_sizes", "loss_spans", "method_style", "plot_angle_traces", "plot_arm_angles",
-    "plot_band", "plot_burst_recovery", "plot_burst_traces", "plot_error_vs_loss_rate", "plot_heatmap",
-    "plot_heatmap_panels", "plot_hybrid_vs_fusion", "plot_pareto", "plot_per_trial_dots",
-    "plot_static_fingerprinting", "plot_tradeoff", "savefig", "use_style",
-]
+__all__ = ["ANNOTATION_FONT_PT", "DISPLAY_WIDTH_IN", "METHOD_COLORS", "METHOD_MARKERS", "MIN_FONT_PT", "OKABE_ITO",
+           "break_at_gaps", "effective_font_sizes", "loss_spans", "method_style", "plot_angle_traces",
+           "plot_arm_angles", "plot_band", "plot_burst_recovery", "plot_burst_traces", "plot_error_vs_loss_rate",
+           "plot_heatmap", "plot_heatmap_panels", "plot_hybrid_vs_fusion", "plot_pareto", "plot_per_trial_dots",
+           "plot_static_fingerprinting", "plot_tradeoff", "savefig", "use_style"]

@@ -28,17 +28,9 @@ from wsnlib._files import atomic_path
 
 #: The Okabe–Ito palette (colour-blind safe): the only colours of the notebooks' figures, plus
 #: ``"grey"`` for references and context.  :func:`use_style` makes it matplotlib's colour cycle.
-OKABE_ITO = {
-    "blue": "#0072B2",
-    "orange": "#E69F00",
-    "bluish green": "#009E73",
-    "vermillion": "#D55E00",
-    "sky blue": "#56B4E9",
-    "reddish purple": "#CC79A7",
-    "yellow": "#F0E442",
-    "black": "#000000",
-    "grey": "#999999",
-}
+OKABE_ITO = {"blue": "#0072B2", "orange": "#E69F00", "bluish green": "#009E73", "vermillion": "#D55E00",
+             "sky blue": "#56B4E9", "reddish purple": "#CC79A7", "yellow": "#F0E442", "black": "#000000",
+             "grey": "#999999"}
 
 #: Colours per estimator, used consistently across notebooks (colour-blind safe, Okabe–Ito).
 #: With more methods than colours, a colour is reused across papers (never within a figure's
@@ -287,13 +279,9 @@ def effective_font_sizes(fig: mpl.figure.Figure, display_width_in: float = DISPL
     return sorted(sizes, key=lambda item: item[1])
 
 
-def _too_small(fig: mpl.figure.Figure) -> list[tuple[str, float]]:
-    return [(text, size) for text, size in effective_font_sizes(fig) if size < MIN_FONT_PT - 1e-9]
-
-
 def _check_legibility(fig: mpl.figure.Figure, name: str) -> None:
     """Raise (in the batch) or warn (interactively) when a text of ``fig`` is below :data:`MIN_FONT_PT`."""
-    small = _too_small(fig)
+    small = [(text, size) for text, size in effective_font_sizes(fig) if size < MIN_FONT_PT - 1e-9]
     if not small:
         return
     shown = ", ".join(f"{text!r} {size:.1f} pt" for text, size in small[:5])

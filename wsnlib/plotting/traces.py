@@ -52,10 +52,8 @@ def loss_spans(time_s, received) -> list[tuple[float, float]]:
     starts = np.flatnonzero(edges == 1)
     ends = np.flatnonzero(edges == -1)
     dt = time_s[1] - time_s[0] if time_s.size > 1 else 0.0
-    return [
-        (float(time_s[s]), float(time_s[e]) if e < time_s.size else float(time_s[-1] + dt))
-        for s, e in zip(starts, ends, strict=True)
-    ]
+    return [(float(time_s[s]), float(time_s[e]) if e < time_s.size else float(time_s[-1] + dt))
+            for s, e in zip(starts, ends, strict=True)]
 
 
 def break_at_gaps(x, *ys, max_step=None):

@@ -116,19 +116,6 @@ from wsnlib.radio.grid import (
     pknn_grid_from_loglik,
 )
 
-__all__ = [
-    "anchor_subsets",
-    "estimators",
-    "fit_predict_by_group",
-    "grid",
-    "KNNFingerprint",
-    "knn_from_terms",
-    "knn_grid_from_terms",
-    "METRICS",
-    "PMF_METHODS",
-    "pknn_from_loglik",
-    "pknn_grid_from_loglik",
-    "ProbabilisticKNN",
-    "RSS_RANGE_DBM",
-    "SHEPARD_EPS",
-]
+__all__ = ["anchor_subsets", "estimators", "fit_predict_by_group", "grid", "KNNFingerprint", "knn_from_terms",
+           "knn_grid_from_terms", "METRICS", "PMF_METHODS", "pknn_from_loglik", "pknn_grid_from_loglik",
+           "ProbabilisticKNN", "RSS_RANGE_DBM", "SHEPARD_EPS"]

@@ -31,9 +31,8 @@ RSS_RANGE_DBM: tuple[float, float] = (-130.0, 20.0)
 def _check_n_neighbors(n_neighbors, n_fingerprints: int | None = None) -> int:
     check_count(n_neighbors, "n_neighbors")
     if n_fingerprints is not None and n_neighbors > n_fingerprints:
-        raise ValueError(
-            f"n_neighbors={n_neighbors} is larger than the number of fingerprint positions ({n_fingerprints})"
-        )
+        raise ValueError(f"n_neighbors={n_neighbors} is larger than the number of fingerprint positions "
+                         f"({n_fingerprints})")
     return int(n_neighbors)
 
 
@@ -87,10 +86,8 @@ def _check_training(X, y) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError("X has no reading: every entry is NaN (missing), so there is no radio map to learn")
     _check_rss_range(X, "X")
     if np.all(readings >= 0.0):
-        raise ValueError(
-            f"X holds only readings >= 0 (from {readings.min():g} to {readings.max():g}): that is linear power "
-            "(e.g. mW), not RSS in dBm; convert with 10 * log10(P / 1 mW)"
-        )
+        raise ValueError(f"X holds only readings >= 0 (from {readings.min():g} to {readings.max():g}): that is "
+                         "linear power (e.g. mW), not RSS in dBm; convert with 10 * log10(P / 1 mW)")
     try:
         y = np.asarray(y, dtype=float)
     except (TypeError, ValueError) as exc:
@@ -108,10 +105,8 @@ def _check_rss_range(X: np.ndarray, name: str) -> None:
     outside = (X < lo) | (X > hi)
     if np.any(outside):
         index = tuple(int(i) for i in np.argwhere(outside)[0])
-        raise ValueError(
-            f"{name} has an RSS of {X[index]:g} dBm at index {index}, outside the plausible range "
-            f"[{lo:g}, {hi:g}] dBm (a glitch, or not dBm?)"
-        )
+        raise ValueError(f"{name} has an RSS of {X[index]:g} dBm at index {index}, outside the plausible range "
+                         f"[{lo:g}, {hi:g}] dBm (a glitch, or not dBm?)")
 
 
 def _group_positions(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -143,9 +138,8 @@ def _check_terms(terms, name: str, positions) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError(f"{name} must have shape (n_vectors, n_fingerprints, n_anchors), got {terms.shape}")
     positions = np.asarray(positions, dtype=float)
     if positions.ndim != 2 or positions.shape[0] != terms.shape[1]:
-        raise ValueError(
-            f"positions must have shape ({terms.shape[1]}, n_coordinates) to match {name}, got {positions.shape}"
-        )
+        raise ValueError(f"positions must have shape ({terms.shape[1]}, n_coordinates) to match {name}, "
+                         f"got {positions.shape}")
     if np.any(np.isnan(terms)):
         raise ValueError(f"{name} contains NaN")
     return terms, positions

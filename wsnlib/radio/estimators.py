@@ -10,14 +10,12 @@ learned attributes end in ``_``.  Conventions (units, missing readings, anchors,
 
 from __future__ import annotations
 
-import numbers
-
 import numpy as np
 from scipy.special import logsumexp, ndtr
 from sklearn.base import BaseEstimator
 from sklearn.utils.validation import check_is_fitted
 
-from wsnlib._validation import check_count, check_nonnegative, check_positive
+from wsnlib._validation import check_count, check_positive
 from wsnlib.radio import _checks
 from wsnlib.radio._checks import (
     PMF_METHODS,
@@ -72,15 +70,13 @@ class _FingerprintEstimator(BaseEstimator):
         if X.ndim != 2:
             raise ValueError(f"X must have shape (n_vectors, n_anchors); got {X.shape} (one vector: X.reshape(1, -1))")
         if X.shape[1] != self.n_features_in_:
-            raise ValueError(
-                f"X has vectors of length {X.shape[1]}, the estimator was fitted with {self.n_features_in_} anchors"
-            )
+            raise ValueError(f"X has vectors of length {X.shape[1]}, the estimator was fitted with "
+                             f"{self.n_features_in_} anchors")
         if np.any(np.isnan(X)):
             bad = tuple(int(i) for i in np.argwhere(np.isnan(X))[0])
-            raise ValueError(
-                f"X contains NaN (a missing reading, first at index {bad}); online vectors must be complete: "
-                f"fill missing readings first, e.g. np.where(np.isnan(X), {self.floor_rss!r}, X) (the floor_rss level)"
-            )
+            raise ValueError(f"X contains NaN (a missing reading, first at index {bad}); online vectors must be "
+                             "complete: fill missing readings first, e.g. "
+                             f"np.where(np.isnan(X), {self.floor_rss!r}, X) (the floor_rss level)")
         if np.any(np.isinf(X)):
             raise ValueError("X contains inf")
         return X
@@ -161,9 +157,8 @@ class KNNFingerprint(_FingerprintEstimator):
 
     def _neighbors_chunk(self, X: np.ndarray, k: int):
         terms = self._terms(X)
-        est, dist, idx = _knn_batch(
-            terms, self.anchor_mask_[None, :], self.positions_, k, _check_power(self.power), self.metric
-        )
+        est, dist, idx = _knn_batch(terms, self.anchor_mask_[None, :], self.positions_, k, _check_power(self.power),
+                                    self.metric)
         return est[0], dist[0], idx[0]
 
     def kneighbors(self, X) -> tuple[np.ndarray, np.ndarray]:
@@ -233,19 +228,8 @@ class ProbabilisticKNN(_FingerprintEstimator):
         Parzen bandwidths (dB) used; only with ``pmf="parzen"``.
     """
 
-    def __init__(
-        self,
-        n_neighbors=3,
-        pmf="histogram",
-        floor_probability=1e-4,
-        bandwidth_db=None,
-        min_bandwidth_db=0.5,
-        n_components=2,
-        anchors=None,
-        floor_rss=-100.0,
-        grid_margin_db=10,
-        random_state=None,
-    ):
+    def __init__(self, n_neighbors=3, pmf="histogram", floor_probability=1e-4, bandwidth_db=None, min_bandwidth_db=0.5,
+                 n_components=2, anchors=None, floor_rss=-100.0, grid_margin_db=10, random_state=None):
         self.n_neighbors = n_neighbors
         self.pmf = pmf
         self.floor_probability = floor_probability
@@ -266,12 +250,8 @@ class ProbabilisticKNN(_FingerprintEstimator):
         if self.bandwidth_db is not None:
             check_positive(self.bandwidth_db, "bandwidth_db")
         check_positive(self.min_bandwidth_db, "min_bandwidth_db")
-        nc = self.n_components
-        check_count(nc, "n_components")
-        margin = self.grid_margin_db
-        if isinstance(margin, bool) or not isinstance(margin, numbers.Integral):
-            raise ValueError(f"grid_margin_db must be a non-negative integer, got {margin!r}")
-        check_nonnegative(margin, "grid_margin_db")
+        check_count(self.n_components, "n_components")
+        check_count(self.grid_margin_db, "grid_margin_db", 0)
         return eps
 
     def fit(self, X, y):
@@ -362,12 +342,8 @@ class ProbabilisticKNN(_FingerprintEstimator):
                 if n_comp == 1 and np.ptp(values) == 0:
                     means[pos, anchor, 0], sigmas[pos, anchor, 0], weights[pos, anchor, 0] = values[0], min_bw, 1.0
                     continue
-                gmm = GaussianMixture(
-                    n_components=n_comp,
-                    covariance_type="spherical",
-                    reg_covar=min_bw**2,
-                    random_state=int(seeds[pos, anchor]),
-                ).fit(values[:, None])
+                gmm = GaussianMixture(n_components=n_comp, covariance_type="spherical", reg_covar=min_bw**2,
+                                      random_state=int(seeds[pos, anchor])).fit(values[:, None])
                 means[pos, anchor, :n_comp] = gmm.means_[:, 0]
                 sigmas[pos, anchor, :n_comp] = np.sqrt(gmm.covariances_)
                 weights[pos, anchor, :n_comp] = gmm.weights_

@@ -221,5 +221,4 @@ def hybrid_vs_fusion(recording, *, rho, tau, loss_packets, beta, loss_start, los
     recovery = {name: _recovery(value - truth, received, first_lost, first_after, recording.fs, threshold_deg)
                 for name, value in elbow.items()}
     return HybridVsFusion(time_s=recording.time_s, received=received, first_lost=first_lost,
-                          elbow_deg={"truth": truth, **elbow}, recovery=recovery,
-                          threshold_deg=float(threshold_deg))
+                          elbow_deg={"truth": truth, **elbow}, recovery=recovery, threshold_deg=float(threshold_deg))

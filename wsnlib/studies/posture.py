@@ -34,21 +34,9 @@ from wsnlib.optimize import SearchData, evaluate_chain
 from wsnlib.posture import pitch_from_acc
 from wsnlib.sim.optical import REFERENCE_ROTATION_STD_DEG, REFERENCE_TIMING_STD_S, hand_derived_reference
 
-__all__ = [
-    "RADIO_ASSUMPTIONS",
-    "RadioSensitivity",
-    "StudyInputs",
-    "evaluate_chain",
-    "kinect_errors",
-    "perturbed_channel",
-    "pitch_errors_deg",
-    "radio_sensitivity",
-    "selected_errors",
-    "sensitivity_grid",
-    "study_inputs",
-    "true_joints_straight_arm",
-    "with_reference_error",
-]
+__all__ = ["RADIO_ASSUMPTIONS", "RadioSensitivity", "StudyInputs", "evaluate_chain", "kinect_errors",
+           "perturbed_channel", "pitch_errors_deg", "radio_sensitivity", "selected_errors", "sensitivity_grid",
+           "study_inputs", "true_joints_straight_arm", "with_reference_error"]
 
 
 @dataclass(frozen=True)
@@ -360,10 +348,9 @@ def sensitivity_grid():
     return SearchGrid(knn_neighbors=(1, 3), powers=(2,), pknn_neighbors=(1, 3))
 
 
-def radio_sensitivity(*, rng: np.random.Generator, n_draws: int = 8, spread: float = 1.0,
-                      campaign_seed: int = 2023, n_users: int = 2, hold_s: float = 8.0, grid=None,
-                      include_nominal: bool = True, quick: bool = False, pitch_method: str = "gating",
-                      **pitch_options) -> RadioSensitivity:
+def radio_sensitivity(*, rng: np.random.Generator, n_draws: int = 8, spread: float = 1.0, campaign_seed: int = 2023,
+                      n_users: int = 2, hold_s: float = 8.0, grid=None, include_nominal: bool = True,
+                      quick: bool = False, pitch_method: str = "gating", **pitch_options) -> RadioSensitivity:
     """Spread of Table 2's per-movement PE when the assumed radio numbers move within their ranges.
 
     For each draw, every field of :data:`RADIO_ASSUMPTIONS` gets a factor ``spread·u``,
