@@ -8,13 +8,20 @@ import math
 import numpy as np
 import pytest
 from _recordings import error_deg, turning_recording
-from scipy.spatial.transform import Rotation
 
 from wsnlib import frames
 from wsnlib import quaternion as Q
+from wsnlib.loss import LossProfile
 from wsnlib.orientation import madgwick
-from wsnlib.orientation._gap_rate_kernels import AR_RIDGE, gap_rate_end_weights, gap_rate_fit, gap_rate_predict
-from wsnlib.orientation.kalman import KALMAN_GAP_TIME_CONSTANT_S, KalmanSettings, kalman_orientation
+from wsnlib.orientation.gaps import AR_RIDGE, ar_end_weights, ar_fit, ar_predict
+from wsnlib.orientation.kalman import (
+    KALMAN_GAP_TIME_CONSTANT_S,
+    KalmanReference,
+    KalmanSettings,
+    kalman_initial_state,
+    kalman_orientation,
+    kalman_step,
+)
 from wsnlib.sim.arm import arm_kinematics, movement_set
 from wsnlib.sim.imu import ideal_imu
 
@@ -22,169 +29,71 @@ FS = 50.0
 
 
 # ------------------------------------------------------------------------------------------
-# Pure-numpy reference of the filter (matrix form), for small cases
+# The compiled step against the matrix form (wsnlib.orientation.kalman.KalmanReference)
 # ------------------------------------------------------------------------------------------
 
 
-def _rotvec_quat(v):
-    return Q.from_rotation_vector(np.asarray(v, dtype=float))
-
-
-def _reference_filter(gyr, acc, mag, received, fs, st: KalmanSettings, *, replay=True, gap="constant_rate",
-                      gap_time_constant=0.2):
-    """The module docstring's equations with numpy matrices (joint 2-D accelerometer update).
-
-    ``gap``: "constant_rate" (the held rate decays with ``gap_time_constant``) or "hold" (rate 0)."""
-    dt = 1.0 / fs
-    gap_decay = 0.0 if gap == "hold" else math.exp(-dt / gap_time_constant)
-    n = len(gyr)
-    first = int(np.argmax(received))
-    from wsnlib.orientation.triad import triad
-
-    q = triad(acc[first], mag[first])
-    b = np.zeros(3)
-    P = np.diag([st.initial_tilt_sigma**2] * 2 + [st.initial_heading_sigma**2] + [st.initial_bias_sigma**2] * 3
-                + [st.velocity_noise**2] * 3)
-    v = np.zeros(3)
-    decay = math.exp(-dt / st.velocity_tau_s)
-    out = np.empty((n, 4))
-    out[: first + 1] = q
-    held = np.zeros(3)
-    lost_run = 0
-    gap_sigma = 0.0
-    ref = None
-    last_rx, q_last, rate_last = first, q, gyr[first].copy()  # for the gap replay
-    lin_var, lin_gain = 0.0, -math.expm1(-dt / st.acc_disturbance_tau_s)  # adaptive accelerometer noise
-    for t in range(first + 1, n):
-        if received[t] and replay and t - last_rx > 1:
-            # gap replay: re-integrate the gap from the last received state, rate interpolated
-            n_lost = t - last_rx - 1
-            q = q_last
-            for k in range(1, n_lost + 1):
-                w = rate_last + k / (n_lost + 1.0) * (gyr[t] - b - rate_last)
-                q = Q.normalize(Q.multiply(q, _rotvec_quat(w * dt)))
-        if received[t]:
-            held = gyr[t] - b
-            lost_run = 0
-        else:
-            held = held * gap_decay
-            lost_run += 1
-        q = Q.normalize(Q.multiply(q, _rotvec_quat(held * dt)))
-        R = Rotation.from_quat(q[[1, 2, 3, 0]]).as_matrix()
-        a_e = R @ acc[t] if received[t] else np.zeros(3)
-        v = decay * v + ((a_e - [0.0, 0.0, st.gravity]) * dt if received[t] else 0.0)
-        cross = np.array([[0.0, -a_e[2], a_e[1]], [a_e[2], 0.0, -a_e[0]], [-a_e[1], a_e[0], 0.0]])  # [a_E]×
-        F = np.eye(9)
-        F[:3, 3:6] = -R * dt
-        F[6:, :3] = -cross * dt
-        F[6:, 3:6] = cross @ R * dt**2
-        F[6:, 6:] = decay * np.eye(3)
-        Qn = np.diag([st.gyro_noise**2 * dt] * 3 + [st.bias_noise**2 * dt] * 3 + [(st.acc_sensor_noise * dt) ** 2] * 3)
-        if not received[t]:
-            if lost_run == 1:
-                gap_sigma = st.gap_rate_noise + st.gap_rate_relative_noise * np.linalg.norm(held)
-            Qn[:3, :3] += np.eye(3) * (gap_sigma * dt) ** 2 * (2 * lost_run - 1)
-            Qn[6:, 6:] = np.eye(3) * (st.gap_acc_noise * dt) ** 2 * (2 * lost_run - 1)
-        P = F @ P @ F.T + Qn
-        if not received[t]:
-            out[t] = q
-            continue
-        # accelerometer
-        a_norm = np.linalg.norm(acc[t])
-        dev = abs(a_norm - st.gravity)
-        lin_var += lin_gain * (dev**2 - lin_var)
-        if dev <= st.acc_norm_gate and np.linalg.norm(held) <= st.acc_rate_gate:
-            e = Q.rotate(q, acc[t] / a_norm)
-            axis = np.cross(e, [0.0, 0.0, 1.0])
-            phi = math.atan2(np.linalg.norm(axis), e[2]) * axis / np.linalg.norm(axis)
-            r = st.acc_noise**2 + (dev**2 + st.acc_disturbance_factor * lin_var) / st.gravity**2
-            H = np.zeros((2, 9))
-            H[0, 0] = H[1, 1] = 1.0
-            S = H @ P @ H.T + r * np.eye(2)
-            d2 = phi[:2] @ np.linalg.solve(S, phi[:2])
-            if d2 > st.acc_innovation_gate:
-                tilt_var = 0.5 * (P[0, 0] + P[1, 1])
-                r = math.sqrt(d2 / st.acc_innovation_gate) * (tilt_var + r) - tilt_var
-                S = H @ P @ H.T + r * np.eye(2)
-            K = P @ H.T @ np.linalg.inv(S)
-            dx = K @ phi[:2]
-            IKH = np.eye(9) - K @ H
-            P = IKH @ P @ IKH.T + r * K @ K.T
-            q = Q.normalize(Q.multiply(_rotvec_quat(dx[:3]), q))
-            b = np.clip(b + dx[3:6], -st.bias_limit, st.bias_limit)
-            v = v + dx[6:]
-        # leaky velocity: pseudo-measurement v = 0 (joint 3-D update)
-        H = np.zeros((3, 9))
-        H[:, 6:] = np.eye(3)
-        S = H @ P @ H.T + st.velocity_noise**2 * np.eye(3)
-        K = P @ H.T @ np.linalg.inv(S)
-        dx = K @ -v
-        IKH = np.eye(9) - K @ H
-        P = IKH @ P @ IKH.T + st.velocity_noise**2 * K @ K.T
-        q = Q.normalize(Q.multiply(_rotvec_quat(dx[:3]), q))
-        b = np.clip(b + dx[3:6], -st.bias_limit, st.bias_limit)
-        v = v + dx[6:]
-        # magnetometer (the test data are undisturbed: the gate always accepts, and the online
-        # hard-iron estimate stays below mag_hard_iron_min_bias: checked in the test)
-        m_e = Q.rotate(q, mag[t])
-        dip = math.atan2(-m_e[2], math.hypot(m_e[0], m_e[1]))
-        if ref is None:
-            ref = [np.linalg.norm(mag[t]), dip]
-        tilt_var = max(P[0, 0], P[1, 1])
-        assert abs(np.linalg.norm(mag[t]) - ref[0]) < st.mag_norm_gate * ref[0]
-        assert abs(dip - ref[1]) < st.mag_dip_gate + st.mag_dip_tilt_sigmas * math.sqrt(tilt_var)
-        gain = -math.expm1(-dt / st.mag_reference_tau_s)  # the reference follows accepted fields
-        ref = [ref[0] + gain * (np.linalg.norm(mag[t]) - ref[0]), ref[1] + gain * (dip - ref[1])]
-        r = st.mag_noise**2 + math.tan(min(abs(ref[1]), 1.5)) ** 2 * tilt_var
-        psi = math.atan2(m_e[0], m_e[1])
-        H = np.zeros((1, 9))
-        H[0, 2] = 1.0
-        S = P[2, 2] + r
-        K = P @ H.T / S
-        K[:2] = 0.0
-        dx = (K * psi)[:, 0]
-        IKH = np.eye(9) - K @ H
-        P = IKH @ P @ IKH.T + r * K @ K.T
-        q = Q.normalize(Q.multiply(_rotvec_quat(dx[:3]), q))
-        b = np.clip(b + dx[3:6], -st.bias_limit, st.bias_limit)
-        v = v + dx[6:]
-        out[t] = q
-        last_rx, q_last, rate_last = t, q, held.copy()
-    return out, P
-
-
-def test_kernel_matches_numpy_reference_to_1e12():
-    gyr, acc, mag, _ = turning_recording(n=40)
-    rng = np.random.default_rng(3)
+def _reference_case(n, seed=3):
+    """A turning recording with noise and Gilbert–Elliott gaps (long enough for the AR window)."""
+    gyr, acc, mag, _ = turning_recording(n=n, seed=seed)
+    rng = np.random.default_rng(seed)
     acc = acc + rng.normal(0, 0.3, acc.shape)  # innovations large enough to trigger the robust gate
     gyr = gyr + 0.01
-    received = np.ones(40, bool)
-    received[[0, 9, 10, 11, 25]] = False
-    cases = [  # (replay, acc_disturbance_factor, gap options, the reference's gap options)
-        # gap="ar" (default): the gaps start before a window of rates exists, so it falls back to
-        # the rate decaying with gap_time_constant (default 0.2 s), as in the reference
-        (True, 0.0, {}, {}),
-        (False, 0.0, {}, {}),
-        (True, 16.0, {}, {}),
-        (True, 0.0, {"gap": "constant_rate", "gap_time_constant": 0.3},
-         {"gap": "constant_rate", "gap_time_constant": 0.3}),
-        (True, 0.0, {"gap": "hold"}, {"gap": "hold"}),
-        (False, 0.0, {"gap": "hold"}, {"gap": "hold"}),
-    ]
-    for replay, disturbance, options, ref_options in cases:
-        st = KalmanSettings(acc_disturbance_factor=disturbance)
-        got = kalman_orientation(gyr, acc, mag, fs=FS, received=received, settings=st, replay=replay,
-                                 full_output=True, **options)
-        want, want_P = _reference_filter(gyr, acc, mag, received, FS, st, replay=replay, **ref_options)
-        np.testing.assert_allclose(Q.canonical(got.quat), Q.canonical(want), atol=1e-12)
-        np.testing.assert_allclose(got.covariance[-1], want_P, atol=1e-12, rtol=1e-10)
-        # the hard-iron correction never applies on these clean data (the reference omits it)
-        no_hard_iron = dataclasses.replace(st, mag_hard_iron_min_bias=math.inf)
-        np.testing.assert_array_equal(got.quat, kalman_orientation(gyr, acc, mag, fs=FS, received=received,
-                                                                   settings=no_hard_iron, replay=replay, **options))
-    replayed = kalman_orientation(gyr, acc, mag, fs=FS, received=received)
-    assert np.abs(replayed[12:] - kalman_orientation(gyr, acc, mag, fs=FS, received=received,
-                                                     replay=False)[12:]).max() > 1e-6
+    received = LossProfile.gilbert_elliott(0.15, 3.0).mask(n, FS, rng)
+    received[0] = False  # a gap before the first sample (the filter starts at the first received one)
+    return gyr, acc, mag, received
+
+
+# The hard-iron correction is off: the reference leaves it out (clean data never trigger it anyway).
+NO_HARD_IRON = KalmanSettings(mag_hard_iron_min_bias=math.inf)
+
+
+@pytest.mark.parametrize("options", [
+    {},                                                   # "ar" with replay: the AR fit and its end weights
+    {"replay": False},
+    {"gap": "constant_rate", "gap_time_constant": 0.3},
+    {"gap": "constant_rate", "replay": False},
+    {"gap": "hold"},
+])
+def test_compiled_step_equals_the_matrix_form_over_2000_samples(options):
+    gyr, acc, mag, received = _reference_case(2000)
+    settings = dataclasses.replace(NO_HARD_IRON, gap_rate_prediction_order=8, gap_rate_prediction_window_s=1.0,
+                                   acc_disturbance_factor=16.0)
+    got = kalman_orientation(gyr, acc, mag, fs=FS, received=received, settings=settings, full_output=True, **options)
+    want, want_P = KalmanReference.run(gyr, acc, mag, received, fs=FS, settings=settings, **options)
+    scale = np.abs(want).max()
+    np.testing.assert_allclose(Q.canonical(got.quat), Q.canonical(want), rtol=1e-9, atol=1e-9 * scale)
+    np.testing.assert_allclose(got.covariance[-1], want_P, rtol=1e-9, atol=1e-9 * np.abs(want_P).max())
+
+
+def test_the_matrix_form_refuses_a_disturbed_field_instead_of_passing_by_accident():
+    gyr, acc, mag, received = _reference_case(300)
+    mag = mag.copy()
+    mag[150:] *= 1.5
+    with pytest.raises(ValueError, match="disturbed"):
+        KalmanReference.run(gyr, acc, mag, received, fs=FS, settings=NO_HARD_IRON)
+
+
+def test_step_by_step_equals_the_batch_call_sample_by_sample():
+    gyr, acc, mag, received = _reference_case(900, seed=5)
+    batch = kalman_orientation(gyr, acc, mag, fs=FS, received=received, full_output=True)
+    state = kalman_initial_state(fs=FS)
+    first = int(np.argmax(received))  # before it the batch call shows its start (it knows the future)
+    for t in range(len(gyr)):
+        kalman_step(state, gyr[t], acc[t], mag[t], received=bool(received[t]))
+        assert state.started == (t >= first)
+        if t < first:
+            continue
+        np.testing.assert_array_equal(state.quat, batch.quat[t])
+        np.testing.assert_array_equal(state.gyro_bias, batch.gyro_bias[t])
+        np.testing.assert_array_equal(state.covariance, batch.covariance[t])
+    saved = state.copy()  # a copy is independent of the state it was taken from
+    kalman_step(state, gyr[0], acc[0], mag[0])
+    assert not np.array_equal(saved.quat, state.quat) and saved.prediction["covariance"].shape == (9, 9)
+    with pytest.raises(ValueError, match="mag must be given"):
+        kalman_step(state, gyr[0], acc[0])
+    with pytest.raises(ValueError, match="KalmanState"):
+        kalman_step("state", gyr[0], acc[0], mag[0])
 
 
 def test_gap_replay_recovers_a_rate_that_changed_in_the_gap():
@@ -237,7 +146,7 @@ def test_gap_rate_fit_matches_numpy_least_squares_and_predicts_an_oscillation():
                       0.1 + 0.0 * t], axis=1)
     order, window, end = 4, 50, 60
     coef = np.zeros((3, order))
-    largest = gap_rate_fit(rates, end, window, order, coef, np.empty((order, order)), np.empty(order))
+    largest = ar_fit(rates, end, window, order, coef, np.empty((order, order)), np.empty(order))
     for a in range(3):  # reference: ridge least squares with numpy
         x = rates[end - window:end, a]
         X = np.stack([x[i:window - order + i] for i in range(order)], axis=1)
@@ -249,7 +158,7 @@ def test_gap_rate_fit_matches_numpy_least_squares_and_predicts_an_oscillation():
     buf = rates[:end].copy()
     buf = np.concatenate([buf, np.zeros((10, 3))])
     for k in range(end, end + 10):
-        gap_rate_predict(buf, k, order, coef, largest, buf[k])
+        ar_predict(buf, k, order, coef, largest, buf[k])
     assert np.abs(buf[end:, :2] - rates[end:end + 10, :2]).max() < 0.05
 
 
@@ -258,7 +167,7 @@ def test_gap_rate_end_weights_are_the_gaussian_conditional_expectation():
     coef = np.array([[0.2, -0.5, 1.1], [0.0, 0.0, 1.0], [0.1, 0.3, 0.4]])
     h, weights = np.empty(n), np.empty(n)
     for axis in range(3):
-        gap_rate_end_weights(coef, axis, order, n, h, weights)
+        ar_end_weights(coef, axis, order, n, h, weights)
         # reference: the prediction errors e_1..e_n are M ε with M the lower-triangular Toeplitz
         # matrix of the impulse response; E[e_k | e_n] = Cov(e_k, e_n)/Var(e_n) e_n
         impulse = np.zeros(n)
@@ -270,11 +179,11 @@ def test_gap_rate_end_weights_are_the_gaussian_conditional_expectation():
         np.testing.assert_allclose(weights, cov[:, -1] / cov[-1, -1], rtol=1e-12)
         assert weights[-1] == pytest.approx(1.0)
     # a random walk (order 1, coefficient 1) gives the linear ramp k/n
-    gap_rate_end_weights(np.ones((3, 1)), 0, 1, n, h, weights)
+    ar_end_weights(np.ones((3, 1)), 0, 1, n, h, weights)
     np.testing.assert_allclose(weights, np.arange(1, n + 1) / n, rtol=1e-12)
     # an explosive fit (impulse response 2^j) falls back to the ramp instead of overflowing
     ramp = np.empty(400)
-    gap_rate_end_weights(np.full((3, 1), 2.0), 0, 1, 400, np.empty(400), ramp)
+    ar_end_weights(np.full((3, 1), 2.0), 0, 1, 400, np.empty(400), ramp)
     np.testing.assert_allclose(ramp, np.arange(1, 401) / 400, rtol=1e-12)
 
 

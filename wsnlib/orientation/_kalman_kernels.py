@@ -1,66 +1,26 @@
-"""Compiled kernels of the gap-aware error-state Kalman filter (:mod:`wsnlib.orientation.kalman`).
+"""The gap-aware Kalman filter's compiled step, its loop over time and the parallel batch driver.
 
-The prediction of one sample (:func:`kalman_predict`), the loop over time of one recording
-(:func:`kalman_stream`, also the forward pass of :func:`wsnlib.orientation.smooth_orientation`)
-and its parallel batch driver (:func:`run_kalman`).  The other steps have their own modules,
-whose names are re-exported here: the settings vector and state layout
-(:mod:`._kalman_layout`), the measurement updates (:mod:`._kalman_update_kernels`) and the
-gap's linear prediction of the rate (:mod:`._gap_rate_kernels`).  The scalar quaternion
-helpers are those of :mod:`._kernels`, shared with Madgwick's filter.
+The equations are in :mod:`wsnlib.orientation.kalman`'s docstring (names below follow it); the
+same equations in plain numpy, matrix by matrix, are :class:`wsnlib.orientation.kalman.KalmanReference`.
+One stream's filter is a record of :data:`STATE_DTYPE` (``state.q``, ``state.bias``,
+``state.velocity``, ``state.P``, the magnetometer gate's references and timers, the hard-iron
+estimate), a gap record and rate history of :mod:`wsnlib.orientation.gaps`, and scratch
+(:data:`WORK_DTYPE`, which also keeps the last prediction for the smoother); the constants of a
+run are one record of :data:`wsnlib.orientation.kalman_settings.CONSTANTS_DTYPE` (``c.gyro_var``).
+:func:`kalman_step` is one sample; :func:`kalman_stream` loops it over a recording (also the
+forward pass of :func:`wsnlib.orientation.smooth_orientation`); :func:`run_kalman` runs the
+streams of a batch in parallel.  Quaternion helpers are those of :mod:`._scalar_kernels`.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit, prange
 
-from wsnlib.orientation._gap_rate_kernels import (
-    AR_RIDGE,
-    gap_rate_end_weights,
-    gap_rate_fit,
-    gap_rate_predict,
-)
-from wsnlib.orientation._kalman_layout import (
-    _ACC_SENSOR_VAR,
-    _AR_ON,
-    _AR_ORDER,
-    _AR_WINDOW,
-    _BIAS_VAR,
-    _DT,
-    _GAP_ACC_VAR,
-    _GAP_DECAY,
-    _GAP_NOISE,
-    _GAP_RELATIVE_NOISE,
-    _GAP_REPLAY,
-    _GAP_SIGMA,
-    _GRAVITY,
-    _GYRO_VAR,
-    _INIT_BIAS_VAR,
-    _INIT_HEADING_VAR,
-    _INIT_TILT_VAR,
-    _LOST_RUN,
-    _N_GATE,
-    _PREV_OK,
-    _VEL,
-    _VEL_DECAY,
-    _VEL_VAR,
-    KALMAN_AR_ON,
-    KALMAN_AR_ORDER,
-    KALMAN_AR_WINDOW,
-    KALMAN_DT,
-    KALMAN_GAP_REPLAY,
-    KALMAN_VARIANCES,
-    NX,
-    kalman_settings_vector,
-)
-from wsnlib.orientation._kalman_update_kernels import (
-    kalman_correct,
-    kalman_correct_mag,
-    kalman_hard_iron,
-    kalman_inject,
-    kalman_scalar_update,
-)
-from wsnlib.orientation._kernels import (
+from wsnlib.orientation import gaps
+from wsnlib.orientation._scalar_kernels import (
     COMPILE,
     quat_exp,
     quat_multiply,
@@ -70,60 +30,103 @@ from wsnlib.orientation._kernels import (
     vec_norm,
 )
 
-__all__ = [
-    "AR_RIDGE", "KALMAN_AR_ON", "KALMAN_AR_ORDER", "KALMAN_AR_WINDOW", "KALMAN_DT", "KALMAN_GAP_REPLAY",
-    "KALMAN_VARIANCES", "NX", "gap_rate_end_weights", "gap_rate_fit", "gap_rate_predict", "kalman_correct",
-    "kalman_correct_mag", "kalman_hard_iron", "kalman_initial_covariance", "kalman_inject", "kalman_predict",
-    "kalman_scalar_update", "kalman_settings_vector", "kalman_stream", "run_kalman",
-]
+#: Error-state size: [δθ (3), δb (3), δv (3)].
+NX = 9
+
+#: One stream's filter: the estimate (quaternion body → ENU, gyro bias rad/s, leaky velocity
+#: m/s in the earth frame, error covariance in the order of δx), the rate of the last prediction
+#: (rad/s, bias-corrected) and the state after the last received sample (where a replay starts),
+#: the gap's rate-error std, the magnetometer gate (reference norm and dip, 0 = unset; the
+#: candidate's norm, dip and time; the time rejected), the hard-iron estimate's normal
+#: equations (``hi_A``: 00 01 02 11 12 22 of the symmetric 3 × 3, ``hi_r``), the previous received
+#: field and rate, and the low-pass of (‖a‖ − g)² (``lin_var``, m²/s⁴).
+STATE_DTYPE = np.dtype([
+    ("q", "f8", (4,)), ("bias", "f8", (3,)), ("velocity", "f8", (3,)), ("P", "f8", (NX, NX)),
+    ("rate", "f8", (3,)), ("q_last", "f8", (4,)), ("gap_sigma", "f8"),
+    ("mag_ref_norm", "f8"), ("mag_ref_dip", "f8"), ("mag_cand_norm", "f8"), ("mag_cand_dip", "f8"),
+    ("mag_cand_time", "f8"), ("mag_reject_time", "f8"),
+    ("hi_A", "f8", (6,)), ("hi_r", "f8", (3,)), ("hi_prev_mag", "f8", (3,)), ("hi_prev_rate", "f8", (3,)),
+    ("hi_prev_ok", "?"), ("hard_iron", "f8", (3,)), ("lin_var", "f8"),
+])
+
+#: Scratch of one stream, and the prediction of the last sample (``q_pred``, ``bias_pred``,
+#: ``vel_pred``, ``P_pred``, transition ``F``) kept for the smoother.
+WORK_DTYPE = np.dtype([
+    ("R", "f8", (3, 3)), ("F", "f8", (NX, NX)), ("FP", "f8", (NX, NX)), ("dx", "f8", (NX,)), ("K", "f8", (NX,)),
+    ("row", "f8", (NX,)), ("ar_A", "f8", (gaps.MAX_ORDER, gaps.MAX_ORDER)), ("ar_r", "f8", (gaps.MAX_ORDER,)),
+    ("predicted", "f8", (3,)),
+    ("q_pred", "f8", (4,)), ("bias_pred", "f8", (3,)), ("vel_pred", "f8", (3,)), ("P_pred", "f8", (NX, NX)),
+])
+
+
+@njit(**COMPILE)
+def initial_state(st, c, q0):
+    """The state before the first sample: ``q0``, no bias or velocity, ``P0 = diag(σ_tilt², σ_tilt²,
+    σ_heading², σ_b² I₃, σ_v² I₃)``, the gate unset."""
+    for a in range(4):
+        st.q[a] = q0[a]
+        st.q_last[a] = q0[a]
+    for a in range(3):
+        st.bias[a] = 0.0
+        st.velocity[a] = 0.0
+        st.rate[a] = 0.0
+        st.hard_iron[a] = 0.0
+        st.hi_r[a] = 0.0
+    for a in range(6):
+        st.hi_A[a] = 0.0
+    st.gap_sigma = 0.0
+    st.mag_ref_norm = st.mag_ref_dip = st.mag_cand_norm = st.mag_cand_dip = 0.0
+    st.mag_cand_time = st.mag_reject_time = st.lin_var = 0.0
+    st.hi_prev_ok = False
+    P = st.P
+    for a in range(NX):
+        for b in range(NX):
+            P[a, b] = 0.0
+    P[0, 0] = c.init_tilt_var
+    P[1, 1] = c.init_tilt_var
+    P[2, 2] = c.init_heading_var
+    for a in range(3, 6):
+        P[a, a] = c.init_bias_var
+        P[a + 3, a + 3] = c.vel_var
+
 
 # ------------------------------------------------------------------------------------------
-# Kalman filter: prediction of one sample (equations in wsnlib.orientation.kalman's docstring)
+# Prediction
 # ------------------------------------------------------------------------------------------
 
 
 @njit(**COMPILE)
-def kalman_predict(q, bias, P, held_rate, gate, gyr, acc, received, s, R, F, FP, predicted_rate, use_predicted):
-    """Prediction of one sample (module docstring); returns ``q⁻``.
-
-    ``q`` 4-tuple; ``bias`` (3,) read; ``P`` (NX, NX), ``held_rate`` (3,) (the bias-corrected
-    rate used, on return) and ``gate`` (_N_GATE, with v̂) updated in place; ``gyr``, ``acc``
-    (3,) read only if ``received``.  On a lost sample the rate is ``predicted_rate`` (3,) if
-    ``use_predicted`` (the gap's linear prediction, :func:`gap_rate_fit`), else the held rate
-    times the decay.  On return ``R`` (3, 3) holds R(q⁻) and ``F`` (NX, NX) the
-    transition matrix of the sample; ``FP`` (NX, NX) is scratch.
-    """
-    dt = s[_DT]
-    # --- Angular rate of the prediction: measured, or extrapolated over a gap -------------
-    if received:
-        for a in range(3):
-            held_rate[a] = gyr[a] - bias[a]
-        gate[_LOST_RUN] = 0.0
-    else:
-        for a in range(3):
-            held_rate[a] = predicted_rate[a] if use_predicted else held_rate[a] * s[_GAP_DECAY]
-        gate[_LOST_RUN] += 1.0
-        gate[_PREV_OK] = 0.0
-    omega = (held_rate[0], held_rate[1], held_rate[2])
-
+def predict(st, work, c, omega, acc, received, lost_run):
+    """Prediction of one sample by the bias-corrected rate ``omega`` (3-tuple; over a gap the gap
+    module's); ``lost_run``: samples lost in a row (0 when received).  Leaves R(q⁻) in ``work.R``
+    and the transition matrix in ``work.F``."""
+    dt = c.dt
+    for a in range(3):
+        st.rate[a] = omega[a]
     # --- Strapdown prediction: q⁻ = q ⊗ Exp((ω − b) Δt) -----------------------------------
-    q = quat_normalize(quat_multiply(q, quat_exp((omega[0] * dt, omega[1] * dt, omega[2] * dt))))
+    q = quat_normalize(quat_multiply((st.q[0], st.q[1], st.q[2], st.q[3]),
+                                     quat_exp((omega[0] * dt, omega[1] * dt, omega[2] * dt))))
+    for a in range(4):
+        st.q[a] = q[a]
+    R = work.R
     rotation_matrix(q, R)
 
     # --- Leaky velocity: v̂ ← c v̂ + (R(q⁻) a − g e_z) Δt (received), v̂ ← c v̂ (lost) -------
-    decay = s[_VEL_DECAY]
+    decay = c.vel_decay
+    v = st.velocity
     a_e = (0.0, 0.0, 0.0)
     if received:
         a_e = quat_rotate(q, (acc[0], acc[1], acc[2]))
-        gate[_VEL] = decay * gate[_VEL] + a_e[0] * dt
-        gate[_VEL + 1] = decay * gate[_VEL + 1] + a_e[1] * dt
-        gate[_VEL + 2] = decay * gate[_VEL + 2] + (a_e[2] - s[_GRAVITY]) * dt
+        v[0] = decay * v[0] + a_e[0] * dt
+        v[1] = decay * v[1] + a_e[1] * dt
+        v[2] = decay * v[2] + (a_e[2] - c.gravity) * dt
     else:
         for a in range(3):
-            gate[_VEL + a] *= decay
+            v[a] *= decay
 
     # --- Error propagation: P⁻ = F P Fᵀ + Q ----------------------------------------------
     # F = [[I, −R Δt, 0], [0, I, 0], [−[a_E]× Δt, [a_E]× R Δt², c I]]  (a_E = 0 when lost)
+    F, FP, P = work.F, work.FP, st.P
     for a in range(NX):
         for b in range(NX):
             F[a, b] = 1.0 if a == b else 0.0
@@ -141,205 +144,350 @@ def kalman_predict(q, bias, P, held_rate, gate, gyr, acc, received, s, R, F, FP,
     for a in range(NX):  # FP = F P
         for b in range(NX):
             acc_ab = 0.0
-            for c in range(NX):
-                acc_ab += F[a, c] * P[c, b]
+            for k in range(NX):
+                acc_ab += F[a, k] * P[k, b]
             FP[a, b] = acc_ab
     for a in range(NX):  # P = (F P) Fᵀ
         for b in range(NX):
             acc_ab = 0.0
-            for c in range(NX):
-                acc_ab += FP[a, c] * F[b, c]
+            for k in range(NX):
+                acc_ab += FP[a, k] * F[b, k]
             P[a, b] = acc_ab
-    # Q: gyro noise and bias random walk; over a gap, the extrapolated rate's error.
-    # Over a gap also the unknown linear acceleration: δv grows like (σ_gap,acc · kΔt)².
+    # Q: gyro noise and bias random walk; over a gap, the extrapolated rate's error, whose std
+    # is fixed at the gap's first sample: σ_gap,k² Δt² (2k − 1) makes it (σ_gap kΔt)² after k
+    # samples.  Over a gap also the unknown linear acceleration: δv grows like (σ_gap,acc kΔt)².
     extra = 0.0
-    extra_v = s[_ACC_SENSOR_VAR]
+    extra_v = c.acc_sensor_var
     if not received:
-        if gate[_LOST_RUN] == 1.0:  # std of the extrapolated rate's error, fixed for the gap
-            gate[_GAP_SIGMA] = s[_GAP_NOISE] + s[_GAP_RELATIVE_NOISE] * vec_norm(omega)
-        extra = (gate[_GAP_SIGMA] * dt) ** 2 * (2.0 * gate[_LOST_RUN] - 1.0)
-        extra_v = s[_GAP_ACC_VAR] * (2.0 * gate[_LOST_RUN] - 1.0)
+        if lost_run == 1:
+            st.gap_sigma = c.gap_noise + c.gap_relative_noise * vec_norm(omega)
+        extra = (st.gap_sigma * dt) ** 2 * (2.0 * lost_run - 1.0)
+        extra_v = c.gap_acc_var * (2.0 * lost_run - 1.0)
     for a in range(3):
-        P[a, a] += s[_GYRO_VAR] + extra
-        P[3 + a, 3 + a] += s[_BIAS_VAR]
+        P[a, a] += c.gyro_var + extra
+        P[3 + a, 3 + a] += c.bias_var
         P[6 + a, 6 + a] += extra_v
-    return q
 
 
 # ------------------------------------------------------------------------------------------
-# Kalman filter: one stream (also the forward pass of the smoother), a batch in parallel
+# Measurement updates
 # ------------------------------------------------------------------------------------------
 
 
 @njit(**COMPILE)
-def kalman_initial_covariance(s, P):
-    """``P0 = diag(σ_tilt², σ_tilt², σ_heading², σ_b² I₃, σ_v² I₃)`` into ``P`` (NX, NX)."""
+def scalar_update(P, dx, i, innovation, r, heading_only, K, row):
+    """Scalar Kalman update with ``H = e_iᵀ``: ``S = P_ii + r``, ``K = P_·i/S``, Joseph form."""
+    S = P[i, i] + r
+    for a in range(NX):
+        K[a] = P[a, i] / S
+        row[a] = P[i, a]
+    if heading_only:  # the magnetometer must not tilt: zero the gain's tilt rows
+        K[0] = 0.0
+        K[1] = 0.0
+    for a in range(NX):
+        dx[a] += K[a] * innovation
+    # P ← P − K P_i· − P_·i Kᵀ + S K Kᵀ   ((I − K H) P (I − K H)ᵀ + r K Kᵀ, any K)
     for a in range(NX):
         for b in range(NX):
-            P[a, b] = 0.0
-    P[0, 0] = s[_INIT_TILT_VAR]
-    P[1, 1] = s[_INIT_TILT_VAR]
-    P[2, 2] = s[_INIT_HEADING_VAR]
-    for a in range(3, 6):
-        P[a, a] = s[_INIT_BIAS_VAR]
-        P[a + 3, a + 3] = s[_VEL_VAR]
+            P[a, b] += -K[a] * row[b] - row[a] * K[b] + S * K[a] * K[b]
 
 
 @njit(**COMPILE)
-def kalman_stream(gyr, acc, mag, has_mag, received, q_init, start, init_only, s,
-                  out_q, out_bias, out_vel, out_P, keep_P, acc_used, mag_used,
-                  record, pred_q, pred_bias, pred_vel, pred_P, pred_F):
-    """The filter over one recording ``(T, 3)`` into ``out_q`` (T, 4), ``out_bias``, ``out_vel`` (T, 3).
+def inject(st, dx, bias_limit):
+    """``q ← Exp(δθ) ⊗ q``, ``b ← b + δb`` (clipped), ``v̂ ← v̂ + δv``, ``δx ← 0``."""
+    q = quat_normalize(quat_multiply(quat_exp((dx[0], dx[1], dx[2])), (st.q[0], st.q[1], st.q[2], st.q[3])))
+    for a in range(4):
+        st.q[a] = q[a]
+    for a in range(3):
+        st.bias[a] = min(max(st.bias[a] + dx[3 + a], -bias_limit), bias_limit)
+        st.velocity[a] += dx[6 + a]
+    for a in range(NX):
+        dx[a] = 0.0
+
+
+@njit(**COMPILE)
+def correct_acc(st, work, c, acc, omega):
+    """Tilt update from the accelerometer (gated), then the leaky velocity's pseudo-measurement
+    ``v = 0``; returns whether the accelerometer was used."""
+    P, dx, K, row = st.P, work.dx, work.K, work.row
+    used = False
+    acc_norm = vec_norm(acc)
+    deviation = abs(acc_norm - c.gravity)
+    st.lin_var += c.acc_dist_gain * (deviation * deviation - st.lin_var)
+    if deviation <= c.acc_norm_gate and vec_norm(omega) <= c.acc_rate_gate:
+        e = quat_rotate((st.q[0], st.q[1], st.q[2], st.q[3]), (acc[0] / acc_norm, acc[1] / acc_norm, acc[2] / acc_norm))
+        cx, cy = e[1], -e[0]  # e × e_z
+        sin_angle = math.hypot(cx, cy)
+        angle = math.atan2(sin_angle, e[2])
+        if sin_angle > 0.0:
+            phi_x, phi_y = angle * cx / sin_angle, angle * cy / sin_angle
+        else:
+            phi_x, phi_y = (angle, 0.0) if e[2] < 0.0 else (0.0, 0.0)
+        # Linear acceleration tilts the measured direction: by at least |‖a‖ − g|/g now, and by
+        # about the recent level (low-passed (‖a‖ − g)², × acc_disturbance_factor) sideways.
+        r = c.acc_var + (deviation * deviation + c.acc_dist_factor * st.lin_var) / c.gravity ** 2
+        # Innovation gate (robust, Huber): d² = φᵀ S⁻¹ φ with S = P_tilt + r I (2 × 2).  Beyond
+        # the gate the sample is not dropped but S is scaled by d/√gate (r enlarged to match),
+        # so its pull is bounded: an outlier moves the estimate little, while a filter that is
+        # really off (e.g. after a long gap in fast motion) keeps being pulled back.
+        s00, s01, s11 = P[0, 0] + r, P[0, 1], P[1, 1] + r
+        d2 = (s11 * phi_x * phi_x - 2.0 * s01 * phi_x * phi_y + s00 * phi_y * phi_y) / (s00 * s11 - s01 * s01)
+        if d2 > c.acc_innovation_gate:
+            scale = math.sqrt(d2 / c.acc_innovation_gate)
+            tilt_var = 0.5 * (P[0, 0] + P[1, 1])
+            r = scale * (tilt_var + r) - tilt_var
+        scalar_update(P, dx, 0, phi_x - dx[0], r, False, K, row)
+        scalar_update(P, dx, 1, phi_y - dx[1], r, False, K, row)
+        inject(st, dx, c.bias_limit)
+        used = True
+    # --- Leaky velocity: pseudo-measurement v = 0 (every received sample) ----------------
+    # Linear acceleration averages out (the position stays bounded), so the horizontal
+    # leaky velocity stays small, while a tilt error δθ makes it ramp by g δθ Δt per sample:
+    # VQF's low-pass of the earth-frame specific force (τ_acc), as a Kalman measurement.
+    v = st.velocity
+    scalar_update(P, dx, 6, -v[0] - dx[6], c.vel_var, False, K, row)
+    scalar_update(P, dx, 7, -v[1] - dx[7], c.vel_var, False, K, row)
+    scalar_update(P, dx, 8, -v[2] - dx[8], c.vel_var, False, K, row)
+    inject(st, dx, c.bias_limit)
+    return used
+
+
+@njit(**COMPILE)
+def hard_iron(st, c, mag, omega):
+    """Update the online hard-iron estimate with one received field; returns the field to use.
+
+    A magnet or ferrous part fixed to the sensor adds a constant body-frame offset ``b_m``:
+    ``m = Rᵀ m_E + b_m``.  Since ``d/dt (Rᵀ m_E) = −ω × (Rᵀ m_E)``, two consecutive received
+    samples give ``ṁ + ω × m = ω × b_m`` (ṁ, ω, m at the midpoint), linear in ``b_m`` and
+    independent of the orientation (gyroscope-aided hard-iron estimation).  ``b̂_m`` solves the
+    exponentially forgotten (time constant ``mag_hard_iron_tau_s``) least-squares normal
+    equations ``(A + εI) b = r``, ``A = Σ [ω]×ᵀ[ω]×``, ``r = Σ [ω]×ᵀ y``, ε the ridge
+    (1 s at 0.3 rad/s), so it shrinks to 0 while the sensor does not turn.  ``m − b̂_m`` is
+    returned if ``‖b̂_m‖ ≥ mag_hard_iron_min_bias · ‖m_ref‖`` and its norm is closer to the
+    reference norm than the raw field's; otherwise ``m``.
+    """
+    m = (mag[0], mag[1], mag[2])
+    A, rr, pm, pw, b = st.hi_A, st.hi_r, st.hi_prev_mag, st.hi_prev_rate, st.hard_iron
+    if st.hi_prev_ok:
+        dt = c.dt
+        w = (0.5 * (omega[0] + pw[0]), 0.5 * (omega[1] + pw[1]), 0.5 * (omega[2] + pw[2]))
+        mm = (0.5 * (m[0] + pm[0]), 0.5 * (m[1] + pm[1]), 0.5 * (m[2] + pm[2]))
+        wxm = (w[1] * mm[2] - w[2] * mm[1], w[2] * mm[0] - w[0] * mm[2], w[0] * mm[1] - w[1] * mm[0])
+        y = ((m[0] - pm[0]) / dt + wxm[0], (m[1] - pm[1]) / dt + wxm[1], (m[2] - pm[2]) / dt + wxm[2])
+        lam = c.hi_decay
+        w2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
+        # [ω]×ᵀ[ω]× = ‖ω‖² I − ω ωᵀ;  [ω]×ᵀ y = y × ω
+        A[0] = lam * A[0] + w2 - w[0] * w[0]
+        A[1] = lam * A[1] - w[0] * w[1]
+        A[2] = lam * A[2] - w[0] * w[2]
+        A[3] = lam * A[3] + w2 - w[1] * w[1]
+        A[4] = lam * A[4] - w[1] * w[2]
+        A[5] = lam * A[5] + w2 - w[2] * w[2]
+        rr[0] = lam * rr[0] + (y[1] * w[2] - y[2] * w[1])
+        rr[1] = lam * rr[1] + (y[2] * w[0] - y[0] * w[2])
+        rr[2] = lam * rr[2] + (y[0] * w[1] - y[1] * w[0])
+        # (A + εI) b = r by Cramer's rule (symmetric positive definite 3 × 3)
+        eps = c.hi_ridge
+        a00, a01, a02 = A[0] + eps, A[1], A[2]
+        a11, a12, a22 = A[3] + eps, A[4], A[5] + eps
+        c00 = a11 * a22 - a12 * a12
+        c01 = a02 * a12 - a01 * a22
+        c02 = a01 * a12 - a02 * a11
+        c11 = a00 * a22 - a02 * a02
+        c12 = a01 * a02 - a00 * a12
+        c22 = a00 * a11 - a01 * a01
+        det = a00 * c00 + a01 * c01 + a02 * c02
+        b[0] = (c00 * rr[0] + c01 * rr[1] + c02 * rr[2]) / det
+        b[1] = (c01 * rr[0] + c11 * rr[1] + c12 * rr[2]) / det
+        b[2] = (c02 * rr[0] + c12 * rr[1] + c22 * rr[2]) / det
+    for k in range(3):
+        pm[k] = m[k]
+        pw[k] = omega[k]
+    st.hi_prev_ok = True
+    ref = st.mag_ref_norm
+    raw_norm = vec_norm(m)
+    if ref == 0.0:
+        ref = raw_norm
+    if vec_norm((b[0], b[1], b[2])) >= c.hi_min_bias * ref:
+        corrected = (m[0] - b[0], m[1] - b[1], m[2] - b[2])
+        if abs(vec_norm(corrected) - ref) < abs(raw_norm - ref):
+            return corrected
+    return m
+
+
+@njit(**COMPILE)
+def correct_mag(st, work, c, mag, omega):
+    """Heading update from the magnetometer, gated on its norm and dip; returns whether it was used."""
+    dt = c.dt
+    P = st.P
+    mag = hard_iron(st, c, mag, omega)
+    m_norm = vec_norm(mag)
+    m_e = quat_rotate((st.q[0], st.q[1], st.q[2], st.q[3]), (mag[0], mag[1], mag[2]))
+    dip = math.atan2(-m_e[2], math.hypot(m_e[0], m_e[1]))
+    if st.mag_ref_norm == 0.0:  # first sample: it defines the reference
+        st.mag_ref_norm, st.mag_ref_dip = m_norm, dip
+        st.mag_cand_norm, st.mag_cand_dip = m_norm, dip
+    # The dip is seen through the estimated tilt: its tolerance widens by the tilt's std
+    # (× mag_dip_tilt_sigmas), so a tilt that is merely uncertain (after a gap, in fast
+    # motion) does not reject an undisturbed field.
+    dip_tolerance = c.mag_dip_gate + c.mag_dip_tilt_sigmas * math.sqrt(max(P[0, 0], P[1, 1]))
+    undisturbed = (abs(m_norm - st.mag_ref_norm) < c.mag_norm_gate * st.mag_ref_norm
+                   and abs(dip - st.mag_ref_dip) < dip_tolerance)
+    if undisturbed:
+        st.mag_ref_norm += c.mag_ref_gain * (m_norm - st.mag_ref_norm)
+        st.mag_ref_dip += c.mag_ref_gain * (dip - st.mag_ref_dip)
+        st.mag_reject_time = 0.0
+    else:
+        # A new field that stays consistent while the sensor turns becomes the reference.
+        if (abs(m_norm - st.mag_cand_norm) < c.mag_norm_gate * st.mag_cand_norm
+                and abs(dip - st.mag_cand_dip) < c.mag_dip_gate):
+            if vec_norm(omega) >= c.mag_new_min_rate:
+                st.mag_cand_time += dt
+            st.mag_cand_norm += c.mag_ref_gain * (m_norm - st.mag_cand_norm)
+            st.mag_cand_dip += c.mag_ref_gain * (dip - st.mag_cand_dip)
+        else:
+            st.mag_cand_time = 0.0
+            st.mag_cand_norm, st.mag_cand_dip = m_norm, dip
+        if st.mag_cand_time >= c.mag_new_time:
+            st.mag_ref_norm, st.mag_ref_dip = st.mag_cand_norm, st.mag_cand_dip
+            st.mag_cand_time = 0.0
+            st.mag_reject_time = 0.0
+            undisturbed = True
+        else:
+            st.mag_reject_time += dt
+    # Heading seen through an uncertain tilt: a tilt error ε moves the measured heading by
+    # up to tan(dip)·ε, so that variance is added (the gain's tilt rows stay zero).
+    tan_dip = math.tan(min(abs(st.mag_ref_dip), 1.5))
+    r = c.mag_var + tan_dip * tan_dip * max(P[0, 0], P[1, 1])
+    use = undisturbed
+    if not undisturbed and st.mag_reject_time > c.mag_max_reject:
+        use = True
+        r *= c.mag_reject_var_factor
+    if use and math.hypot(m_e[0], m_e[1]) > 0.0:
+        psi = math.atan2(m_e[0], m_e[1])  # heading error δθ_z
+        scalar_update(P, work.dx, 2, psi - work.dx[2], r, True, work.K, work.row)
+        inject(st, work.dx, c.bias_limit)
+        return True
+    return False
+
+
+# ------------------------------------------------------------------------------------------
+# One sample, one recording, a batch
+# ------------------------------------------------------------------------------------------
+
+
+@njit(**COMPILE)
+def kalman_step(st, gs, history, work, c, gyr, acc, mag, received):
+    """One sample of the filter: the gap module's rate or the measured one, the replay at a gap's
+    end, the prediction and, if received, the measurement updates.  Returns ``(acc_used,
+    mag_used)``.  ``gs``/``history``: :mod:`wsnlib.orientation.gaps`'s record and rate history."""
+    if not received:
+        st.hi_prev_ok = False  # the hard-iron estimate differentiates consecutive received fields
+        omega = gaps.gap_lost(gs, history, work.ar_A, work.ar_r)
+        predict(st, work, c, omega, acc, False, gs.lost)
+        _keep_prediction(st, work, c)
+        return False, False
+    omega = (gyr[0] - st.bias[0], gyr[1] - st.bias[1], gyr[2] - st.bias[2])
+    if c.replay and gs.lost > 0 and gs.n > gs.lost:
+        _replay(st, gs, history, omega, c.dt)
+    predict(st, work, c, omega, acc, True, 0)
+    _keep_prediction(st, work, c)
+    gaps.gap_received(gs, history, omega)
+    acc_used = correct_acc(st, work, c, acc, omega)
+    mag_used = correct_mag(st, work, c, mag, omega) if c.has_mag else False
+    for a in range(4):
+        st.q_last[a] = st.q[a]
+    return acc_used, mag_used
+
+
+@njit(**COMPILE)
+def _replay(st, gs, history, omega, dt):
+    """Re-integrate the state over the gap that ends now from the state after its last received
+    sample, with the gap module's replay rates (the covariance keeps the gap's growth)."""
+    n_lost = gs.lost
+    weights = np.empty((3, n_lost + 1))
+    impulse = np.empty(n_lost + 1)
+    predicted = np.empty(3)
+    use_ar = gaps.replay_weights(gs, history, omega, weights, impulse, predicted)
+    q = (st.q_last[0], st.q_last[1], st.q_last[2], st.q_last[3])
+    for k in range(1, n_lost + 1):
+        w = gaps.replay_rate(gs, history, k, omega, use_ar, weights, predicted)
+        q = quat_normalize(quat_multiply(q, quat_exp((w[0] * dt, w[1] * dt, w[2] * dt))))
+    for a in range(4):
+        st.q[a] = q[a]
+
+
+@njit(**COMPILE)
+def _keep_prediction(st, work, c):
+    if c.record:
+        for a in range(4):
+            work.q_pred[a] = st.q[a]
+        for a in range(3):
+            work.bias_pred[a] = st.bias[a]
+            work.vel_pred[a] = st.velocity[a]
+        work.P_pred[:, :] = st.P
+
+
+@njit(**COMPILE)
+def kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c, outputs):
+    """The filter over one recording ``(T, 3)``; ``outputs`` (see :func:`new_outputs`) receive, per
+    sample, the estimate (``q``, ``bias``, ``velocity``, optionally ``P``), the gate decisions and,
+    with ``c.record``, the predictions and transition matrices (the smoother's input).
 
     ``start``: first sample the filter sees; ``init_only``: that sample only initialises
     (``q0=None``), else it is filtered from ``q_init`` like any other.  Samples before the
-    start output ``q_init``.  ``keep_P``: write ``P⁺`` into ``out_P`` (T, NX, NX).  ``record``:
-    also write the predictions ``q⁻``, ``b⁻``, ``v̂⁻``, ``P⁻`` and the transition matrix ``F``
-    of every sample (for the RTS smoother).  ``acc_used``, ``mag_used`` (T,) say which
-    measurements were taken.
+    start output ``q_init``.
     """
+    out_q, out_bias, out_vel, out_P, acc_used, mag_used, pred_q, pred_bias, pred_vel, pred_P, pred_F = outputs
     n_t = out_q.shape[0]
-    P = np.empty((NX, NX))
-    R = np.empty((3, 3))
-    F = np.empty((NX, NX))
-    FP = np.empty((NX, NX))
-    bias = np.zeros(3)
-    held_rate = np.zeros(3)
-    gate = np.zeros(_N_GATE)
-    dx = np.zeros(NX)
-    K = np.zeros(NX)
-    row = np.zeros(NX)
-    kalman_initial_covariance(s, P)
-    q = (q_init[0], q_init[1], q_init[2], q_init[3])
+    keep_P = out_P.shape[0] == n_t
+    # The records are views into these arrays, which must stay referenced while they are used.
+    state_array, work_array, gap_array = np.zeros(1, STATE_DTYPE), np.zeros(1, WORK_DTYPE), np.zeros(1, gaps.GAP_DTYPE)
+    st, work, gs = state_array[0], work_array[0], gap_array[0]
+    initial_state(st, c, q_init)
+    history = np.empty((max(n_t, 1), 3))
+    gs.mode, gs.factor, gs.order, gs.window = c.gap, c.gap_factor, c.ar_order, c.ar_window
     first = start + 1 if init_only else start
-    for t in range(min(first, n_t)):
-        for a in range(4):
-            out_q[t, a] = q[a]
-        for a in range(3):
-            out_bias[t, a] = 0.0
-            out_vel[t, a] = 0.0
+    if init_only and start < n_t:  # the first sample's rate opens the history
+        gaps.gap_received(gs, history, (gyr[start, 0], gyr[start, 1], gyr[start, 2]))
+    for t in range(n_t):
+        if t >= first:
+            acc_used[t], mag_used[t] = kalman_step(st, gs, history, work, c, gyr[t], acc[t],
+                                                   mag[t] if c.has_mag else mag[0], received[t])
+        else:
+            acc_used[t], mag_used[t] = False, False
+            _keep_prediction(st, work, c)
+            if c.record:
+                work.F[:, :] = 0.0
+                for a in range(NX):
+                    work.F[a, a] = 1.0
+        out_q[t] = st.q
+        out_bias[t] = st.bias
+        out_vel[t] = st.velocity
         if keep_P:
-            out_P[t] = P
-        acc_used[t] = False
-        mag_used[t] = False
-        if record:
-            for a in range(4):
-                pred_q[t, a] = q[a]
-            for a in range(3):
-                pred_bias[t, a] = 0.0
-                pred_vel[t, a] = 0.0
-            pred_P[t] = P
-            for a in range(NX):
-                for b in range(NX):
-                    pred_F[t, a, b] = 1.0 if a == b else 0.0
-    replay = s[_GAP_REPLAY] != 0.0
-    dt = s[_DT]
-    # Gap's linear prediction: the rates used at every sample (the window it is fitted on).
-    order = int(s[_AR_ORDER])
-    window = int(s[_AR_WINDOW])
-    use_ar = s[_AR_ON] != 0.0 and window >= 3 * order
-    rates = np.zeros((n_t if use_ar else 1, 3))
-    coef = np.zeros((3, order))
-    ar_A = np.empty((order, order))
-    ar_r = np.empty(order)
-    predicted = np.zeros(3)
-    gap_predicted = False  # this gap's rates come from the linear prediction
-    largest = 0.0
-    history_start = start  # first sample whose rate is in `rates`
-    last_rx = start if init_only else -1  # last received sample the filter has used
-    q_last = q  # the state after it, and its bias-corrected rate
-    rate_last = np.zeros(3)
-    if init_only and start < n_t:
-        for a in range(3):
-            rate_last[a] = gyr[start, a]
-            if use_ar:
-                rates[start, a] = gyr[start, a]
-    for t in range(first, n_t):
-        ok = received[t]
-        if use_ar and not ok:
-            if t == first or received[t - 1]:  # a gap starts: fit the predictor on the last window
-                gap_predicted = t - window >= history_start
-                if gap_predicted:
-                    largest = gap_rate_fit(rates, t, window, order, coef, ar_A, ar_r)
-            if gap_predicted:
-                gap_rate_predict(rates, t, order, coef, largest, predicted)
-        if ok and replay and last_rx >= 0 and t - last_rx > 1 and use_ar and gap_predicted:
-            # Gap replay with the linear prediction: the rates the gap used, plus the predictor's
-            # error at this sample (measured − predicted) spread over the gap by its conditional
-            # expectation (gap_rate_end_weights).
-            n_lost = t - last_rx - 1
-            gap_rate_predict(rates, t, order, coef, largest, predicted)
-            impulse = np.empty(n_lost + 1)
-            weights = np.empty((3, n_lost + 1))
-            for a in range(3):
-                gap_rate_end_weights(coef, a, order, n_lost + 1, impulse, weights[a])
-            q = q_last
-            for k in range(1, n_lost + 1):
-                w0 = rates[last_rx + k, 0] + weights[0, k - 1] * (gyr[t, 0] - bias[0] - predicted[0])
-                w1 = rates[last_rx + k, 1] + weights[1, k - 1] * (gyr[t, 1] - bias[1] - predicted[1])
-                w2 = rates[last_rx + k, 2] + weights[2, k - 1] * (gyr[t, 2] - bias[2] - predicted[2])
-                q = quat_normalize(quat_multiply(q, quat_exp((w0 * dt, w1 * dt, w2 * dt))))
-        elif ok and replay and last_rx >= 0 and t - last_rx > 1:
-            # Gap replay: the gap's samples were output as the extrapolation; now that the rate
-            # after the gap is known, the state at its end is re-integrated from the last
-            # received state with the rate interpolated linearly between both ends (the
-            # paper's gyroscope interpolation, applied to the filter's state; P keeps the
-            # growth of the gap).
-            n_lost = t - last_rx - 1
-            q = q_last
-            for k in range(1, n_lost + 1):
-                frac = k / (n_lost + 1.0)
-                w0 = rate_last[0] + frac * (gyr[t, 0] - bias[0] - rate_last[0])
-                w1 = rate_last[1] + frac * (gyr[t, 1] - bias[1] - rate_last[1])
-                w2 = rate_last[2] + frac * (gyr[t, 2] - bias[2] - rate_last[2])
-                q = quat_normalize(quat_multiply(q, quat_exp((w0 * dt, w1 * dt, w2 * dt))))
-        q = kalman_predict(q, bias, P, held_rate, gate, gyr[t], acc[t], ok, s, R, F, FP, predicted,
-                           use_ar and gap_predicted)
-        if use_ar:
-            for a in range(3):
-                rates[t, a] = held_rate[a]
-        if record:
-            for a in range(4):
-                pred_q[t, a] = q[a]
-            for a in range(3):
-                pred_bias[t, a] = bias[a]
-                pred_vel[t, a] = gate[_VEL + a]
-            pred_P[t] = P
-            pred_F[t] = F
-        used_a, used_m = False, False
-        if ok:
-            omega = (held_rate[0], held_rate[1], held_rate[2])
-            q, used_a, used_m = kalman_correct(q, bias, P, gate, acc[t], mag[t if has_mag else 0], has_mag, omega, s,
-                                               dx, K, row)
-            last_rx, q_last = t, q
-            for a in range(3):
-                rate_last[a] = omega[a]
-        for a in range(4):
-            out_q[t, a] = q[a]
-        for a in range(3):
-            out_bias[t, a] = bias[a]
-            out_vel[t, a] = gate[_VEL + a]
-        if keep_P:
-            out_P[t] = P
-        acc_used[t] = used_a
-        mag_used[t] = used_m
+            out_P[t] = st.P
+        if c.record:
+            pred_q[t], pred_bias[t], pred_vel[t] = work.q_pred, work.bias_pred, work.vel_pred
+            pred_P[t], pred_F[t] = work.P_pred, work.F
+    # Keep the record arrays alive to here (the loop reads them through st, work, gs).
+    state_array[0], work_array[0], gap_array[0] = st, work, gs
 
 
 @njit(parallel=True, **COMPILE)
-def run_kalman(gyr, acc, mag, has_mag, received, index, q_init, start, init_only, s,
-               out_q, out_bias, out_vel, out_P, keep_P, acc_used, mag_used):
+def run_kalman(gyr, acc, mag, received, index, q_init, start, init_only, constants, outputs):
     """:func:`kalman_stream` on every element ``n`` of a flattened batch, in parallel.
 
-    ``index`` (N, 4): for element ``n`` the rows of ``gyr``, ``acc``, ``mag`` (each
-    ``(M, T, 3)``) and ``received`` ``(M', T)`` it reads (broadcasting without copies).
+    ``index`` (N, 4): for element ``n`` the rows of ``gyr``, ``acc``, ``mag`` (each ``(M, T, 3)``)
+    and ``received`` ``(M', T)`` it reads (broadcasting without copies); ``outputs`` arrays with
+    the batch first (``P`` and the predictions may have a leading 1: not kept).
     """
-    p_stride = 1 if keep_P else 0
-    n_batch = out_q.shape[0]
-    none4 = np.empty((1, 4))
-    none3 = np.empty((1, 3))
-    none_p = np.empty((1, NX, NX))
-    for n in prange(n_batch):
-        p = n * p_stride  # row of out_P: n, or 0 when P is not kept
-        kalman_stream(gyr[index[n, 0]], acc[index[n, 1]], mag[index[n, 2]], has_mag, received[index[n, 3]],
-                      q_init[n], start[n], init_only, s, out_q[n], out_bias[n], out_vel[n], out_P[p], keep_P,
-                      acc_used[n], mag_used[n], False, none4, none3, none3, none_p, none_p)
+    out_q, out_bias, out_vel, out_P, acc_used, mag_used, pred_q, pred_bias, pred_vel, pred_P, pred_F = outputs
+    p_stride = 1 if out_P.shape[0] == out_q.shape[0] else 0  # P and the predictions: kept, or one dummy row
+    r_stride = 1 if pred_q.shape[0] == out_q.shape[0] else 0
+    for n in prange(out_q.shape[0]):
+        p = n * p_stride
+        r = n * r_stride
+        kalman_stream(gyr[index[n, 0]], acc[index[n, 1]], mag[index[n, 2]], received[index[n, 3]], q_init[n],
+                      start[n], init_only, constants[0],
+                      (out_q[n], out_bias[n], out_vel[n], out_P[p], acc_used[n], mag_used[n], pred_q[r],
+                       pred_bias[r], pred_vel[r], pred_P[r], pred_F[r]))

@@ -47,7 +47,7 @@ Equations (one sample, Δt = 1/fs; names used in the kernel's comments)
   ``q_s ⊗ Π_{k=1..L} Exp(ω_k Δt)``.  With the linear prediction, ``ω_k`` is the predicted
   rate plus ``w_k`` times the predictor's error at the received sample (measured − predicted),
   ``w_k`` the Gaussian conditional expectation of the k-th step's prediction error given the
-  last one under the fitted model (:func:`~._gap_rate_kernels.gap_rate_end_weights`: a linear
+  last one under the fitted model (:func:`~wsnlib.orientation.gaps.ar_end_weights`: a linear
   ramp for a slowly varying rate, following the oscillation for a swing); without it,
   ``ω_k`` is linear between the bias-corrected rates before and after the gap (paper 001's
   gyroscope interpolation applied to the state).  Causal: the lost samples were already
@@ -113,7 +113,7 @@ Gates (where they come from)
   ``b_m`` observable without any orientation, ``ṁ + ω × m = ω × b_m``, and an exponentially
   forgotten least-squares estimate (``mag_hard_iron_tau_s``) is subtracted before the gate when
   it is large (``mag_hard_iron_min_bias``) and brings the norm closer to the reference
-  (:func:`~._kalman_update_kernels.kalman_hard_iron`).  Without it such a field fails the norm gate
+  (:func:`~._kalman_kernels.hard_iron`).  Without it such a field fails the norm gate
   for as long as the magnet stays, and the heading runs on the gyroscope alone.
 
 Initialisation: with ``q0=None`` each batch element starts at its first received sample from
@@ -127,17 +127,20 @@ received bias-corrected rate, decaying with ``gap_time_constant`` (default
 grows); ``replay`` (default on) the gap replay above; ``output_on_lost`` ``"estimate"``
 (default: the prediction) or ``"hold"`` (the previous output; the state still predicts).
 
-Implementation: :class:`KalmanSettings` and its defaults are in
-:mod:`wsnlib.orientation.kalman_settings` (re-exported here).  The arithmetic is numba
-(cached), one function per step above: the prediction :func:`~._kalman_kernels.kalman_predict`;
-the updates :func:`~._kalman_update_kernels.kalman_correct` (accelerometer),
-:func:`~._kalman_update_kernels.kalman_correct_mag`, :func:`~._kalman_update_kernels.kalman_scalar_update`,
-:func:`~._kalman_update_kernels.kalman_inject`; the gap's linear prediction in
-:mod:`~._gap_rate_kernels`; the settings vector in :mod:`~._kalman_layout` — and the loop
+Implementation, in three files: :class:`KalmanSettings`, its defaults and the per-sample
+constants the compiled step reads (``constants.gyro_var``) are in
+:mod:`wsnlib.orientation.kalman_settings`; the compiled step on a named state (``state.bias``,
+``state.P``) is :mod:`._kalman_kernels` — one function per step above: :func:`~._kalman_kernels.predict`,
+:func:`~._kalman_kernels.correct_acc`, :func:`~._kalman_kernels.hard_iron`,
+:func:`~._kalman_kernels.correct_mag`, :func:`~._kalman_kernels.scalar_update`,
+:func:`~._kalman_kernels.inject`, one sample :func:`~._kalman_kernels.kalman_step`, the loop
 :func:`~._kalman_kernels.kalman_stream` (also the forward pass of
-:func:`wsnlib.orientation.smooth_orientation`); a batch runs in parallel over its flattened
-elements (:func:`~._kalman_kernels.run_kalman`).  The argument checks are Madgwick's
-(:mod:`wsnlib.orientation._batch`).
+:func:`wsnlib.orientation.smooth_orientation`) and the parallel batch
+:func:`~._kalman_kernels.run_kalman`; this module holds the public functions
+(:func:`kalman_orientation` over recordings, :func:`kalman_step` on a :class:`KalmanState` one
+sample at a time) and :class:`KalmanReference`, the same equations as numpy matrices.  What
+happens in a gap (the rates, the replay) is :mod:`wsnlib.orientation.gaps`, shared with
+Madgwick's filter.  The argument checks are Madgwick's (:mod:`wsnlib.orientation._batch`).
 """
 
 from __future__ import annotations
@@ -146,9 +149,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wsnlib import quaternion as Q
 from wsnlib.orientation import _batch as B
-from wsnlib.orientation._kalman_kernels import KALMAN_VARIANCES, NX, kalman_settings_vector, run_kalman
-from wsnlib.orientation.kalman_settings import KalmanSettings
+from wsnlib.orientation import _kalman_kernels as K
+from wsnlib.orientation import gaps
+from wsnlib.orientation._kalman_kernels import NX, run_kalman
+from wsnlib.orientation.kalman_settings import KalmanSettings, kalman_constants
 from wsnlib.orientation.triad import tilt_quaternion, triad
 
 # ==========================================================================================
@@ -224,8 +230,12 @@ def prepare_inputs(gyr, acc, mag, received, q0) -> KalmanInputs:
 KALMAN_GAP_TIME_CONSTANT_S = 0.2
 
 
-def settings_vector(settings, fs, *, gap, replay, gap_time_constant, filter_name) -> np.ndarray:
-    """Checked ``settings`` (None: defaults), ``fs`` and gap options as the kernels' settings vector."""
+#: Constants that are variances (must be finite and > 0 at the chosen ``fs``).
+_VARIANCES = ("gyro_var", "bias_var", "acc_var", "mag_var", "vel_var", "acc_sensor_var", "gap_acc_var")
+
+
+def constants(settings, fs, *, gap, replay, gap_time_constant, has_mag, filter_name, record=False) -> np.ndarray:
+    """Checked ``settings`` (None: defaults), ``fs`` and gap options as the compiled step's constants."""
     fs = B.check_fs(fs)
     if settings is None:
         settings = KalmanSettings()
@@ -234,11 +244,23 @@ def settings_vector(settings, fs, *, gap, replay, gap_time_constant, filter_name
     gap, gap_time_constant = B.check_gap(gap, gap_time_constant, filter_name, supported=B.GAPS)
     replay = B.check_flag(replay, "replay")
     tau = KALMAN_GAP_TIME_CONSTANT_S if gap_time_constant is None else gap_time_constant
-    vector = kalman_settings_vector(settings, 1.0 / fs, gap, replay, tau)
-    variances = vector[list(KALMAN_VARIANCES)]
+    c = kalman_constants(settings, 1.0 / fs, gap=gaps.GAP_CODES[gap], replay=replay, gap_time_constant=tau,
+                         has_mag=has_mag, record=record)
+    variances = np.array([c[name][0] for name in _VARIANCES])
     if not (np.all(np.isfinite(variances)) and np.all(variances > 0.0)):
         raise ValueError(f"fs = {fs!r} Hz with these settings gives noise variances that are not finite and > 0")
-    return vector
+    return c
+
+
+def new_outputs(n_batch: int, n_t: int, *, keep_P: bool = False, record: bool = False) -> tuple:
+    """The arrays :func:`._kalman_kernels.run_kalman` writes (P and the predictions only when asked)."""
+    kept = n_batch if keep_P else 1
+    rec = n_batch if record else 1
+    rec_t = n_t if record else 1
+    return (np.empty((n_batch, n_t, 4)), np.empty((n_batch, n_t, 3)), np.empty((n_batch, n_t, 3)),
+            np.empty((kept, n_t if keep_P else 1, NX, NX)), np.empty((n_batch, n_t), dtype=bool),
+            np.empty((n_batch, n_t), dtype=bool), np.empty((rec, rec_t, 4)), np.empty((rec, rec_t, 3)),
+            np.empty((rec, rec_t, 3)), np.empty((rec, rec_t, NX, NX)), np.empty((rec, rec_t, NX, NX)))
 
 
 def check_finite_output(quat: np.ndarray) -> np.ndarray:
@@ -357,21 +379,17 @@ def kalman_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
     MemoryError
         At once, with the size, if the outputs would not fit in memory.
     """
-    s = settings_vector(settings, fs, gap=gap, replay=replay, gap_time_constant=gap_time_constant,
-                        filter_name="kalman_orientation")
-    hold_output = B.check_output_on_lost(output_on_lost)
+    c = constants(settings, fs, gap=gap, replay=replay, gap_time_constant=gap_time_constant,
+                  has_mag=mag is not None, filter_name="kalman_orientation")
     inputs = prepare_inputs(gyr, acc, mag, received, q0)
+    hold_output = B.check_output_on_lost(output_on_lost)
     n_batch, n_t, batch = inputs.index.shape[0], inputs.n_t, inputs.batch
-    n_floats = 4 + 3 + 3 + (NX * NX if full_output else 0)  # quaternion, bias, velocity, covariance
+    n_floats = 4 + 3 + 3 + (NX * NX if full_output else 0) + 3  # quaternion, bias, velocity, covariance, history
     B.check_memory((8 * n_floats + 2) * n_t * n_batch, f"kalman_orientation's output for batch {batch}, T = {n_t}")
-    out_q = np.empty((n_batch, n_t, 4))
-    out_bias = np.empty((n_batch, n_t, 3))
-    out_vel = np.empty((n_batch, n_t, 3))
-    out_P = np.empty((n_batch if full_output else 1, n_t if full_output else 1, NX, NX))
-    acc_used = np.empty((n_batch, n_t), dtype=bool)
-    mag_used = np.empty((n_batch, n_t), dtype=bool)
-    run_kalman(inputs.gyr, inputs.acc, inputs.mag, inputs.has_mag, inputs.received, inputs.index, inputs.q_init,
-               inputs.start, inputs.init_only, s, out_q, out_bias, out_vel, out_P, full_output, acc_used, mag_used)
+    outputs = new_outputs(n_batch, n_t, keep_P=full_output)
+    run_kalman(inputs.gyr, inputs.acc, inputs.mag, inputs.received, inputs.index, inputs.q_init, inputs.start,
+               inputs.init_only, c, outputs)
+    out_q, out_bias, _, out_P, acc_used, mag_used = outputs[:6]
     quat = check_finite_output(out_q.reshape(batch + (n_t, 4)))
     if hold_output:
         B.hold_lost_output(quat, received)
@@ -380,3 +398,298 @@ def kalman_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
     return KalmanOutput(quat=quat, gyro_bias=out_bias.reshape(batch + (n_t, 3)),
                         covariance=out_P.reshape(batch + (n_t, NX, NX)), acc_used=acc_used.reshape(batch + (n_t,)),
                         mag_used=mag_used.reshape(batch + (n_t,)))
+
+
+# ==========================================================================================
+# One sample at a time: the compiled step on a named state (a live receiver's filter)
+# ==========================================================================================
+
+#: Longest gap (s) a live state replays with the AR prediction's own rates (longer: the linear ramp).
+LONGEST_AR_REPLAY_S = 10.0
+
+
+class KalmanState:
+    """One stream's filter between samples: named, copyable, advanced by :func:`kalman_step`.
+
+    Attributes (read-only views; ``copy()`` for an independent state)
+    ----------
+    quat : numpy.ndarray (4,)
+        ENU estimate (body → earth) after the last sample.
+    gyro_bias : numpy.ndarray (3,)
+        Gyroscope bias (rad/s, body frame).
+    velocity : numpy.ndarray (3,)
+        The leaky velocity (m/s, earth frame; module docstring).
+    covariance : numpy.ndarray (9, 9)
+        Error covariance, order ``[δθ, δb, δv]``.
+    prediction : dict
+        The last sample's prediction: ``quat`` (q⁻), ``gyro_bias``, ``velocity``, ``covariance``
+        (P⁻) and ``transition`` (F), what an RTS smoother needs.
+    started : bool
+        Whether a sample has initialised the filter (with ``q0=None``, the first received one).
+    record : numpy structured array
+        The compiled step's whole state (:data:`wsnlib.orientation._kalman_kernels.STATE_DTYPE`:
+        ``record["mag_ref_norm"]``, ``record["hard_iron"]``, …).
+    """
+
+    def __init__(self, constants, record, gap, history, work, started):
+        self.constants, self.record, self.gap, self.history, self.work = constants, record, gap, history, work
+        self.started = started
+
+    quat = property(lambda self: self.record["q"][0])
+    gyro_bias = property(lambda self: self.record["bias"][0])
+    velocity = property(lambda self: self.record["velocity"][0])
+    covariance = property(lambda self: self.record["P"][0])
+
+    @property
+    def prediction(self) -> dict:
+        w = self.work[0]
+        return {"quat": w["q_pred"], "gyro_bias": w["bias_pred"], "velocity": w["vel_pred"],
+                "covariance": w["P_pred"], "transition": w["F"]}
+
+    def copy(self) -> KalmanState:
+        return KalmanState(self.constants, self.record.copy(), self.gap.copy(), self.history.copy(), self.work.copy(),
+                           self.started)
+
+
+def kalman_initial_state(*, fs: float, settings=None, q0=None, has_mag: bool = True, gap: str = "ar",
+                         replay: bool = True, gap_time_constant=None) -> KalmanState:
+    """The state before the first sample of a stream, for :func:`kalman_step`.
+
+    Parameters as :func:`kalman_orientation`; ``has_mag``: whether samples will carry a
+    magnetometer reading.  ``q0=None``: the first received sample initialises the filter (TRIAD,
+    or the tilt without magnetometer) and is not filtered, as in :func:`kalman_orientation`.
+    """
+    c = constants(settings, fs, gap=gap, replay=replay, gap_time_constant=gap_time_constant, has_mag=has_mag,
+                  filter_name="kalman_initial_state", record=True)
+    record = np.zeros(1, K.STATE_DTYPE)
+    start = np.array([1.0, 0.0, 0.0, 0.0]) if q0 is None else B.unit_quaternions(q0, "q0")
+    if start.shape != (4,):
+        raise ValueError(f"q0 must be one quaternion (4,), got shape {start.shape}")
+    K.initial_state(record[0], c[0], start)
+    window = int(c["ar_window"][0])
+    history = np.zeros((gaps.history_length(window, int(np.ceil(LONGEST_AR_REPLAY_S * fs))), 3))
+    gap_state = gaps.new_gap_state(int(c["gap"][0]), float(c["gap_factor"][0]), int(c["ar_order"][0]), window)
+    return KalmanState(c, record, gap_state, history, np.zeros(1, K.WORK_DTYPE), started=q0 is not None)
+
+
+def kalman_step(state: KalmanState, gyr, acc, mag=None, received: bool = True) -> KalmanState:
+    """Advance ``state`` by one sample (in place; returns it): the compiled step of :func:`kalman_orientation`.
+
+    ``gyr`` (rad/s), ``acc`` (m/s²), ``mag`` (µT; None when the state was made without one), body
+    frame, shape (3,); ``received`` False for a lost sample (its values are not read).  The outputs
+    equal :func:`kalman_orientation`'s on the same samples, sample by sample.
+    """
+    if not isinstance(state, KalmanState):
+        raise ValueError(f"state must be a KalmanState (kalman_initial_state), got {type(state).__name__}")
+    c = state.constants[0]
+    received = B.check_flag(received, "received")
+    signals = [np.zeros(3) if x is None else np.asarray(x, dtype=float) for x in (gyr, acc, mag)]
+    if received:
+        if (mag is None) == bool(c["has_mag"]):
+            raise ValueError("mag must be given exactly when the state was made with has_mag=True")
+        for name, x in zip(("gyr", "acc", "mag"), signals, strict=True):
+            if x.shape != (3,) or not np.all(np.isfinite(x)):
+                raise ValueError(f"{name} must be 3 finite numbers, got {x!r}")
+    if not state.started:
+        if received:  # the first received sample only initialises (q0=None)
+            q = triad(signals[1], signals[2]) if c["has_mag"] else tilt_quaternion(signals[1])
+            K.initial_state(state.record[0], c, q)
+            gaps.gap_received(state.gap[0], state.history, (signals[0][0], signals[0][1], signals[0][2]))
+            state.started = True
+        return state
+    K.kalman_step(state.record[0], state.gap[0], state.history, state.work[0], c, *signals, received)
+    return state
+
+
+# ==========================================================================================
+# The same equations as matrices, in plain numpy (the reference the compiled step is checked against)
+# ==========================================================================================
+
+
+class KalmanReference:
+    """The filter of this module's docstring written with numpy matrices ``F``, ``Q``, ``H``, ``K``.
+
+    A reference to read beside the equations and to check the compiled step against (the tests
+    require relative 1e-9 over 2,000 samples).  It is slow (one Python step per sample) and covers
+    the whole filter except the online hard-iron estimate and the magnetometer's disturbance
+    gate: it takes every field as undisturbed, and raises ``ValueError`` on a sample the compiled
+    gate would reject (so a comparison never passes by accident).  The accelerometer's two
+    scalar updates are written as one 2-D update and the velocity's three as one 3-D update
+    (the same result: sequential scalar updates with ``H = e_iᵀ`` equal the joint update).
+
+    Use ``KalmanReference(settings, fs=…, q0=…, gap=…, replay=…)`` then ``step(gyr, acc, mag,
+    received)`` per sample, or :meth:`run` over a recording.
+    """
+
+    def __init__(self, settings=None, *, fs: float, q0, gap: str = "ar", replay: bool = True,
+                 gap_time_constant=None, first_rate=None):
+        s = KalmanSettings() if settings is None else settings
+        self.s, self.dt = s, 1.0 / fs
+        self.gap, self.replay = gap, replay
+        tau = KALMAN_GAP_TIME_CONSTANT_S if gap_time_constant is None else gap_time_constant
+        self.decay = 0.0 if gap == "hold" else float(np.exp(-self.dt / tau))
+        self.order, self.window = s.gap_rate_prediction_order, round(s.gap_rate_prediction_window_s * fs)
+        self.q = np.asarray(q0, dtype=float)
+        self.b, self.v = np.zeros(3), np.zeros(3)
+        self.P = np.diag([s.initial_tilt_sigma**2] * 2 + [s.initial_heading_sigma**2] + [s.initial_bias_sigma**2] * 3
+                         + [s.velocity_noise**2] * 3)
+        self.rates = [] if first_rate is None else [np.asarray(first_rate, dtype=float)]  # the rate of every sample
+        self.held, self.lost, self.gap_sigma, self.lin_var = np.zeros(3), 0, 0.0, 0.0
+        self.q_last = self.q.copy()
+        self.last_rate = self.rates[0] if self.rates else np.zeros(3)
+        self.ref = None  # the magnetometer's reference norm and dip
+        self.coef, self.largest = None, 0.0
+
+    @staticmethod
+    def _exp(v):
+        return Q.from_rotation_vector(np.asarray(v, dtype=float))
+
+    def _ar_fit(self):
+        """Per axis, ridge least squares of ``ω[k] ≈ Σ_i c_i ω[k − p + i]`` over the last window."""
+        x = np.array(self.rates[-self.window:])
+        p = self.order
+        coef = np.empty((3, p))
+        for a in range(3):
+            X = np.stack([x[k:k + p, a] for k in range(self.window - p)])
+            A = X.T @ X
+            A += gaps.AR_RIDGE * max(1.0, np.trace(A) / p) * np.eye(p)
+            coef[a] = np.linalg.solve(A, X.T @ x[p:, a])
+        return coef, float(np.max(np.linalg.norm(x, axis=1)))
+
+    def _ar_predict(self):
+        w = np.array([self.coef[a] @ np.array(self.rates[-self.order:])[:, a] for a in range(3)])
+        norm = np.linalg.norm(w)
+        return w * self.largest / norm if norm > self.largest else w
+
+    def _end_weights(self, n):
+        """``w_k`` (3, n): conditional expectation of the k-th prediction error given the n-th (gaps module)."""
+        out = np.empty((3, n))
+        for a in range(3):
+            h = np.zeros(n)
+            h[0] = 1.0
+            for j in range(1, n):
+                h[j] = sum(self.coef[a, i] * h[j - self.order + i] for i in range(self.order)
+                           if j - self.order + i >= 0)
+            out[a] = [sum(h[k - i] * h[n - i] for i in range(1, k + 1)) / np.sum(h**2) for k in range(1, n + 1)]
+        return out
+
+    def step(self, gyr, acc, mag, received: bool) -> np.ndarray:
+        """One sample; returns the estimate (4,)."""
+        dt = self.dt
+        if received:
+            omega = np.asarray(gyr, dtype=float) - self.b
+            if self.replay and self.lost and len(self.rates) > self.lost:  # re-run the gap from its start
+                n = self.lost
+                if self.coef is not None:
+                    gap_rates = np.array(self.rates[-n:])
+                    error = omega - self._ar_predict()
+                    rates = gap_rates + self._end_weights(n + 1)[:, :n].T * error
+                else:
+                    rates = [self.last_rate + k / (n + 1.0) * (omega - self.last_rate) for k in range(1, n + 1)]
+                q = self.q_last
+                for w in rates:
+                    q = Q.normalize(Q.multiply(q, self._exp(w * dt)))
+                self.q = q
+            self.lost = 0
+        else:
+            if self.lost == 0:
+                ar = self.gap == "ar" and len(self.rates) >= self.window and self.window >= 3 * self.order
+                self.coef, self.largest = self._ar_fit() if ar else (None, 0.0)
+                self.held = self.last_rate.copy()
+            self.lost += 1
+            if self.coef is not None:
+                self.held = self._ar_predict()
+            else:
+                self.held = self.held * self.decay
+            omega = self.held
+        self.rates.append(omega.copy())
+        self._predict(omega, acc, received)
+        if received:
+            self.last_rate = omega.copy()
+            self._update(acc, mag, omega)
+            self.q_last = self.q.copy()
+        return self.q
+
+    def _predict(self, omega, acc, received):
+        """``q⁻ = q ⊗ Exp(ω Δt)``, the leaky velocity, and ``P⁻ = F P Fᵀ + Q``."""
+        s, dt = self.s, self.dt
+        self.q = Q.normalize(Q.multiply(self.q, self._exp(omega * dt)))
+        R = Q.to_scipy(self.q).as_matrix()
+        c = float(np.exp(-dt / s.velocity_tau_s))
+        a_e = R @ acc if received else np.zeros(3)
+        self.v = c * self.v + ((a_e - [0.0, 0.0, s.gravity]) * dt if received else 0.0)
+        cross = np.array([[0.0, -a_e[2], a_e[1]], [a_e[2], 0.0, -a_e[0]], [-a_e[1], a_e[0], 0.0]])  # [a_E]×
+        F = np.eye(9)
+        F[:3, 3:6] = -R * dt
+        F[6:, :3] = -cross * dt
+        F[6:, 3:6] = cross @ R * dt**2
+        F[6:, 6:] = c * np.eye(3)
+        Qn = np.diag([s.gyro_noise**2 * dt] * 3 + [s.bias_noise**2 * dt] * 3 + [(s.acc_sensor_noise * dt) ** 2] * 3)
+        if not received:
+            if self.lost == 1:
+                self.gap_sigma = s.gap_rate_noise + s.gap_rate_relative_noise * np.linalg.norm(omega)
+            Qn[:3, :3] += np.eye(3) * (self.gap_sigma * dt) ** 2 * (2 * self.lost - 1)
+            Qn[6:, 6:] = np.eye(3) * (s.gap_acc_noise * dt) ** 2 * (2 * self.lost - 1)
+        self.P = F @ self.P @ F.T + Qn
+        self.F = F
+
+    def _correct(self, H, innovation, r, heading_only=False):
+        """``K = P Hᵀ S⁻¹`` (tilt rows zeroed for the heading), ``δx = K z``, Joseph-form ``P``, then the injection."""
+        S = H @ self.P @ H.T + r * np.eye(H.shape[0])
+        K = self.P @ H.T @ np.linalg.inv(S)
+        if heading_only:
+            K[:2] = 0.0
+        dx = K @ innovation
+        IKH = np.eye(9) - K @ H
+        self.P = IKH @ self.P @ IKH.T + r * K @ K.T
+        self.q = Q.normalize(Q.multiply(self._exp(dx[:3]), self.q))
+        self.b = np.clip(self.b + dx[3:6], -self.s.bias_limit, self.s.bias_limit)
+        self.v = self.v + dx[6:]
+
+    def _update(self, acc, mag, omega):
+        s, dt = self.s, self.dt
+        a_norm = np.linalg.norm(acc)
+        dev = abs(a_norm - s.gravity)
+        self.lin_var += -np.expm1(-dt / s.acc_disturbance_tau_s) * (dev**2 - self.lin_var)
+        if dev <= s.acc_norm_gate and np.linalg.norm(omega) <= s.acc_rate_gate:  # the tilt update
+            e = Q.rotate(self.q, acc / a_norm)
+            axis = np.cross(e, [0.0, 0.0, 1.0])
+            norm = np.linalg.norm(axis)
+            phi = (np.arctan2(norm, e[2]) * axis / norm)[:2] if norm > 0 else np.zeros(2)
+            r = s.acc_noise**2 + (dev**2 + s.acc_disturbance_factor * self.lin_var) / s.gravity**2
+            H = np.eye(9)[:2]
+            d2 = phi @ np.linalg.solve(H @ self.P @ H.T + r * np.eye(2), phi)
+            if d2 > s.acc_innovation_gate:  # robust: the pull is bounded
+                tilt_var = 0.5 * (self.P[0, 0] + self.P[1, 1])
+                r = np.sqrt(d2 / s.acc_innovation_gate) * (tilt_var + r) - tilt_var
+            self._correct(H, phi, r)
+        self._correct(np.eye(9)[6:], -self.v, s.velocity_noise**2)  # the leaky velocity: v = 0
+        if mag is None:
+            return
+        m_e = Q.rotate(self.q, mag)
+        m_norm, dip = np.linalg.norm(mag), np.arctan2(-m_e[2], np.hypot(m_e[0], m_e[1]))
+        if self.ref is None:
+            self.ref = [m_norm, dip]
+        tilt_var = max(self.P[0, 0], self.P[1, 1])
+        if not (abs(m_norm - self.ref[0]) < s.mag_norm_gate * self.ref[0]
+                and abs(dip - self.ref[1]) < s.mag_dip_gate + s.mag_dip_tilt_sigmas * np.sqrt(tilt_var)):
+            raise ValueError("the field looks disturbed: the reference covers undisturbed fields only")
+        gain = -np.expm1(-dt / s.mag_reference_tau_s)  # the reference follows accepted fields
+        self.ref = [self.ref[0] + gain * (m_norm - self.ref[0]), self.ref[1] + gain * (dip - self.ref[1])]
+        r = s.mag_noise**2 + np.tan(min(abs(self.ref[1]), 1.5)) ** 2 * tilt_var
+        self._correct(np.eye(9)[2:3], np.array([np.arctan2(m_e[0], m_e[1])]), r, heading_only=True)
+
+    @classmethod
+    def run(cls, gyr, acc, mag, received, *, fs: float, settings=None, gap: str = "ar", replay: bool = True,
+            gap_time_constant=None) -> tuple[np.ndarray, np.ndarray]:
+        """Over one recording ``(T, 3)`` from its first received sample (TRIAD, as ``q0=None``):
+        the estimates ``(T, 4)`` and the last covariance (9, 9)."""
+        received = np.asarray(received, dtype=bool)
+        first = int(np.argmax(received))
+        ref = cls(settings, fs=fs, q0=triad(acc[first], mag[first]) if mag is not None else tilt_quaternion(acc[first]),
+                  gap=gap, replay=replay, gap_time_constant=gap_time_constant, first_rate=gyr[first])
+        out = np.empty((len(gyr), 4))
+        out[: first + 1] = ref.q
+        for t in range(first + 1, len(gyr)):
+            out[t] = ref.step(gyr[t], acc[t], None if mag is None else mag[t], bool(received[t]))
+        return out, ref.P

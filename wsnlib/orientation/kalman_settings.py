@@ -1,14 +1,17 @@
 """Settings of the gap-aware Kalman filter: :class:`KalmanSettings`, its documented defaults and checks.
 
 Used by :func:`wsnlib.orientation.kalman.kalman_orientation` (equations and gates in that
-module's docstring) and :func:`wsnlib.orientation.smooth_orientation`; the kernels read them
-as one vector (:func:`wsnlib.orientation._kalman_layout.kalman_settings_vector`).
+module's docstring) and :func:`wsnlib.orientation.smooth_orientation`.  The compiled step
+reads them, per sample and with the gap options, as one record of named constants
+(:data:`CONSTANTS_DTYPE`, :func:`kalman_constants`): ``constants.gyro_var`` is σ_g² Δt.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+
+import numpy as np
 
 from wsnlib._validation import check_settings_fields
 
@@ -115,7 +118,7 @@ class KalmanSettings:
         Forgetting time constant (s) of the online hard-iron estimate (a magnet or iron fixed
         to the sensor: a constant body-frame offset of the field, estimated from the gyroscope
         and the field's rate of change, see
-        :func:`wsnlib.orientation._kalman_update_kernels.kalman_hard_iron`).  Default 3 s: about 150
+        :func:`wsnlib.orientation._kalman_kernels.hard_iron`).  Default 3 s: about 150
         samples of rotation at 50 Hz average the differentiated field's noise down to ~1 µT,
         and a removed magnet is forgotten within seconds.
     mag_hard_iron_min_bias : float
@@ -125,7 +128,7 @@ class KalmanSettings:
         reject; chosen most often by LOTO from {0.1, inf}.
     gap_rate_prediction_order : int
         With ``gap="ar"``: order of the linear predictor (an autoregressive model per axis,
-        :func:`wsnlib.orientation._gap_rate_kernels.gap_rate_fit`, fitted at the gap's start on
+        :func:`wsnlib.orientation.gaps.ar_fit`, fitted at the gap's start on
         the rates of the last ``gap_rate_prediction_window_s``), 1 to 64.
         Default 48 (LOTO, see the class's defaults).
     gap_rate_prediction_window_s : float
@@ -198,3 +201,74 @@ _MAY_BE_INFINITE = frozenset({"acc_innovation_gate", "acc_norm_gate", "acc_rate_
                               "bias_limit"})
 #: Finite settings above this would overflow when squared.
 _LARGEST_SETTING = 1e100
+
+
+# ==========================================================================================
+# What the compiled step reads: per-sample constants
+# ==========================================================================================
+
+#: The constants of one run, per sample of Δt (s); variances in rad², (rad/s)², (m/s)².
+CONSTANTS_DTYPE = np.dtype([
+    ("dt", "f8"),                    # Δt (s)
+    ("gyro_var", "f8"),              # σ_g² Δt: attitude variance added per sample
+    ("bias_var", "f8"),              # σ_b² Δt: bias random walk per sample
+    ("acc_var", "f8"),               # σ_a²: tilt measurement variance
+    ("mag_var", "f8"),               # σ_m²: heading measurement variance
+    ("gap_noise", "f8"),             # σ_gap (rad/s)
+    ("gap_relative_noise", "f8"),    # × ‖ω_last‖
+    ("gravity", "f8"),               # g (m/s²)
+    ("acc_norm_gate", "f8"), ("acc_rate_gate", "f8"),
+    ("acc_innovation_gate", "f8"),   # χ² gate of the tilt innovation
+    ("acc_dist_factor", "f8"),       # f of the adaptive accelerometer noise
+    ("acc_dist_gain", "f8"),         # 1 − exp(−Δt/τ_dist)
+    ("mag_norm_gate", "f8"), ("mag_dip_gate", "f8"),
+    ("mag_ref_gain", "f8"),          # 1 − exp(−Δt/τ_ref)
+    ("mag_new_time", "f8"), ("mag_new_min_rate", "f8"), ("mag_max_reject", "f8"),
+    ("mag_reject_var_factor", "f8"), ("mag_dip_tilt_sigmas", "f8"),
+    ("init_tilt_var", "f8"), ("init_heading_var", "f8"), ("init_bias_var", "f8"), ("bias_limit", "f8"),
+    ("vel_decay", "f8"),             # c = exp(−Δt/τ_v)
+    ("vel_var", "f8"),               # σ_v²: the pseudo-measurement v = 0
+    ("acc_sensor_var", "f8"),        # (σ_s Δt)²: velocity process noise per sample
+    ("gap_acc_var", "f8"),           # (σ_gap,acc Δt)²
+    ("hi_decay", "f8"),              # exp(−Δt/τ_hard-iron)
+    ("hi_ridge", "f8"),              # ridge of the hard-iron normal equations
+    ("hi_min_bias", "f8"),
+    ("gap", "i8"), ("gap_factor", "f8"), ("replay", "?"),  # the gap options (wsnlib.orientation.gaps)
+    ("ar_order", "i8"), ("ar_window", "i8"),
+    ("has_mag", "?"),                # a magnetometer is given
+    ("record", "?"),                 # keep the prediction (q⁻, b⁻, v⁻, P⁻, F) of every sample (smoother)
+])
+
+
+def kalman_constants(settings: KalmanSettings, dt: float, *, gap: int, replay: bool, gap_time_constant: float,
+                     has_mag: bool, record: bool = False) -> np.ndarray:
+    """The compiled step's constants (a record of :data:`CONSTANTS_DTYPE`, shape ``(1,)``) for
+    ``settings``, Δt (s) and the gap options (``gap`` a code of :data:`wsnlib.orientation.gaps.GAP_CODES`,
+    ``gap_time_constant`` in s, ``inf`` = constant); checked by the caller."""
+    s = settings
+    c = np.zeros(1, CONSTANTS_DTYPE)
+    values = {
+        "dt": dt, "gyro_var": s.gyro_noise**2 * dt, "bias_var": s.bias_noise**2 * dt, "acc_var": s.acc_noise**2,
+        "mag_var": s.mag_noise**2, "gap_noise": s.gap_rate_noise, "gap_relative_noise": s.gap_rate_relative_noise,
+        "gravity": s.gravity, "acc_norm_gate": s.acc_norm_gate, "acc_rate_gate": s.acc_rate_gate,
+        "acc_innovation_gate": s.acc_innovation_gate, "acc_dist_factor": s.acc_disturbance_factor,
+        "acc_dist_gain": -math.expm1(-dt / s.acc_disturbance_tau_s), "mag_norm_gate": s.mag_norm_gate,
+        "mag_dip_gate": s.mag_dip_gate, "mag_ref_gain": -math.expm1(-dt / s.mag_reference_tau_s),
+        "mag_new_time": s.mag_new_time_s, "mag_new_min_rate": s.mag_new_min_rate,
+        "mag_max_reject": s.mag_max_rejection_s, "mag_reject_var_factor": s.mag_rejection_factor**2,
+        "mag_dip_tilt_sigmas": s.mag_dip_tilt_sigmas, "init_tilt_var": s.initial_tilt_sigma**2,
+        "init_heading_var": s.initial_heading_sigma**2, "init_bias_var": s.initial_bias_sigma**2,
+        "bias_limit": s.bias_limit, "vel_decay": math.exp(-dt / s.velocity_tau_s), "vel_var": s.velocity_noise**2,
+        "acc_sensor_var": (s.acc_sensor_noise * dt) ** 2, "gap_acc_var": (s.gap_acc_noise * dt) ** 2,
+        "hi_decay": math.exp(-dt / s.mag_hard_iron_tau_s),
+        # Ridge of the hard-iron normal equations: as much as 1 s of rotation at 0.3 rad/s, so that
+        # the estimate shrinks to 0 when the sensor has not turned enough to observe it.
+        "hi_ridge": 0.09 / dt, "hi_min_bias": s.mag_hard_iron_min_bias,
+        # The held rate's factor per lost sample: 0 holds the state, 1 keeps the rate constant.
+        "gap": gap, "gap_factor": 0.0 if gap == 0 else math.exp(-dt / gap_time_constant), "replay": replay,
+        "ar_order": s.gap_rate_prediction_order, "ar_window": round(s.gap_rate_prediction_window_s / dt),
+        "has_mag": has_mag, "record": record,
+    }
+    for name, value in values.items():
+        c[name] = value
+    return c

@@ -26,7 +26,7 @@ more than 180° through a gap is not unwound the short way.
 With ``gap="ar"`` (default) and a full window
 (``gap_rate_prediction_window_s``) of samples on *both* sides of the gap, the curve is
 instead built from the rates the filter's linear predictor gives from each side
-(:func:`wsnlib.orientation._gap_rate_kernels.gap_rate_fit`: fitted on the window before the gap
+(:func:`wsnlib.orientation.gaps.ar_fit`: fitted on the window before the gap
 and run forward, and on the window after it read backward in time and run backward; lost
 samples inside a window are linear between their received neighbours, or, for earlier gaps,
 the rates of their curve), blended
@@ -47,15 +47,8 @@ import numpy as np
 from numba import njit, prange
 
 from wsnlib.orientation import _batch as B
-from wsnlib.orientation._gap_rate_kernels import gap_rate_fit, gap_rate_predict
-from wsnlib.orientation._kalman_kernels import kalman_stream
-from wsnlib.orientation._kalman_layout import (
-    KALMAN_AR_ON,
-    KALMAN_AR_ORDER,
-    KALMAN_AR_WINDOW,
-    KALMAN_DT,
-    NX,
-)
+from wsnlib.orientation import gaps
+from wsnlib.orientation._kalman_kernels import NX, kalman_stream
 from wsnlib.orientation._kernels import (
     COMPILE,
     cross3,
@@ -65,7 +58,7 @@ from wsnlib.orientation._kernels import (
     quat_multiply,
     quat_normalize,
 )
-from wsnlib.orientation.kalman import KalmanSettings, check_finite_output, prepare_inputs, settings_vector
+from wsnlib.orientation.kalman import KalmanSettings, check_finite_output, constants, prepare_inputs
 
 #: Defaults of :func:`smooth_orientation`: the filter's settings except those that
 #: leave-one-trial-out tuning of the smoother chose differently from the filter's (most often,
@@ -137,9 +130,9 @@ def _predicted_rates(rates, lo, order, window, n, reverse, coef, A, r, buf, out)
         src = lo + window - 1 - i if reverse else lo + i
         for a in range(3):
             buf[i, a] = rates[src, a]
-    largest = gap_rate_fit(buf, window, window, order, coef, A, r)
+    largest = gaps.ar_fit(buf, window, window, order, coef, A, r)
     for k in range(n):
-        gap_rate_predict(buf, window + k, order, coef, largest, buf[window + k])
+        gaps.ar_predict(buf, window + k, order, coef, largest, buf[window + k])
         for a in range(3):
             out[k, a] = buf[window + k, a]
 
@@ -187,8 +180,8 @@ def _predicted_gap(out_q, rates, s0, s1, q0, q1, order, window, dt):
 
 
 @njit(**COMPILE)
-def _smooth_stream(gyr, acc, mag, has_mag, received, q_init, start, init_only, s, out_q, interpolate_gaps):
-    """Forward filter, RTS pass and (``interpolate_gaps``) Hermite gaps for one recording."""
+def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, interpolate_gaps):
+    """Forward filter, RTS pass and (``interpolate_gaps``) curves across gaps for one recording."""
     n_t = out_q.shape[0]
     filt_q = np.empty((n_t, 4))
     filt_b = np.empty((n_t, 3))
@@ -201,8 +194,8 @@ def _smooth_stream(gyr, acc, mag, has_mag, received, q_init, start, init_only, s
     pred_F = np.empty((n_t, NX, NX))
     acc_used = np.empty(n_t, dtype=np.bool_)
     mag_used = np.empty(n_t, dtype=np.bool_)
-    kalman_stream(gyr, acc, mag, has_mag, received, q_init, start, init_only, s, filt_q, filt_b, filt_v, filt_P, True,
-                  acc_used, mag_used, True, pred_q, pred_b, pred_v, pred_P, pred_F)
+    kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c,
+                  (filt_q, filt_b, filt_v, filt_P, acc_used, mag_used, pred_q, pred_b, pred_v, pred_P, pred_F))
     out_q[:] = filt_q
     if n_t == 0:
         return
@@ -230,12 +223,11 @@ def _smooth_stream(gyr, acc, mag, has_mag, received, q_init, start, init_only, s
             smooth_v[k, a] = filt_v[k, a] + correction[6 + a]
     if not interpolate_gaps:
         return
-    dt = s[KALMAN_DT]
+    dt = c.dt
     # Rates for the gaps' linear prediction: bias-corrected where received, linear between
     # the received neighbours where lost (only read inside the windows).
-    order = int(s[KALMAN_AR_ORDER])
-    window = int(s[KALMAN_AR_WINDOW])
-    predict = s[KALMAN_AR_ON] != 0.0 and window >= 3 * order
+    order, window = c.ar_order, c.ar_window
+    predict = c.gap == gaps.AR and window >= 3 * order
     rates = np.zeros((n_t if predict else 1, 3))
     if predict:
         prev = -1
@@ -273,10 +265,10 @@ def _smooth_stream(gyr, acc, mag, has_mag, received, q_init, start, init_only, s
 
 
 @njit(parallel=True, **COMPILE)
-def _smooth_batch(gyr, acc, mag, has_mag, received, index, q_init, start, init_only, s, out_q, interpolate_gaps):
+def _smooth_batch(gyr, acc, mag, received, index, q_init, start, init_only, constants, out_q, interpolate_gaps):
     for n in prange(out_q.shape[0]):
-        _smooth_stream(gyr[index[n, 0]], acc[index[n, 1]], mag[index[n, 2]], has_mag, received[index[n, 3]],
-                       q_init[n], start[n], init_only, s, out_q[n], interpolate_gaps)
+        _smooth_stream(gyr[index[n, 0]], acc[index[n, 1]], mag[index[n, 2]], received[index[n, 3]], q_init[n],
+                       start[n], init_only, constants[0], out_q[n], interpolate_gaps)
 
 
 def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None, settings=None, gap: str = "ar",
@@ -312,15 +304,16 @@ def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
     ValueError
         As :func:`~wsnlib.orientation.kalman.kalman_orientation`.
     """
-    s = settings_vector(SMOOTHER_SETTINGS if settings is None else settings, fs, gap=gap, replay=False,
-                        gap_time_constant=gap_time_constant, filter_name="smooth_orientation")
     inputs = prepare_inputs(gyr, acc, mag, received, q0)
+    c = constants(SMOOTHER_SETTINGS if settings is None else settings, fs, gap=gap, replay=False,
+                  gap_time_constant=gap_time_constant, has_mag=inputs.has_mag, filter_name="smooth_orientation",
+                  record=True)
     if not isinstance(interpolate_gaps, bool):
         raise ValueError(f"interpolate_gaps must be True or False, got {interpolate_gaps!r}")
     # Output, plus each thread's scratch: filtered and predicted q, b, v, P and F, rates per sample.
     B.check_memory(8 * inputs.n_t * (4 * inputs.index.shape[0] + 2 * (23 + 3 * NX * NX)),
                    f"smooth_orientation's output for batch {inputs.batch}, T = {inputs.n_t}")
     out_q = np.empty((inputs.index.shape[0], inputs.n_t, 4))
-    _smooth_batch(inputs.gyr, inputs.acc, inputs.mag, inputs.has_mag, inputs.received, inputs.index, inputs.q_init,
-                  inputs.start, inputs.init_only, s, out_q, interpolate_gaps)
+    _smooth_batch(inputs.gyr, inputs.acc, inputs.mag, inputs.received, inputs.index, inputs.q_init,
+                  inputs.start, inputs.init_only, c, out_q, interpolate_gaps)
     return check_finite_output(out_q.reshape(inputs.batch + (inputs.n_t, 4)))

@@ -1,0 +1,294 @@
+"""What a filter does in a gap: the angular rate it turns by, and the replay at the gap's end.
+
+The loss vocabulary of :mod:`wsnlib.orientation` (``gap``, ``replay``) for any filter that runs
+sample by sample with a step that turns its state by an angular rate: Madgwick's filter
+(:mod:`._kernels`) and the Kalman filter (:mod:`._kalman_kernels`) call these compiled
+functions from their loops, and the same functions serve a live receiver one packet at a time.
+A filter gives the gap module the rate it used on every received sample (raw for Madgwick,
+bias-corrected for the Kalman filter) and asks it, on every lost sample, for the rate to turn
+by; at the first received sample after a gap, with ``replay``, it restores the state it had at
+the gap's start (the filter's own save/restore) and re-runs the gap with the rates
+:func:`replay_rate` gives, then updates as usual.
+
+Rates in a gap (``gap``)
+------------------------
+* ``"hold"`` (:data:`HOLD`): 0 — the state stays.
+* ``"constant_rate"`` (:data:`CONSTANT_RATE`): the last received rate, times ``factor`` per lost
+  sample (``factor = exp(−Δt/τ)`` for a decay time constant τ, 1 for a constant rate).
+* ``"ar"`` (:data:`AR`): linear prediction — a per-axis autoregressive model of order ``p``
+  fitted by ridge-regularised least squares at the gap's start on the last ``window`` rates
+  (:func:`ar_fit`) and run on its own outputs, ``ω_k = Σ_i c_i ω_{k−p+i}`` (norm capped at the
+  window's largest, :func:`ar_predict`): an arm's swing is a damped oscillation, which a short
+  linear predictor follows for a fraction of a period, while a held rate overshoots it.  With
+  less than a window of rates before the gap (or fewer than ``3p`` samples in the window) it
+  falls back to ``"constant_rate"``.
+
+Replay (``replay``)
+-------------------
+At the first received sample ``t`` after a gap of ``L`` samples, with measured rate ``ω_t``, the
+k-th lost sample's rate is re-estimated now that both ends are known: with the AR prediction,
+the predicted rate plus ``w_k`` times the predictor's error at ``t`` (measured − predicted),
+``w_k`` the Gaussian conditional expectation of the k-th step's prediction error given the last
+one under the fitted model (:func:`ar_end_weights`: a linear ramp for a slowly varying rate,
+following the oscillation for a swing); otherwise linear between the last received rate and
+``ω_t`` (paper 001's gyroscope interpolation).  The replay is causal: it changes the state from
+the gap's end on, never what was output on the lost samples.
+
+State
+-----
+:data:`GAP_DTYPE` is a structured record (one per stream) holding the gap's bookkeeping, and a
+rate history ``(H, 3)`` (a ring: sample ``k`` at row ``k mod H``) the AR fit and the replay
+read.  ``H`` must hold a window plus the longest gap to replay with its predicted rates
+(:func:`history_length`); a longer gap is replayed with the linear ramp.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from wsnlib.orientation._scalar_kernels import COMPILE
+
+#: Codes of ``gap`` in the compiled kernels.
+HOLD, CONSTANT_RATE, AR = 0, 1, 2
+#: ``gap`` names, in code order.
+GAP_CODES = {"hold": HOLD, "constant_rate": CONSTANT_RATE, "ar": AR}
+#: Largest order of the AR predictor.
+MAX_ORDER = 64
+#: Ridge of the AR fit, relative to the mean squared rate of the window (and at least this in
+#: (rad/s)²): keeps a window of near rest from fitting its noise.
+AR_RIDGE = 1e-3
+
+#: One stream's gap bookkeeping.  ``mode`` ``factor`` ``order`` ``window`` are the settings;
+#: ``n`` samples seen so far (received or not) since the history started; ``lost`` samples lost
+#: in a row; ``last_rate`` the rate of the last received sample; ``rate`` the rate used on the
+#: current lost sample; ``predicting`` whether this gap's rates come from the AR fit, whose
+#: coefficients ``coef`` and largest window rate ``largest`` it holds.
+GAP_DTYPE = np.dtype([
+    ("mode", "i8"), ("factor", "f8"), ("order", "i8"), ("window", "i8"),
+    ("n", "i8"), ("lost", "i8"), ("last_rate", "f8", (3,)), ("rate", "f8", (3,)),
+    ("predicting", "?"), ("largest", "f8"), ("coef", "f8", (3, MAX_ORDER)),
+])
+
+
+def new_gap_state(mode: int, factor: float, order: int, window: int) -> np.ndarray:
+    """A fresh gap record (shape ``(1,)``) for the settings ``mode`` (a code), ``factor``, ``order``, ``window``."""
+    if not 1 <= order <= MAX_ORDER:
+        raise ValueError(f"the AR order must lie in [1, {MAX_ORDER}], got {order}")
+    gs = np.zeros(1, GAP_DTYPE)
+    gs["mode"], gs["factor"], gs["order"], gs["window"] = mode, factor, order, window
+    return gs
+
+
+def history_length(window: int, longest_replay: int) -> int:
+    """Rows of a rate history for a ``window`` and AR replays of gaps up to ``longest_replay`` samples."""
+    return int(window) + int(longest_replay) + 2
+
+
+@njit(**COMPILE)
+def _row(history, k):
+    return history[k % history.shape[0]]
+
+
+@njit(**COMPILE)
+def _value(history, k, axis):
+    return history[k % history.shape[0], axis]
+
+
+@njit(**COMPILE)
+def gap_received(gs, history, rate):
+    """A received sample used ``rate`` (3-tuple): record it, and end the gap."""
+    row = _row(history, gs.n)
+    for a in range(3):
+        row[a] = rate[a]
+        gs.last_rate[a] = rate[a]
+    gs.n += 1
+    gs.lost = 0
+
+
+@njit(**COMPILE)
+def gap_lost(gs, history, work_A, work_r):
+    """A lost sample: the rate (3-tuple) to turn the state by, recorded in the history.
+
+    At a gap's first sample the AR predictor is fitted if ``mode`` is :data:`AR` and a full
+    window of rates precedes it (``work_A`` (MAX_ORDER, MAX_ORDER) and ``work_r`` (MAX_ORDER,)
+    are scratch).
+    """
+    order, window = gs.order, gs.window
+    if gs.lost == 0:
+        gs.predicting = gs.mode == AR and gs.n >= window and window >= 3 * order
+        if gs.predicting:
+            gs.largest = ar_fit(history, gs.n, window, order, gs.coef, work_A, work_r)
+        for a in range(3):
+            gs.rate[a] = gs.last_rate[a]
+    if gs.predicting:
+        ar_predict(history, gs.n, order, gs.coef, gs.largest, gs.rate)
+    elif gs.mode == HOLD:
+        for a in range(3):
+            gs.rate[a] = 0.0
+    else:
+        for a in range(3):
+            gs.rate[a] *= gs.factor
+    row = _row(history, gs.n)
+    for a in range(3):
+        row[a] = gs.rate[a]
+    gs.n += 1
+    gs.lost += 1
+    return gs.rate[0], gs.rate[1], gs.rate[2]
+
+
+@njit(**COMPILE)
+def replay_weights(gs, history, measured, weights, impulse, predicted):
+    """Prepare the replay of the gap that ends at the current sample (rate ``measured``).
+
+    Fills ``weights`` (3, ≥ L) with the end-correction weights (AR) and ``predicted`` (3,) with
+    the predictor's rate at this sample; returns True when the AR replay applies (the gap was
+    predicted and its rates are still in the history), else False (linear ramp).  ``impulse``
+    (≥ L + 1,) is scratch.
+    """
+    n_lost = gs.lost
+    if not (gs.predicting and n_lost + gs.order + 1 <= history.shape[0]):
+        return False
+    ar_predict(history, gs.n, gs.order, gs.coef, gs.largest, predicted)
+    for a in range(3):
+        ar_end_weights(gs.coef, a, gs.order, n_lost + 1, impulse, weights[a])
+    return True
+
+
+@njit(**COMPILE)
+def replay_rate(gs, history, k, measured, use_ar, weights, predicted):
+    """Rate (3-tuple) of the k-th lost sample (1 … L) of the gap ending now, at rate ``measured``.
+
+    ``use_ar``, ``weights``, ``predicted`` from :func:`replay_weights`; the gap's last received
+    rate is ``gs.last_rate`` and its k-th predicted rate the history's row ``n − L − 1 + k``.
+    """
+    n_lost = gs.lost
+    if use_ar:
+        row = _row(history, gs.n - n_lost - 1 + k)
+        return (row[0] + weights[0, k - 1] * (measured[0] - predicted[0]),
+                row[1] + weights[1, k - 1] * (measured[1] - predicted[1]),
+                row[2] + weights[2, k - 1] * (measured[2] - predicted[2]))
+    frac = k / (n_lost + 1.0)
+    last = gs.last_rate
+    return (last[0] + frac * (measured[0] - last[0]), last[1] + frac * (measured[1] - last[1]),
+            last[2] + frac * (measured[2] - last[2]))
+
+
+# ------------------------------------------------------------------------------------------
+# The autoregressive predictor
+# ------------------------------------------------------------------------------------------
+
+
+@njit(**COMPILE)
+def ar_fit(rates, end, window, order, coef, A, r):
+    """Fit the linear predictor of the rate on the rows ``end − window … end − 1``; returns its largest norm.
+
+    Per axis ``a``, least squares for ``ω_a[k] ≈ Σ_i c_ai ω_a[k − order + i]`` over the window
+    (an autoregressive model of order ``order``: a sum of damped oscillations, which is what
+    an arm's swing looks like over a fraction of a second), with ridge ``AR_RIDGE ·
+    max(1, tr(XᵀX)/order)`` on the normal equations, solved by Cholesky.  ``rates`` is the
+    ring history (row ``k mod H``) of the rates the filter used; ``coef`` (3, ≥ order) receives
+    the coefficients; ``A`` (≥ order, ≥ order) and ``r`` (≥ order,) are scratch.
+    """
+    lo = end - window
+    x = np.empty(window)  # one axis of the window, in time order (the history is a ring)
+    for a in range(3):
+        for k in range(window):
+            x[k] = _value(rates, lo + k, a)
+        for i in range(order):
+            r[i] = 0.0
+            for j in range(order):
+                A[i, j] = 0.0
+        for k in range(window - order):
+            y = x[k + order]
+            for i in range(order):
+                xi = x[k + i]
+                r[i] += xi * y
+                for j in range(i + 1):
+                    A[i, j] += xi * x[k + j]
+        trace = 0.0
+        for i in range(order):
+            trace += A[i, i]
+        ridge = AR_RIDGE * max(1.0, trace / order)
+        for i in range(order):  # in-place Cholesky of the lower triangle: A = L Lᵀ
+            A[i, i] += ridge
+            for j in range(i + 1):
+                acc_ij = A[i, j]
+                for k in range(j):
+                    acc_ij -= A[i, k] * A[j, k]
+                A[i, j] = math.sqrt(acc_ij) if i == j else acc_ij / A[j, j]
+        for i in range(order):  # L y = r, then Lᵀ c = y
+            acc_i = r[i]
+            for k in range(i):
+                acc_i -= A[i, k] * coef[a, k]
+            coef[a, i] = acc_i / A[i, i]
+        for i in range(order - 1, -1, -1):
+            acc_i = coef[a, i]
+            for k in range(i + 1, order):
+                acc_i -= A[k, i] * coef[a, k]
+            coef[a, i] = acc_i / A[i, i]
+    largest = 0.0
+    for k in range(lo, end):
+        x0, x1, x2 = _value(rates, k, 0), _value(rates, k, 1), _value(rates, k, 2)
+        largest = max(largest, math.sqrt(x0 ** 2 + x1 ** 2 + x2 ** 2))
+    return largest
+
+
+@njit(**COMPILE)
+def ar_predict(rates, t, order, coef, largest, out):
+    """One step of the linear predictor: ``out[a] = Σ_i coef[a, i] rates[t − order + i, a]``,
+    its norm capped at ``largest`` (the window's largest rate: an unstable fit cannot run away)."""
+    for a in range(3):
+        v = 0.0
+        for i in range(order):
+            v += coef[a, i] * _value(rates, t - order + i, a)
+        out[a] = v
+    norm = math.sqrt(out[0] ** 2 + out[1] ** 2 + out[2] ** 2)
+    if norm > largest:
+        for a in range(3):
+            out[a] *= largest / norm
+
+
+@njit(**COMPILE)
+def ar_end_weights(coef, axis, order, n, h, weights):
+    """Weights ``w_k`` (k = 1..n) of the end correction of the gap's predicted rates, one axis.
+
+    The predictor is an autoregressive model ``ω[j] = Σ_i c_i ω[j − order + i] + e[j]`` with
+    white innovations ``e``; the prediction error at the k-th step after the gap's start is
+    ``Σ_{i=1..k} h[k − i] e[i]`` (``h`` the model's impulse response, ``h[0] = 1``).  Knowing the
+    error at step ``n`` (the first received sample after the gap, measured minus predicted),
+    the conditional expectation of the error at step ``k`` is ``w_k`` times it, with
+
+        w_k = Σ_{i=1..k} h[k − i] h[n − i] / Σ_{j=0..n−1} h[j]²
+
+    (Gaussian conditioning; ``w_n = 1``).  For a slowly varying rate (``h ≈ 1``) this is the
+    linear ramp ``k/n``; for an oscillation it follows the oscillation instead of ramping
+    across it.  If the impulse response grows beyond 1e50 (an unstable fit over a long gap),
+    the linear ramp is used.  ``h``, ``weights`` (≥ n,) are written.
+    """
+    h[0] = 1.0
+    unstable = False
+    for j in range(1, n):
+        v = 0.0
+        for i in range(order):
+            lag = j - order + i  # h at a negative index is 0
+            if lag >= 0:
+                v += coef[axis, i] * h[lag]
+        h[j] = v
+        if abs(v) > 1e50:
+            unstable = True
+            break
+    if unstable:
+        for k in range(1, n + 1):
+            weights[k - 1] = k / n
+        return
+    den = 0.0
+    for j in range(n):
+        den += h[j] * h[j]
+    for k in range(1, n + 1):
+        cov = 0.0
+        for i in range(1, k + 1):
+            cov += h[k - i] * h[n - i]
+        weights[k - 1] = cov / den
