@@ -61,7 +61,7 @@ def test_settings_grid_and_grid_overrides():
         lt.settings_grid(replay=())
     methods = lt.default_methods(grids={"Kalman": lt.settings_grid(replay=(False,))})
     assert methods["Kalman"].grid == ({"replay": False},)
-    assert methods["smoother"].grid == lt.SMOOTHER_GRID
+    assert methods["smoother"].grid == lt.KALMAN_GRID  # the smoother's forward pass is the filter
     with pytest.raises(ValueError, match="unknown method"):
         lt.default_methods(grids={"Kalmann": lt.KALMAN_GRID})
     with pytest.raises(ValueError, match="grid"):
@@ -71,13 +71,12 @@ def test_settings_grid_and_grid_overrides():
 def test_registry_options_and_side_question_pairs():
     methods = lt.default_methods()
     # Every Kalman/smoother setting is a valid KalmanSettings (a typo would raise here, not mid-study),
-    # apart from the Kalman filter's replay (a keyword of kalman_orientation; the smoother never replays).
+    # apart from replay (a keyword of kalman_orientation and smooth_orientation).
     for name in ("Kalman", "smoother"):
         assert len(methods[name].grid) == lt.MAX_SETTINGS
         for setting in methods[name].grid:
-            KalmanSettings(**{k: v for k, v in setting.items() if k != "replay" or name != "Kalman"})
+            KalmanSettings(**{k: v for k, v in setting.items() if k != "replay"})
     assert {s["replay"] for s in lt.KALMAN_GRID} == {True, False}
-    assert all(s["mag_norm_gate"] == 0.05 for s in lt.SMOOTHER_GRID)
     for without, with_ in lt.GATING_PAIRS + lt.GAP_PREDICTION_PAIRS:
         assert methods[without].kind == methods[with_].kind and methods[without].grid == methods[with_].grid
 

@@ -52,8 +52,8 @@ STATE_DTYPE = np.dtype([
 #: Scratch of one stream, and the prediction of the last sample (``q_pred``, ``bias_pred``,
 #: ``vel_pred``, ``P_pred``, transition ``F``) kept for the smoother.
 WORK_DTYPE = np.dtype([
-    ("R", "f8", (3, 3)), ("F", "f8", (NX, NX)), ("FP", "f8", (NX, NX)), ("dx", "f8", (NX,)), ("K", "f8", (NX,)),
-    ("row", "f8", (NX,)), ("ar_A", "f8", (gaps.MAX_ORDER, gaps.MAX_ORDER)), ("ar_r", "f8", (gaps.MAX_ORDER,)),
+    ("R", "f8", (3, 3)), ("F", "f8", (NX, NX)), ("dx", "f8", (NX,)), ("K", "f8", (NX,)),
+    ("row", "f8", (NX,)), ("ar_A", "f8", (gaps.MAX_ORDER, gaps.MAX_ORDER)), ("ar_r", "f8", (gaps.MAX_ORDER + 1,)),
     ("predicted", "f8", (3,)),
     ("q_pred", "f8", (4,)), ("bias_pred", "f8", (3,)), ("vel_pred", "f8", (3,)), ("P_pred", "f8", (NX, NX)),
 ])
@@ -96,10 +96,28 @@ def initial_state(st, c, q0):
 
 
 @njit(**COMPILE)
+def transition_matrix(R, a_e, decay, dt, F):
+    """``F = [[I, −R Δt, 0], [0, I, 0], [−[a_E]× Δt, [a_E]× R Δt², c I]]`` into ``F`` (9 × 9)."""
+    for a in range(NX):
+        for b in range(NX):
+            F[a, b] = 1.0 if a == b else 0.0
+    for a in range(3):
+        for b in range(3):
+            F[a, 3 + b] = -R[a, b] * dt
+        F[6 + a, 6 + a] = decay
+    F[6, 1], F[6, 2] = a_e[2] * dt, -a_e[1] * dt  # −[a_E]× Δt
+    F[7, 0], F[7, 2] = -a_e[2] * dt, a_e[0] * dt
+    F[8, 0], F[8, 1] = a_e[1] * dt, -a_e[0] * dt
+    for a in range(3):  # [a_E]× R Δt² = (−[a_E]× Δt)(−R Δt)
+        for b in range(3):
+            F[6 + a, 3 + b] = F[6 + a, 0] * F[0, 3 + b] + F[6 + a, 1] * F[1, 3 + b] + F[6 + a, 2] * F[2, 3 + b]
+
+
+@njit(**COMPILE)
 def predict(st, work, c, omega, acc, received, lost_run):
     """Prediction of one sample by the bias-corrected rate ``omega`` (3-tuple; over a gap the gap
     module's); ``lost_run``: samples lost in a row (0 when received).  Leaves R(q⁻) in ``work.R``
-    and the transition matrix in ``work.F``."""
+    and, with ``c.record``, the transition matrix in ``work.F``."""
     dt = c.dt
     for a in range(3):
         st.rate[a] = omega[a]
@@ -124,35 +142,47 @@ def predict(st, work, c, omega, acc, received, lost_run):
         for a in range(3):
             v[a] *= decay
 
-    # --- Error propagation: P⁻ = F P Fᵀ + Q ----------------------------------------------
-    # F = [[I, −R Δt, 0], [0, I, 0], [−[a_E]× Δt, [a_E]× R Δt², c I]]  (a_E = 0 when lost)
-    F, FP, P = work.F, work.FP, st.P
-    for a in range(NX):
-        for b in range(NX):
-            F[a, b] = 1.0 if a == b else 0.0
+    # --- Error propagation: P⁻ = F P Fᵀ + Q, F written as two shears F = F_v F_θ -----------
+    # F_θ = [[I, M, 0], [0, I, 0], [0, 0, I]], M = −R(q⁻) Δt: the attitude error takes up the
+    # bias error.  F_v = [[I, 0, 0], [0, I, 0], [N, 0, c I]], N = −[a_E]× Δt: the velocity error
+    # takes up the tilt error (a_E = 0 when lost).  F_v F_θ = [[I, M, 0], [0, I, 0], [N, N M, c I]]
+    # is the docstring's F.  A shear S P Sᵀ changes one block row and, symmetrically, the same
+    # block column: the row is computed, its diagonal block gets the column's term too, and the
+    # column is the row's mirror (~200 multiply-adds instead of a dense F P Fᵀ's ~1,500; P stays
+    # exactly symmetric).
+    P = st.P
+    # P ← F_θ P F_θᵀ.  Rows δθ: P_θ· ← P_θ· + M P_b·; block θθ also + (P_θb) Mᵀ.
+    for j in range(NX):
+        r0, r1, r2 = P[3, j], P[4, j], P[5, j]
+        for a in range(3):
+            P[a, j] -= (R[a, 0] * r0 + R[a, 1] * r1 + R[a, 2] * r2) * dt
     for a in range(3):
+        for b in range(a, 3):
+            v = P[a, b] - (P[a, 3] * R[b, 0] + P[a, 4] * R[b, 1] + P[a, 5] * R[b, 2]) * dt
+            P[a, b] = P[b, a] = v
+    for a in range(3):
+        for j in range(3, NX):
+            P[j, a] = P[a, j]
+    # P ← F_v P F_vᵀ.  Rows δv: P_v· ← c P_v· + N P_θ·, N u = (u × a_E) Δt; block vv also
+    # + (c P_vθ-part) Nᵀ, i.e. c·(the row's θ entries) crossed with a_E.
+    for j in range(NX):
+        u0, u1, u2 = P[0, j], P[1, j], P[2, j]
+        P[6, j] = decay * P[6, j] + (u1 * a_e[2] - u2 * a_e[1]) * dt
+        P[7, j] = decay * P[7, j] + (u2 * a_e[0] - u0 * a_e[2]) * dt
+        P[8, j] = decay * P[8, j] + (u0 * a_e[1] - u1 * a_e[0]) * dt
+    for a in range(3):
+        u0, u1, u2 = P[6 + a, 0], P[6 + a, 1], P[6 + a, 2]
+        n_row = ((u1 * a_e[2] - u2 * a_e[1]) * dt, (u2 * a_e[0] - u0 * a_e[2]) * dt,
+                 (u0 * a_e[1] - u1 * a_e[0]) * dt)
         for b in range(3):
-            F[a, 3 + b] = -R[a, b] * dt
-        F[6 + a, 6 + a] = decay
-    # −[a_E]× Δt: rows of the cross-product matrix of a_E, negated
-    F[6, 1], F[6, 2] = a_e[2] * dt, -a_e[1] * dt
-    F[7, 0], F[7, 2] = -a_e[2] * dt, a_e[0] * dt
-    F[8, 0], F[8, 1] = a_e[1] * dt, -a_e[0] * dt
-    for a in range(3):  # [a_E]× R Δt² = (−[a_E]× Δt)(−R Δt)
-        for b in range(3):
-            F[6 + a, 3 + b] = F[6 + a, 0] * F[0, 3 + b] + F[6 + a, 1] * F[1, 3 + b] + F[6 + a, 2] * F[2, 3 + b]
-    for a in range(NX):  # FP = F P
-        for b in range(NX):
-            acc_ab = 0.0
-            for k in range(NX):
-                acc_ab += F[a, k] * P[k, b]
-            FP[a, b] = acc_ab
-    for a in range(NX):  # P = (F P) Fᵀ
-        for b in range(NX):
-            acc_ab = 0.0
-            for k in range(NX):
-                acc_ab += FP[a, k] * F[b, k]
-            P[a, b] = acc_ab
+            P[6 + a, 6 + b] = decay * P[6 + a, 6 + b] + n_row[b]
+    for a in range(3):
+        for b in range(a + 1, 3):
+            P[6 + a, 6 + b] = P[6 + b, 6 + a] = 0.5 * (P[6 + a, 6 + b] + P[6 + b, 6 + a])
+        for j in range(6):
+            P[j, 6 + a] = P[6 + a, j]
+    if c.record:  # the transition matrix itself, for a smoother (KalmanState.prediction)
+        transition_matrix(R, a_e, decay, dt, work.F)
     # Q: gyro noise and bias random walk; over a gap, the extrapolated rate's error, whose std
     # is fixed at the gap's first sample: σ_gap,k² Δt² (2k − 1) makes it (σ_gap kΔt)² after k
     # samples.  Over a gap also the unknown linear acceleration: δv grows like (σ_gap,acc kΔt)².
@@ -174,25 +204,34 @@ def predict(st, work, c, omega, acc, received, lost_run):
 # ------------------------------------------------------------------------------------------
 
 
-@njit(**COMPILE)
+@njit(inline="always", **COMPILE)
 def scalar_update(P, dx, i, innovation, r, heading_only, K, row):
-    """Scalar Kalman update with ``H = e_iᵀ``: ``S = P_ii + r``, ``K = P_·i/S``, Joseph form."""
+    """Scalar Kalman update with ``H = e_iᵀ``: ``S = P_ii + r``, ``K = P_·i/S``.
+
+    ``P ← (I − K H) P (I − K H)ᵀ + r K Kᵀ`` (Joseph form, valid for any K) is
+    ``P − K P_i· − P_·i Kᵀ + S K Kᵀ``; with the optimal gain that is ``P − P_·i P_i·/S``.  The
+    upper triangle is computed and mirrored (P stays exactly symmetric).
+    """
     S = P[i, i] + r
+    inv_S = 1.0 / S
     for a in range(NX):
-        K[a] = P[a, i] / S
         row[a] = P[i, a]
-    if heading_only:  # the magnetometer must not tilt: zero the gain's tilt rows
+        K[a] = row[a] * inv_S
+    if heading_only:  # the magnetometer must not tilt: zero the gain's tilt rows (Joseph form)
         K[0] = 0.0
         K[1] = 0.0
+        for a in range(NX):
+            for b in range(a, NX):
+                P[a, b] = P[b, a] = P[a, b] - (K[a] * row[b] + row[a] * K[b]) + S * (K[a] * K[b])
+    else:
+        for a in range(NX):
+            for b in range(a, NX):
+                P[a, b] = P[b, a] = P[a, b] - (row[a] * row[b]) * inv_S
     for a in range(NX):
         dx[a] += K[a] * innovation
-    # P ← P − K P_i· − P_·i Kᵀ + S K Kᵀ   ((I − K H) P (I − K H)ᵀ + r K Kᵀ, any K)
-    for a in range(NX):
-        for b in range(NX):
-            P[a, b] += -K[a] * row[b] - row[a] * K[b] + S * K[a] * K[b]
 
 
-@njit(**COMPILE)
+@njit(inline="always", **COMPILE)
 def inject(st, dx, bias_limit):
     """``q ← Exp(δθ) ⊗ q``, ``b ← b + δb`` (clipped), ``v̂ ← v̂ + δv``, ``δx ← 0``."""
     q = quat_normalize(quat_multiply(quat_exp((dx[0], dx[1], dx[2])), (st.q[0], st.q[1], st.q[2], st.q[3])))
@@ -377,10 +416,12 @@ def correct_mag(st, work, c, mag, omega):
 
 
 @njit(**COMPILE)
-def kalman_step(st, gs, history, work, c, gyr, acc, mag, received):
+def kalman_step(st, gs, history, work, c, gyr, acc, mag, received, replayed):
     """One sample of the filter: the gap module's rate or the measured one, the replay at a gap's
     end, the prediction and, if received, the measurement updates.  Returns ``(acc_used,
-    mag_used)``.  ``gs``/``history``: :mod:`wsnlib.orientation.gaps`'s record and rate history."""
+    mag_used)``.  ``gs``/``history``: :mod:`wsnlib.orientation.gaps`'s record and rate history;
+    ``replayed`` (≥ L, 4): receives the replayed estimates of a gap of L samples that ends here
+    (for a smoother; shape (0, 4) when not wanted)."""
     if not received:
         st.hi_prev_ok = False  # the hard-iron estimate differentiates consecutive received fields
         omega = gaps.gap_lost(gs, history, work.ar_A, work.ar_r)
@@ -389,7 +430,7 @@ def kalman_step(st, gs, history, work, c, gyr, acc, mag, received):
         return False, False
     omega = (gyr[0] - st.bias[0], gyr[1] - st.bias[1], gyr[2] - st.bias[2])
     if c.replay and gs.lost > 0 and gs.n > gs.lost:
-        _replay(st, gs, history, omega, c.dt)
+        _replay(st, gs, history, omega, c.dt, replayed)
     predict(st, work, c, omega, acc, True, 0)
     _keep_prediction(st, work, c)
     gaps.gap_received(gs, history, omega)
@@ -401,18 +442,23 @@ def kalman_step(st, gs, history, work, c, gyr, acc, mag, received):
 
 
 @njit(**COMPILE)
-def _replay(st, gs, history, omega, dt):
+def _replay(st, gs, history, omega, dt, replayed):
     """Re-integrate the state over the gap that ends now from the state after its last received
-    sample, with the gap module's replay rates (the covariance keeps the gap's growth)."""
+    sample, with the gap module's replay rates (the covariance keeps the gap's growth); the
+    k-th lost sample's estimate goes to ``replayed[k − 1]`` if it has the rows."""
     n_lost = gs.lost
     weights = np.empty((3, n_lost + 1))
     impulse = np.empty(n_lost + 1)
     predicted = np.empty(3)
     use_ar = gaps.replay_weights(gs, history, omega, weights, impulse, predicted)
+    keep = replayed.shape[0] >= n_lost
     q = (st.q_last[0], st.q_last[1], st.q_last[2], st.q_last[3])
     for k in range(1, n_lost + 1):
         w = gaps.replay_rate(gs, history, k, omega, use_ar, weights, predicted)
         q = quat_normalize(quat_multiply(q, quat_exp((w[0] * dt, w[1] * dt, w[2] * dt))))
+        if keep:
+            for a in range(4):
+                replayed[k - 1, a] = q[a]
     for a in range(4):
         st.q[a] = q[a]
 
@@ -450,10 +496,17 @@ def kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c, outputs)
     first = start + 1 if init_only else start
     if init_only and start < n_t:  # the first sample's rate opens the history
         gaps.gap_received(gs, history, (gyr[start, 0], gyr[start, 1], gyr[start, 2]))
+    no_path = np.empty((0, 4))
     for t in range(n_t):
         if t >= first:
+            # With c.record, a replayed gap's estimates overwrite what was recorded on its lost
+            # samples (filtered = predicted there), so the smoother sees one consistent path.
+            n_lost = gs.lost if c.record and received[t] and c.replay else 0
+            path = pred_q[t - n_lost:t] if n_lost > 0 and t - n_lost >= first else no_path
             acc_used[t], mag_used[t] = kalman_step(st, gs, history, work, c, gyr[t], acc[t],
-                                                   mag[t] if c.has_mag else mag[0], received[t])
+                                                   mag[t] if c.has_mag else mag[0], received[t], path)
+            if path.shape[0] > 0:
+                out_q[t - n_lost:t] = path
         else:
             acc_used[t], mag_used[t] = False, False
             _keep_prediction(st, work, c)

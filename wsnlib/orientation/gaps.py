@@ -93,11 +93,6 @@ def _row(history, k):
 
 
 @njit(**COMPILE)
-def _value(history, k, axis):
-    return history[k % history.shape[0], axis]
-
-
-@njit(**COMPILE)
 def gap_received(gs, history, rate):
     """A received sample used ``rate`` (3-tuple): record it, and end the gap."""
     row = _row(history, gs.n)
@@ -113,7 +108,7 @@ def gap_lost(gs, history, work_A, work_r):
     """A lost sample: the rate (3-tuple) to turn the state by, recorded in the history.
 
     At a gap's first sample the AR predictor is fitted if ``mode`` is :data:`AR` and a full
-    window of rates precedes it (``work_A`` (MAX_ORDER, MAX_ORDER) and ``work_r`` (MAX_ORDER,)
+    window of rates precedes it (``work_A`` (MAX_ORDER, MAX_ORDER) and ``work_r`` (MAX_ORDER + 1,)
     are scratch).
     """
     order, window = gs.order, gs.window
@@ -190,49 +185,69 @@ def ar_fit(rates, end, window, order, coef, A, r):
     an arm's swing looks like over a fraction of a second), with ridge ``AR_RIDGE ·
     max(1, tr(XᵀX)/order)`` on the normal equations, solved by Cholesky.  ``rates`` is the
     ring history (row ``k mod H``) of the rates the filter used; ``coef`` (3, ≥ order) receives
-    the coefficients; ``A`` (≥ order, ≥ order) and ``r`` (≥ order,) are scratch.
+    the coefficients; ``A`` (≥ order, ≥ order) and ``r`` (≥ order + 1,) are scratch.
     """
     lo = end - window
-    x = np.empty(window)  # one axis of the window, in time order (the history is a ring)
+    size = rates.shape[0]
+    xs = np.empty((3, window))  # the window in time order, per axis (the history is a ring)
+    largest = 0.0
+    row = lo % size
+    for k in range(window):
+        x0, x1, x2 = rates[row, 0], rates[row, 1], rates[row, 2]
+        xs[0, k], xs[1, k], xs[2, k] = x0, x1, x2
+        largest = max(largest, math.sqrt(x0 * x0 + x1 * x1 + x2 * x2))
+        row += 1
+        if row == size:
+            row = 0
     for a in range(3):
-        for k in range(window):
-            x[k] = _value(rates, lo + k, a)
-        for i in range(order):
-            r[i] = 0.0
-            for j in range(order):
-                A[i, j] = 0.0
-        for k in range(window - order):
-            y = x[k + order]
-            for i in range(order):
-                xi = x[k + i]
-                r[i] += xi * y
-                for j in range(i + 1):
-                    A[i, j] += xi * x[k + j]
+        x = xs[a]
+        # The normal equations, A_ij = Σ_k x[k + i] x[k + j] (k < n = window − order; upper
+        # triangle), by the first row and the shift A_ij = A_{i−1,j−1} − x[i−1] x[j−1] +
+        # x[n+i−1] x[n+j−1]: O(window · order) instead of O(window · order²).  The right-hand
+        # side r_i = Σ_k x[k + i] x[k + order] is column ``order`` of the same matrix.
+        n = window - order
+        for j in range(order + 1):
+            r[j] = 0.0  # row 0 of the extended matrix, accumulated as axpys (vectorised)
+        for k in range(n):
+            xk = x[k]
+            for j in range(order + 1):
+                r[j] += xk * x[k + j]
+        for j in range(order):
+            A[0, j] = r[j]
+        r[0] = r[order]
+        for i in range(1, order):
+            for j in range(i, order):
+                A[i, j] = A[i - 1, j - 1] - x[i - 1] * x[j - 1] + x[n + i - 1] * x[n + j - 1]
+        for i in range(order - 1, 0, -1):  # r_i from r_{i−1}'s row: A_{i−1,order−1} …
+            r[i] = A[i - 1, order - 1] - x[i - 1] * x[order - 1] + x[n + i - 1] * x[n + order - 1]
         trace = 0.0
         for i in range(order):
             trace += A[i, i]
         ridge = AR_RIDGE * max(1.0, trace / order)
-        for i in range(order):  # in-place Cholesky of the lower triangle: A = L Lᵀ
+        for i in range(order):
             A[i, i] += ridge
-            for j in range(i + 1):
-                acc_ij = A[i, j]
-                for k in range(j):
-                    acc_ij -= A[i, k] * A[j, k]
-                A[i, j] = math.sqrt(acc_ij) if i == j else acc_ij / A[j, j]
-        for i in range(order):  # L y = r, then Lᵀ c = y
-            acc_i = r[i]
-            for k in range(i):
-                acc_i -= A[i, k] * coef[a, k]
-            coef[a, i] = acc_i / A[i, i]
+        # Cholesky A = Uᵀ U in place (upper triangle, right-looking: each step an axpy on rows).
+        for k in range(order):
+            d = math.sqrt(A[k, k])
+            A[k, k] = d
+            for j in range(k + 1, order):
+                A[k, j] /= d
+            for i in range(k + 1, order):
+                f = A[k, i]
+                for j in range(i, order):
+                    A[i, j] -= f * A[k, j]
+        c = coef[a]
+        for i in range(order):  # Uᵀ y = r (forward, column-oriented), then U c = y
+            c[i] = r[i]
+        for k in range(order):
+            c[k] /= A[k, k]
+            for i in range(k + 1, order):
+                c[i] -= A[k, i] * c[k]
         for i in range(order - 1, -1, -1):
-            acc_i = coef[a, i]
+            acc_i = c[i]
             for k in range(i + 1, order):
-                acc_i -= A[k, i] * coef[a, k]
-            coef[a, i] = acc_i / A[i, i]
-    largest = 0.0
-    for k in range(lo, end):
-        x0, x1, x2 = _value(rates, k, 0), _value(rates, k, 1), _value(rates, k, 2)
-        largest = max(largest, math.sqrt(x0 ** 2 + x1 ** 2 + x2 ** 2))
+                acc_i -= A[i, k] * c[k]
+            c[i] = acc_i / A[i, i]
     return largest
 
 
@@ -240,11 +255,18 @@ def ar_fit(rates, end, window, order, coef, A, r):
 def ar_predict(rates, t, order, coef, largest, out):
     """One step of the linear predictor: ``out[a] = Σ_i coef[a, i] rates[t − order + i, a]``,
     its norm capped at ``largest`` (the window's largest rate: an unstable fit cannot run away)."""
-    for a in range(3):
-        v = 0.0
-        for i in range(order):
-            v += coef[a, i] * _value(rates, t - order + i, a)
-        out[a] = v
+    size = rates.shape[0]
+    first = (t - order) % size  # the ring's row of sample t − order; rows then wrap at most once
+    v0 = v1 = v2 = 0.0
+    row = first
+    for i in range(order):
+        v0 += coef[0, i] * rates[row, 0]
+        v1 += coef[1, i] * rates[row, 1]
+        v2 += coef[2, i] * rates[row, 2]
+        row += 1
+        if row == size:
+            row = 0
+    out[0], out[1], out[2] = v0, v1, v2
     norm = math.sqrt(out[0] ** 2 + out[1] ** 2 + out[2] ** 2)
     if norm > largest:
         for a in range(3):

@@ -497,7 +497,8 @@ def kalman_step(state: KalmanState, gyr, acc, mag=None, received: bool = True) -
             gaps.gap_received(state.gap[0], state.history, (signals[0][0], signals[0][1], signals[0][2]))
             state.started = True
         return state
-    K.kalman_step(state.record[0], state.gap[0], state.history, state.work[0], c, *signals, received)
+    K.kalman_step(state.record[0], state.gap[0], state.history, state.work[0], c, *signals, received,
+                  np.empty((0, 4)))
     return state
 
 

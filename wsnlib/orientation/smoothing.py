@@ -10,6 +10,13 @@ C. T. Striebel, AIAA J. 3(8):1445–1450, 1965), in error-state form (Solà 2017
 
 (``F_{k+1}`` the filter's 9-state transition matrix, with the leaky velocity), starting
 from ``q^s_{T−1} = q⁺_{T−1}`` (so at the last sample the smoother equals the filter).
+The forward pass is the causal filter itself — the same settings object, gap handling and
+replay — so the smoother starts from what the filter knows.  Where the filter replays a gap at
+its end, the replayed estimates replace those it output on the gap's lost samples (filtered =
+predicted there; their covariances and transition matrices stay those of the original
+prediction, an approximation of first order in the replay's correction).  Without that, a long
+gap in fast motion leaves the forward pass so far off that the backward pass cannot bring it
+back, and the smoother can end up worse than its own filter.
 Then, across each gap with received samples ``s0`` before and ``s1`` after it, the estimate is
 replaced by a cubic Hermite curve on the rotation vector relative to ``q^s_{s0}``,
 
@@ -58,18 +65,7 @@ from wsnlib.orientation._kernels import (
     quat_multiply,
     quat_normalize,
 )
-from wsnlib.orientation.kalman import KalmanSettings, check_finite_output, constants, prepare_inputs
-
-#: Defaults of :func:`smooth_orientation`: the filter's settings except those that
-#: leave-one-trial-out tuning of the smoother chose differently from the filter's (most often,
-#: 8 settings, 17 BROAD trials, GE 10 %; ``benchmarks/eval_loss_tolerance.py``): the
-#: magnetometer's norm gate is 5 % instead of 10 % and the accelerometer's innovation gate
-#: 6.0 instead of 13.8 (both chosen in earlier runs of that script).  The gap's linear prediction
-#: (order 48 on 6 s) and the adaptive accelerometer noise (factor 4) are the filter's
-#: defaults, and also what the smoother's own LOTO chose most often (grid
-#: acc_disturbance_factor ∈ {4, 16} × acc_innovation_gate ∈ {13.8, 6} × (order, window) ∈
-#: {(24, 3 s), (48, 6 s)}).
-SMOOTHER_SETTINGS = KalmanSettings(mag_norm_gate=0.05, acc_innovation_gate=6.0)
+from wsnlib.orientation.kalman import check_finite_output, constants, prepare_inputs
 
 
 @njit(**COMPILE)
@@ -146,7 +142,7 @@ def _predicted_gap(out_q, rates, s0, s1, q0, q1, order, window, dt):
     n = s1 - s0 - 1
     coef = np.zeros((3, order))
     A = np.empty((order, order))
-    r = np.empty(order)
+    r = np.empty(order + 1)
     buf = np.empty((window + n, 3))
     fwd = np.empty((n, 3))
     bwd = np.empty((n, 3))
@@ -180,6 +176,29 @@ def _predicted_gap(out_q, rates, s0, s1, q0, q1, order, window, dt):
 
 
 @njit(**COMPILE)
+def _cholesky_solve(A, b, L, x):
+    """``x = A⁻¹ b`` for a symmetric positive definite ``A`` (9 × 9): ``A = L Lᵀ`` into ``L``, two
+    triangular solves (``b`` is read only)."""
+    n = A.shape[0]
+    for i in range(n):
+        for j in range(i + 1):
+            acc_ij = A[i, j]
+            for k in range(j):
+                acc_ij -= L[i, k] * L[j, k]
+            L[i, j] = math.sqrt(acc_ij) if i == j else acc_ij / L[j, j]
+    for i in range(n):
+        acc_i = b[i]
+        for k in range(i):
+            acc_i -= L[i, k] * x[k]
+        x[i] = acc_i / L[i, i]
+    for i in range(n - 1, -1, -1):
+        acc_i = x[i]
+        for k in range(i + 1, n):
+            acc_i -= L[k, i] * x[k]
+        x[i] = acc_i / L[i, i]
+
+
+@njit(**COMPILE)
 def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, interpolate_gaps):
     """Forward filter, RTS pass and (``interpolate_gaps``) curves across gaps for one recording."""
     n_t = out_q.shape[0]
@@ -203,9 +222,10 @@ def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, 
     smooth_v = filt_v.copy()
     first = start  # the first sample the filter's state exists at
     delta = np.empty(NX)
+    chol = np.empty((NX, NX))
+    y = np.empty(NX)
     for k in range(n_t - 2, first - 1, -1):
-        # C_kᵀ = (P⁻_{k+1})⁻¹ F_{k+1} P⁺_k   (both covariances symmetric)
-        Ct = np.linalg.solve(pred_P[k + 1], pred_F[k + 1] @ filt_P[k])
+        # correction = C_k δ = P⁺_k F_{k+1}ᵀ (P⁻_{k+1})⁻¹ δ: one solve with P⁻ (Cholesky), no inverse
         q_next = (out_q[k + 1, 0], out_q[k + 1, 1], out_q[k + 1, 2], out_q[k + 1, 3])
         q_pred = (pred_q[k + 1, 0], pred_q[k + 1, 1], pred_q[k + 1, 2], pred_q[k + 1, 3])
         d_theta = quat_log(quat_multiply(q_next, quat_conjugate(q_pred)))
@@ -213,14 +233,25 @@ def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, 
             delta[a] = d_theta[a]
             delta[3 + a] = smooth_b[k + 1, a] - pred_b[k + 1, a]
             delta[6 + a] = smooth_v[k + 1, a] - pred_v[k + 1, a]
-        correction = Ct.T @ delta
-        q = quat_normalize(quat_multiply(quat_exp((correction[0], correction[1], correction[2])),
+        _cholesky_solve(pred_P[k + 1], delta, chol, y)
+        F, P = pred_F[k + 1], filt_P[k]
+        for a in range(NX):  # delta ← Fᵀ y
+            acc_a = 0.0
+            for b in range(NX):
+                acc_a += F[b, a] * y[b]
+            delta[a] = acc_a
+        for a in range(NX):  # y ← P⁺_k delta, the correction
+            acc_a = 0.0
+            for b in range(NX):
+                acc_a += P[a, b] * delta[b]
+            y[a] = acc_a
+        q = quat_normalize(quat_multiply(quat_exp((y[0], y[1], y[2])),
                                          (filt_q[k, 0], filt_q[k, 1], filt_q[k, 2], filt_q[k, 3])))
         for a in range(4):
             out_q[k, a] = q[a]
         for a in range(3):
-            smooth_b[k, a] = filt_b[k, a] + correction[3 + a]
-            smooth_v[k, a] = filt_v[k, a] + correction[6 + a]
+            smooth_b[k, a] = filt_b[k, a] + y[3 + a]
+            smooth_v[k, a] = filt_v[k, a] + y[6 + a]
     if not interpolate_gaps:
         return
     dt = c.dt
@@ -272,7 +303,7 @@ def _smooth_batch(gyr, acc, mag, received, index, q_init, start, init_only, cons
 
 
 def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None, settings=None, gap: str = "ar",
-                       gap_time_constant=None, interpolate_gaps: bool = True) -> np.ndarray:
+                       replay: bool = True, gap_time_constant=None, interpolate_gaps: bool = True) -> np.ndarray:
     """Offline orientation: forward Kalman filter, backward RTS pass, curves across gaps.
 
     Uses every received sample, also those after a sample (module docstring).  For recorded
@@ -280,12 +311,12 @@ def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
 
     Parameters
     ----------
-    gyr, acc, mag, fs, received, q0, settings, gap, gap_time_constant
-        As in :func:`wsnlib.orientation.kalman.kalman_orientation` (same filter);
-        ``settings=None`` gives :data:`SMOOTHER_SETTINGS` (tuned for the smoother); ``gap``
-        also chooses the curve across gaps (module docstring).  The forward pass does not
-        replay gaps (the RTS pass needs the filter's own predictions, and the curve uses both
-        ends of each gap), and every lost sample gets the smoothed estimate (no
+    gyr, acc, mag, fs, received, q0, settings, gap, replay, gap_time_constant
+        As in :func:`wsnlib.orientation.kalman.kalman_orientation`: the forward pass *is* that
+        filter, with the same settings, gap handling and replay.  A replayed gap's estimates
+        replace what the filter output on its lost samples (it knows them at the gap's end), so
+        the backward pass starts from the filter's best path.  ``gap`` also chooses the curve
+        across gaps (module docstring); every lost sample gets the smoothed estimate (no
         ``output_on_lost``).
     interpolate_gaps : bool
         Replace the smoothed estimate across each gap by the curve of the module docstring
@@ -296,8 +327,7 @@ def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
     -------
     numpy.ndarray, shape (..., T, 4)
         ENU unit quaternions (body → earth), ``...`` the broadcast leading dimensions.  At the
-        last sample equal to the output of the filter with the same settings and
-        ``replay=False``.
+        last sample equal to the output of the filter with the same arguments.
 
     Raises
     ------
@@ -305,7 +335,7 @@ def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
         As :func:`~wsnlib.orientation.kalman.kalman_orientation`.
     """
     inputs = prepare_inputs(gyr, acc, mag, received, q0)
-    c = constants(SMOOTHER_SETTINGS if settings is None else settings, fs, gap=gap, replay=False,
+    c = constants(settings, fs, gap=gap, replay=replay,
                   gap_time_constant=gap_time_constant, has_mag=inputs.has_mag, filter_name="smooth_orientation",
                   record=True)
     if not isinstance(interpolate_gaps, bool):

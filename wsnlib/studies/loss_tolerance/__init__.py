@@ -39,7 +39,7 @@ received rate in a gap (``gap="constant_rate"``) instead of holding.  :data:`GAT
 :data:`GAP_PREDICTION_PAIRS` name the pairs; :func:`.summary.paired_comparisons` answers
 "does it help?".
 
-The grids are module constants (:data:`KALMAN_GRID`, :data:`SMOOTHER_GRID`, ...) built with
+The grids are module constants (:data:`KALMAN_GRID`, ...) built with
 :func:`settings_grid`; ``default_methods(grids={...})`` replaces any of them.
 
 Latency
@@ -88,7 +88,6 @@ from wsnlib.studies.loss_tolerance.registry import (
     MADGWICK_BETA,
     MAX_SETTINGS,
     PROFILES,
-    SMOOTHER_GRID,
     VQF_GRID,
     VQF_HYBRID_GRID,
     Method,
@@ -102,7 +101,7 @@ from wsnlib.studies.loss_tolerance.registry import (
 __all__ = [
     "AFTER_GAP_S", "BETA_GRID", "FS", "FUSION_GRID", "FUSION_HYBRID_GRID", "GAP_PREDICTION_PAIRS", "GATING_PAIRS",
     "HEADLINE", "HYBRID_GRID", "KALMAN_GRID", "KINDS", "LATENCY_RULES", "MADGWICK_BETA", "MAX_SETTINGS", "PROFILES",
-    "RECOVERY_THRESHOLD_DEG", "SMOOTHER_GRID", "VQF_GRID", "VQF_HYBRID_GRID", "LossToleranceResult", "Method",
+    "RECOVERY_THRESHOLD_DEG", "VQF_GRID", "VQF_HYBRID_GRID", "LossToleranceResult", "Method",
     "default_methods", "evaluate", "load_recordings", "paper001_methods", "paper001_profiles", "quick_methods",
     "response_window_s", "settings_grid", "single_frame_trust",
 ]

@@ -97,13 +97,13 @@ def _peer(rec, setting, received, *, library, hybrid, gated=False, gap="hold"):
 
 
 def _kalman(rec, setting, received, *, offline):
-    """The Kalman filter (or smoother) with ``setting``: ``replay`` (the filter's only) as a keyword,
-    the other entries :class:`~wsnlib.orientation.KalmanSettings` fields."""
+    """The Kalman filter (or the smoother, whose forward pass it is) with ``setting``: ``replay`` as
+    a keyword, the other entries :class:`~wsnlib.orientation.KalmanSettings` fields."""
     setting = dict(setting)
-    options = {} if offline else {"replay": setting.pop("replay", True)}
+    replay = setting.pop("replay", True)
     function = smooth_orientation if offline else kalman_orientation
     return function(rec.gyr, rec.acc, rec.mag, fs=FS, received=received, settings=KalmanSettings(**setting),
-                    **options)
+                    replay=replay)
 
 
 def settings_grid(fixed: Mapping | None = None, **axes) -> tuple[dict, ...]:
@@ -124,18 +124,14 @@ def settings_grid(fixed: Mapping | None = None, **axes) -> tuple[dict, ...]:
 BETA_GRID = settings_grid(beta=(0.01, 0.02, 0.041, 0.07, 0.1, 0.2, 0.4, 0.8))
 #: ρτ (samples) of our hybrid, ρ = 1 (plain and gated).
 HYBRID_GRID = settings_grid(rho_tau=(1, 3, 6, 12, 24, 48, 96, 192))
-#: Our Kalman filter (``replay``, and :class:`wsnlib.orientation.KalmanSettings` fields; the rest
-#: at their defaults): gap replay on/off, how strongly the accelerometer's noise grows with the recent
-#: linear-acceleration level, and the order / window (s) of the linear prediction of the rate
-#: in a gap (paired: a longer window carries a longer model).
+#: Our Kalman filter and smoother (``replay``, and :class:`wsnlib.orientation.KalmanSettings`
+#: fields; the rest at their defaults): gap replay on/off, how strongly the accelerometer's noise
+#: grows with the recent linear-acceleration level, and the order / window (s) of the linear
+#: prediction of the rate in a gap (paired: a longer window carries a longer model).  One grid
+#: for both, since the smoother's forward pass is the filter; each is tuned on its own score.
 KALMAN_GRID = tuple({"replay": replay, "acc_disturbance_factor": factor,
                      "gap_rate_prediction_order": order, "gap_rate_prediction_window_s": window}
                     for replay in (True, False) for factor in (4.0, 16.0) for order, window in ((24, 3.0), (48, 6.0)))
-#: Our smoother: the magnetometer's norm gate fixed at 0.05; the accelerometer's noise growth,
-#: its innovation gate (χ², 13.8 ≈ 3 dof at 99.7 %) and the rate prediction's order / window.
-SMOOTHER_GRID = tuple({"mag_norm_gate": 0.05, "acc_disturbance_factor": factor, "acc_innovation_gate": gate,
-                       "gap_rate_prediction_order": order, "gap_rate_prediction_window_s": window}
-                      for factor in (4.0, 16.0) for gate in (13.8, 6.0) for order, window in ((24, 3.0), (48, 6.0)))
 #: Fusion's gain (plain and with constant-rate prediction in a gap).
 FUSION_GRID = settings_grid(gain=(0.1, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0))
 #: Fusion wrapped in our hybrid (plain and gated): gain × ρτ (samples).
@@ -171,7 +167,7 @@ def default_methods(grids: Mapping[str, tuple] | None = None) -> dict[str, Metho
         Method("hybrid (feedback)", "causal", HYBRID_GRID, _hybrid),
         Method("gated hybrid (feedback)", "causal", HYBRID_GRID, functools.partial(_hybrid, gated=True)),
         Method("Kalman", "causal", KALMAN_GRID, functools.partial(_kalman, offline=False)),
-        Method("smoother", "offline", SMOOTHER_GRID, functools.partial(_kalman, offline=True), latency="offline"),
+        Method("smoother", "offline", KALMAN_GRID, functools.partial(_kalman, offline=True), latency="offline"),
         Method("Fusion", "peer", FUSION_GRID, functools.partial(_peer, library="Fusion", hybrid=False)),
         Method("Fusion, constant rate", "peer", FUSION_GRID,
                functools.partial(_peer, library="Fusion", hybrid=False, gap="constant_rate")),
