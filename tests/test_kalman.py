@@ -96,6 +96,21 @@ def test_step_by_step_equals_the_batch_call_sample_by_sample():
         kalman_step("state", gyr[0], acc[0], mag[0])
 
 
+@pytest.mark.parametrize("options", [{}, {"gap": "constant_rate"}], ids=["ar-replay", "constant_rate-replay"])
+def test_causal_a_prefix_gives_the_same_outputs_at_every_gap_end(options):
+    """Strict causality: cut the recording just after each gap's end (where the replay and the
+    AR fit act); the run on the prefix equals the full run there, bit for bit."""
+    gyr, acc, mag, received = _reference_case(1500, seed=5)
+    settings = KalmanSettings(gap_rate_prediction_order=8, gap_rate_prediction_window_s=1.0)
+    full = kalman_orientation(gyr, acc, mag, fs=FS, received=received, settings=settings, **options)
+    ends = np.flatnonzero(received[1:] & ~received[:-1]) + 1
+    assert len(ends) >= 5
+    for end in ends:
+        prefix = kalman_orientation(gyr[: end + 1], acc[: end + 1], mag[: end + 1], fs=FS,
+                                    received=received[: end + 1], settings=settings, **options)
+        np.testing.assert_array_equal(prefix, full[: end + 1])
+
+
 def test_gap_replay_recovers_a_rate_that_changed_in_the_gap():
     """The rate ramps up during a gap: the replayed state at the gap's end is closer to the truth
     than the extrapolated one, and the lost samples' output is the extrapolation either way."""

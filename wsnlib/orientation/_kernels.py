@@ -27,9 +27,11 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit, prange
 
 from wsnlib import frames
+from wsnlib.orientation import gaps
 
 # Re-exported: the scalar kernels, where the modules built on this one import them from.
 from wsnlib.orientation._scalar_kernels import (  # noqa: F401
@@ -179,10 +181,12 @@ def filter_stream(gyr, acc, mag, use_mag, received, q0, has_q0, method, replay, 
     ``q0`` ``(4,)`` used if ``has_q0`` (else the filter starts from TRIAD, or the tilt without
     ``mag``, of the first received sample, which then only initialises), ``out`` ``(T, 4)``.
     ``method`` the update rule (:data:`STANDARD`, :data:`DT_EXTENSION`, :data:`ADAPTIVE_BETA`).
-    On a lost sample the output is the previous output, or with ``predict_gap`` the state
-    turned on by the last received rate, times ``rate_factor`` per lost sample (1: constant
-    rate).  With ``replay`` the first received sample after a gap first re-runs the gap from
-    the state at its start, gyroscope only, the rate linear between both ends.  ``blend``: the
+    What happens in a gap is :mod:`wsnlib.orientation.gaps`'s: on a lost sample the output is
+    the previous output (``"hold"``), or with ``predict_gap`` the state turned by the gap
+    module's ``"constant_rate"`` (the last received rate, times ``rate_factor`` per lost
+    sample).  With ``replay`` the first received sample after a gap first re-runs the gap from
+    the state at its start, gyroscope only, at the gap module's replay rates (linear between
+    both ends).  ``blend``: the
     hybrid's SLERP (:data:`NO_BLEND`, :data:`OUTPUT_BLEND`, :data:`FEEDBACK_BLEND`); with
     ``gated`` it skips eq. (4) (μ = 1) on every sample whose TRIAD :func:`single_frame_check`
     (vector ``gate``) does not trust.  See :func:`wsnlib.orientation.estimate_orientation`.
@@ -205,7 +209,13 @@ def filter_stream(gyr, acc, mag, use_mag, received, q0, has_q0, method, replay, 
     run = 0  # samples lost since the last received one (after the start)
     last = -1  # last received sample
     q_last = q  # the state at that sample: where a replay starts
-    g_gap = (0.0, 0.0, 0.0)  # the rate a predicted gap turns at
+    # The gap module's record and rate history (raw rates; no AR prediction here, so the ring
+    # needs no window) and its unused scratch.
+    gap_array = np.zeros(1, gaps.GAP_DTYPE)
+    gs = gap_array[0]
+    gs.mode, gs.factor, gs.order, gs.window = gaps.CONSTANT_RATE if predict_gap else gaps.HOLD, rate_factor, 1, 0
+    history = np.zeros((2, 3))
+    scratch_A, scratch_r, no_weights, no_prediction = np.empty((1, 1)), np.empty(2), np.empty((3, 0)), np.empty(3)
     trusted, ref_norm, ref_dip = True, 0.0, 0.0  # gated hybrid: the field's reference
     for t in range(n_t):
         rx = received[t]
@@ -214,10 +224,11 @@ def filter_stream(gyr, acc, mag, use_mag, received, q0, has_q0, method, replay, 
         if not rx:
             if started:
                 run += 1
-                if predict_gap and last >= 0:  # dead reckoning on the last received rate
-                    g_gap = (g_gap[0] * rate_factor, g_gap[1] * rate_factor, g_gap[2] * rate_factor)
-                    q = madgwick_update(q, g_gap, g_gap, g_gap, False, dt, 0.0)
-                    shown = q
+                if last >= 0:
+                    g_gap = gaps.gap_lost(gs, history, scratch_A, scratch_r)
+                    if predict_gap:  # dead reckoning on the gap module's rate
+                        q = madgwick_update(q, g_gap, g_gap, g_gap, False, dt, 0.0)
+                        shown = q
             _store(out, t, shown)
             continue
         a = _unit_at(acc, t)
@@ -226,25 +237,20 @@ def filter_stream(gyr, acc, mag, use_mag, received, q0, has_q0, method, replay, 
         if gated:  # a scalar check per received sample
             trusted, ref_norm, ref_dip = single_frame_check(_vec(acc, t), _vec(mag, t), _vec(gyr, t), gate,
                                                             ref_norm, ref_dip)
+        g = _vec(gyr, t)
         if not started:  # the first received sample only initialised the filter (above)
             started, last, q_last = True, t, q
+            gaps.gap_received(gs, history, g)
             _store(out, t, q)
             continue
-        g = _vec(gyr, t)
         if replay and run > 0:
-            # Replay the lost samples from the state at the gap's start, gyroscope only, ω
-            # interpolated from the last received sample before the gap (or the first after
-            # it, for a gap at the start).
+            # Replay the lost samples from the state at the gap's start, gyroscope only, at the
+            # gap module's replay rates (linear from the last received rate; for a gap at the
+            # start, the first received one).
             q = q_last
-            for s in range(t - run, t):
-                if last >= 0:
-                    frac = (s - last) / (t - last)
-                    g_s = (gyr[last, 0] + frac * (g[0] - gyr[last, 0]),
-                           gyr[last, 1] + frac * (g[1] - gyr[last, 1]),
-                           gyr[last, 2] + frac * (g[2] - gyr[last, 2]))
-                else:
-                    g_s = g
-                q = madgwick_update(q, g_s, a, m, use_mag, dt, 0.0)
+            for k in range(1, run + 1):
+                g_k = gaps.replay_rate(gs, history, k, g, False, no_weights, no_prediction) if last >= 0 else g
+                q = madgwick_update(q, g_k, a, m, use_mag, dt, 0.0)
         dt_gyro = dt * (1.0 + run) if method == DT_EXTENSION else dt
         beta_dt = beta * dt
         if method == ADAPTIVE_BETA:  # β_eff = β + (β_max − β)(1 − μ)
@@ -259,7 +265,9 @@ def filter_stream(gyr, acc, mag, use_mag, received, q0, has_q0, method, replay, 
         if not is_finite4(q):
             return OVERFLOW
         _store(out, t, shown)
-        run, last, q_last, g_gap = 0, t, q, g
+        gaps.gap_received(gs, history, g)
+        run, last, q_last = 0, t, q
+    gap_array[0] = gs  # keeps the record's array alive to here
     return OK
 
 
