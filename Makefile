@@ -32,9 +32,10 @@ figures: $(STAMP)
 quick: $(STAMP)
 	$(PY) -m wsnlib.reproduce --quick --jobs $(JOBS)
 
+# Tests in $(JOBS) processes, a test file per process (its fixtures are built once).
 test: $(STAMP)
 	$(VENV)/bin/ruff check .
-	$(PY) -m pytest
+	$(PY) -m pytest -n $(JOBS) --dist loadfile
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .

@@ -40,15 +40,89 @@ def test_registry_grids_kinds_and_colours():
     methods = lt.default_methods()
     assert {"hold_last", "constant_rate", "gyro_interpolation", "Kalman", "smoother", "Fusion", "VQF"} <= set(methods)
     for name, method in methods.items():
-        assert 1 <= len(method.grid) <= lt.MAX_SETTINGS
+        assert 1 <= len(method.grid) <= lt.DEFAULT_BUDGET
         assert method.kind in lt.KINDS and method.latency in lt.LATENCY_RULES
         plotting.method_style(name)  # every method has a colour and marker
     assert methods["gyro_interpolation"].latency == "gap" and methods["smoother"].kind == "offline"
-    assert all(len(m.grid) <= 2 for m in lt.quick_methods(n_settings=2).values())
     with pytest.raises(ValueError, match="grid"):
-        lt.Method("x", "causal", tuple({"beta": b} for b in range(9)), print)
+        lt.Method("x", "causal", (), print)
+    with pytest.raises(ValueError, match="Range or a Choice"):
+        lt.Method("x", "causal", ({},), print, space={"beta": (0.1, 1.0)})
     with pytest.raises(ValueError, match="kind"):
         lt.Method("x", "ours", ({},), print)
+
+
+def test_a_budget_gives_every_method_the_same_number_of_settings_grid_first():
+    methods = lt.default_methods()
+    assert lt.with_budget(methods, 2) == {name: dataclasses.replace(m, grid=m.grid[:2]) for name, m in methods.items()}
+    budgeted = lt.with_budget(methods, 20, rng=np.random.default_rng(3))
+    for name, method in budgeted.items():
+        if not method.space:  # VQF with its authors' setting: nothing to tune
+            assert method.grid == methods[name].grid
+            continue
+        assert len(method.grid) == 20 and method.grid[:len(methods[name].grid)] == methods[name].grid
+        for setting in method.grid:
+            assert set(setting) == set(methods[name].grid[0])
+            for key, dimension in method.space.items():
+                if isinstance(dimension, lt.Range):
+                    assert dimension.low <= setting[key] <= dimension.high
+                    assert isinstance(setting[key], int) == dimension.integer
+                else:
+                    assert setting[key] in dimension.values
+    # The quasi-random draws spread over the range: both halves of β's log range are visited.
+    betas = np.log([s["beta"] for s in budgeted["hold_last"].grid[8:]])
+    beta_range = methods["hold_last"].space["beta"]
+    middle = np.log(beta_range.low * beta_range.high) / 2
+    assert (betas < middle).sum() >= 4 and (betas > middle).sum() >= 4
+    # Pairs compared with and without an option, and the filter and its smoother, get the same settings.
+    for a, b in lt.GATING_PAIRS + lt.GAP_PREDICTION_PAIRS + (("Kalman", "smoother"),):
+        assert budgeted[a].grid == budgeted[b].grid
+    for setting in budgeted["Kalman"].grid:
+        KalmanSettings(**{k: v for k, v in setting.items() if k != "replay"})
+    assert lt.with_budget(methods, 20, rng=np.random.default_rng(3)) == budgeted
+    assert lt.with_budget(methods, 20, rng=np.random.default_rng(4))["Fusion"].grid[8:] != budgeted["Fusion"].grid[8:]
+    with pytest.raises(ValueError, match="rng"):
+        lt.with_budget(methods, 9)
+    for bad in (0, 2.5, True):
+        with pytest.raises(ValueError, match="budget"):
+            lt.with_budget(methods, bad)
+    with pytest.raises(ValueError, match="low < high"):
+        lt.Range(1.0, 1.0)
+    with pytest.raises(ValueError, match="low > 0"):
+        lt.Range(0.0, 1.0)
+
+
+def test_the_study_gives_the_same_tables_on_one_process_local_processes_and_a_dask_cluster(small_study):
+    from distributed import LocalCluster
+
+    recordings, result = small_study  # local worker processes (the default)
+    runs = {"one process": {"n_jobs": 1}}
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        runs["Dask cluster, 2 workers"] = {"scheduler": cluster.scheduler_address}
+        for where, options in runs.items():
+            other = lt.evaluate(recordings, rng=np.random.default_rng(7), methods=_small_methods(), progress=False,
+                                **options)
+            for table in ("per_trial", "tuning", "choices"):
+                pd.testing.assert_frame_equal(getattr(other, table), getattr(result, table), obj=f"{where}: {table}")
+            for name, trace in result.traces.items():
+                for method, error in trace["lossless"].items():
+                    np.testing.assert_array_equal(other.traces[name]["lossless"][method], error)
+            assert set(other.seconds.index) == set(result.seconds.index) and (other.seconds > 0).all()
+
+
+def test_run_jobs_keeps_the_jobs_order_and_checks_its_arguments():
+    from wsnlib.parallel import run_jobs
+
+    jobs = [(n, 3) for n in range(7, -1, -1)]
+    assert run_jobs(pow, jobs, n_jobs=2, in_process_first=3) == [n**3 for n in range(7, -1, -1)]
+    assert run_jobs(pow, jobs, n_jobs=1) == [n**3 for n in range(7, -1, -1)] and run_jobs(pow, [], n_jobs=2) == []
+    for bad in (0, -2, 1.5, True):
+        with pytest.raises(ValueError, match="n_jobs"):
+            run_jobs(pow, jobs, n_jobs=bad)
+    with pytest.raises(ValueError, match="in_process_first"):
+        run_jobs(pow, jobs, in_process_first=-1)
+    with pytest.raises(ValueError, match="scheduler"):
+        run_jobs(pow, jobs, scheduler=8786)
 
 
 def test_settings_grid_and_grid_overrides():
@@ -64,8 +138,6 @@ def test_settings_grid_and_grid_overrides():
     assert methods["smoother"].grid == lt.KALMAN_GRID  # the smoother's forward pass is the filter
     with pytest.raises(ValueError, match="unknown method"):
         lt.default_methods(grids={"Kalmann": lt.KALMAN_GRID})
-    with pytest.raises(ValueError, match="grid"):
-        lt.default_methods(grids={"Kalman": lt.settings_grid(beta=range(9))})
 
 
 def test_registry_options_and_side_question_pairs():
@@ -73,7 +145,7 @@ def test_registry_options_and_side_question_pairs():
     # Every Kalman/smoother setting is a valid KalmanSettings (a typo would raise here, not mid-study),
     # apart from replay (a keyword of kalman_orientation and smooth_orientation).
     for name in ("Kalman", "smoother"):
-        assert len(methods[name].grid) == lt.MAX_SETTINGS
+        assert len(methods[name].grid) == lt.DEFAULT_BUDGET
         for setting in methods[name].grid:
             KalmanSettings(**{k: v for k, v in setting.items() if k != "replay"})
     assert {s["replay"] for s in lt.KALMAN_GRID} == {True, False}
@@ -296,8 +368,8 @@ def test_on_real_broad_trials():
     if len(names) < 2:
         pytest.skip("needs two BROAD trials in $WSNLIB_BROAD_DIR")
     recordings = lt.load_recordings(names, progress=False)
-    methods = lt.quick_methods({m: lt.default_methods()[m] for m in ("hold_last", "Kalman", "smoother",
-                                                                     "VQF (defaults)")}, 1)
+    methods = lt.with_budget({m: lt.default_methods()[m] for m in ("hold_last", "Kalman", "smoother",
+                                                                   "VQF (defaults)")}, 1)
     profiles = [p for p in lt.PROFILES if p.name in ("lossless", lt.HEADLINE)]
     result = lt.evaluate(recordings, rng=np.random.default_rng(0), methods=methods, profiles=profiles,
                          progress=False)
@@ -553,10 +625,15 @@ def test_command_line_runs_on_two_broad_trials(tmp_path):
     if not folder or len(list(Path(folder).glob("*.mat"))) < 2:
         pytest.skip("needs two BROAD trials (set WSNLIB_BROAD_DIR; `make test` does on CI)")
     out = tmp_path / "per_trial.csv"
-    run = subprocess.run([sys.executable, "-m", "wsnlib.studies.loss_tolerance", "--quick", "--out", str(out)],
+    run = subprocess.run([sys.executable, "-m", "wsnlib.studies.loss_tolerance", "--quick", "--budget", "3",
+                          "--jobs", "2", "--out", str(out)],
                          env={**os.environ, "WSNLIB_BROAD_DIR": folder}, capture_output=True, text=True, timeout=900)
     assert run.returncode == 0, run.stderr[-3000:]
+    assert "3 settings per method, on 2 local job(s)" in run.stdout
     verdicts = [line for line in run.stdout.splitlines() if ": PASS" in line or ": MISS" in line]
     assert len(verdicts) == 3, run.stdout[-3000:]
     table = pd.read_csv(out)
     assert table["trial"].nunique() == 2 and set(table["profile"]) == {p.name for p in lt.PROFILES}
+    bad = subprocess.run([sys.executable, "-m", "wsnlib.studies.loss_tolerance", "--quick", "--scheduler", "nowhere"],
+                         env={**os.environ, "WSNLIB_BROAD_DIR": folder}, capture_output=True, text=True, timeout=900)
+    assert bad.returncode != 0 and "scheduler" in bad.stderr

@@ -83,6 +83,11 @@ first received sample is held either way (the filter has not started).  With
 
 from __future__ import annotations
 
+import collections
+import gc
+import hashlib
+import math
+
 import imufusion
 import numpy as np
 import vqf
@@ -141,9 +146,9 @@ def _feedback_inputs(signals, mask, rho, tau, schedule, window, gate=None, fs=No
     return blend_at, q_s, slerp_weight(lam, rho, tau)
 
 
-def _slerp(q_s: np.ndarray, q_d: np.ndarray, mu: float) -> np.ndarray:
-    """Eq. (4) for one sample, in ``q_d``'s hemisphere (:func:`wsnlib.orientation._kernels.slerp`)."""
-    return np.array(K.slerp(tuple(q_s.tolist()), tuple(q_d.tolist()), float(mu)))
+def _slerp(q_s, q_d, mu: float) -> np.ndarray:
+    """Eq. (4) for one sample (4-sequences), in ``q_d``'s hemisphere (:func:`wsnlib.orientation._kernels.slerp`)."""
+    return np.array(K.slerp(tuple(map(float, q_s)), tuple(map(float, q_d)), float(mu)))
 
 
 def _hold(out: np.ndarray, mask: np.ndarray) -> np.ndarray:
@@ -248,21 +253,54 @@ def _fusion_settings(fs: float, gain, settings) -> imufusion.AhrsSettings:
     return obj
 
 
+#: Signals as lists of rows (what imufusion reads fastest), by content: a sweep runs Fusion
+#: with many settings on the same recording.  The last few are kept.
+_ROWS_CACHE: collections.OrderedDict = collections.OrderedDict()
+_ROWS_CACHE_SIZE = 12
+
+
+def _rows(x: np.ndarray) -> list:
+    """``x.tolist()`` of a ``(T, 3)`` array, from :data:`_ROWS_CACHE` when the same bytes came before."""
+    x = np.ascontiguousarray(x)
+    key = hashlib.sha1(x).digest() + str(x.shape).encode()
+    if key in _ROWS_CACHE:
+        _ROWS_CACHE.move_to_end(key)
+        return _ROWS_CACHE[key]
+    enabled = gc.isenabled()
+    gc.disable()  # thousands of new lists would start the cyclic collector over and over (8x slower)
+    try:
+        rows = x.tolist()
+    finally:
+        if enabled:
+            gc.enable()
+    _ROWS_CACHE[key] = rows
+    if len(_ROWS_CACHE) > _ROWS_CACHE_SIZE:
+        _ROWS_CACHE.popitem(last=False)
+    return rows
+
+
 def _fusion_one(settings, dt=None, gap_factor=None):
     def one(gyr, acc, mag, mask, feedback):
         ahrs = imufusion.Ahrs()
         ahrs.set_settings(settings)
-        gyr_deg = np.degrees(gyr).tolist()
-        acc_g = (acc / _G).tolist()
-        mag = None if mag is None else mag.tolist()
+        gyr_deg = _rows(np.degrees(gyr))
+        acc_g = _rows(acc / _G)
+        mag = None if mag is None else _rows(mag)
         n_t = mask.shape[-1]
         out = np.empty((n_t, 4))
+        normalised = np.zeros(n_t, dtype=bool)  # Fusion computes in float32: each output row normalised once
+
+        def normalise(t):
+            out[t] /= fixed_order.norm(out[t])
+            normalised[t] = True
+
         if feedback is not None:
             blend_at, q_s, mu = feedback
         received = np.flatnonzero(mask).tolist()
         prev = -1
         for t in received:
             if gap_factor is not None and prev >= 0 and t - prev > 1:  # dead reckoning over the gap
+                normalise(prev)
                 out[prev + 1:t] = _predict_gap(out[prev], gyr[prev], t - prev - 1, dt, gap_factor)
                 ahrs.set_quaternion(out[t - 1])
             prev = t
@@ -270,16 +308,15 @@ def _fusion_one(settings, dt=None, gap_factor=None):
                 ahrs.update_no_magnetometer(gyr_deg[t], acc_g[t])
             else:
                 ahrs.update(gyr_deg[t], acc_g[t], mag[t])
+            out[t] = ahrs.get_quaternion()
             if feedback is not None and blend_at[t]:
-                q = ahrs.get_quaternion().astype(float)
-                q = _slerp(q_s[t], q / fixed_order.norm(q), mu[t])
-                ahrs.set_quaternion(q)
-                out[t] = q
-            else:
-                out[t] = ahrs.get_quaternion()
-            out[t] /= fixed_order.norm(out[t])  # Fusion computes in float32
+                out[t] = _slerp(q_s[t], _unit(out[t]), mu[t])
+                ahrs.set_quaternion(out[t])
         if gap_factor is not None and 0 <= prev < n_t - 1:  # a gap at the end
+            normalise(prev)
             out[prev + 1:] = _predict_gap(out[prev], gyr[prev], n_t - 1 - prev, dt, gap_factor)
+        rest = mask & ~normalised  # the others at once: the same arithmetic per row, vectorised
+        out[rest] /= fixed_order.norm(out[rest])[:, None]
         return out
 
     return one
@@ -425,10 +462,27 @@ def _vqf_set_quat9d(filt, q_f: np.ndarray, use_mag: bool = True) -> None:
     """
     state = filt.state
     half = -0.5 * state["delta"] if use_mag else 0.0
-    undo_delta = np.array([np.cos(half), 0.0, 0.0, np.sin(half)])
-    gyr_quat = Q.multiply(Q.conjugate(np.asarray(state["accQuat"])), Q.multiply(undo_delta, q_f))
-    state["gyrQuat"] = gyr_quat / fixed_order.norm(gyr_quat)
+    undo_delta = (np.cos(half), 0.0, 0.0, np.sin(half))
+    acc_w, acc_x, acc_y, acc_z = (float(v) for v in state["accQuat"])
+    state["gyrQuat"] = np.array(_unit(_hamilton((acc_w, -acc_x, -acc_y, -acc_z), _hamilton(undo_delta, q_f))))
     filt.state = state
+
+
+def _unit(q) -> tuple:
+    """``q / ‖q‖`` of a 4-sequence in Python floats: :func:`wsnlib.fixed_order.norm`'s sum order
+    (the same bits), without its array overhead (called per sample)."""
+    w, x, y, z = (float(v) for v in q)
+    norm = math.sqrt(w * w + x * x + y * y + z * z)
+    return w / norm, x / norm, y / norm, z / norm
+
+
+def _hamilton(p, q) -> tuple:
+    """``p ⊗ q`` of two 4-sequences in Python floats: :func:`wsnlib.quaternion.multiply`'s
+    arithmetic, term for term (the same bits), without its array overhead (called per sample)."""
+    pw, px, py, pz = (float(v) for v in p)
+    qw, qx, qy, qz = (float(v) for v in q)
+    return (pw * qw - px * qx - py * qy - pz * qz, pw * qx + px * qw + py * qz - pz * qy,
+            pw * qy - px * qz + py * qw + pz * qx, pw * qz + px * qy - py * qx + pz * qw)
 
 
 def _vqf_one(fs: float, params: dict, gap_factor=None):

@@ -9,8 +9,10 @@ sentences.
 
 Fair tuning
 -----------
-Each method has a grid of at most :data:`MAX_SETTINGS` settings (the same budget for the
-peers and for ours).  Tuning happens **once**, at the headline profile (:data:`HEADLINE`,
+Each method has a hand-picked grid of at most :data:`DEFAULT_BUDGET` settings (the same budget
+for the peers and for ours); :func:`with_budget` gives every method any other number, the grid
+first and then quasi-random draws over the method's search space (``--budget 1000`` on the
+command line).  Tuning happens **once**, at the headline profile (:data:`HEADLINE`,
 Gilbert–Elliott 10 %, mean burst 3 packets of 6 samples, for notebook 10; lossless for
 notebook 05): every setting is scored by the trial's total RMSE over movement samples (the
 mean over the headline's loss draws), and leave-one-trial-out
@@ -41,6 +43,14 @@ received rate in a gap (``gap="constant_rate"``) instead of holding.  :data:`GAT
 
 The grids are module constants (:data:`KALMAN_GRID`, ...) built with
 :func:`settings_grid`; ``default_methods(grids={...})`` replaces any of them.
+
+Where it runs
+-------------
+Every run of a method on a trial is an independent job (:func:`wsnlib.parallel.run_jobs`):
+local worker processes by default (``n_jobs``), or the workers of a Dask cluster
+(``scheduler="tcp://host:8786"``, ``--scheduler`` on the command line).  Masks are drawn
+before the jobs start and results are gathered in a fixed order, so the tables are the same
+wherever the jobs ran.
 
 Latency
 -------
@@ -75,6 +85,7 @@ from wsnlib.studies.loss_tolerance.evaluation import (
 )
 from wsnlib.studies.loss_tolerance.registry import (
     BETA_GRID,
+    DEFAULT_BUDGET,
     FS,
     FUSION_GRID,
     FUSION_HYBRID_GRID,
@@ -86,22 +97,23 @@ from wsnlib.studies.loss_tolerance.registry import (
     KINDS,
     LATENCY_RULES,
     MADGWICK_BETA,
-    MAX_SETTINGS,
     PROFILES,
     VQF_GRID,
     VQF_HYBRID_GRID,
+    Choice,
     Method,
+    Range,
     default_methods,
     paper001_methods,
     paper001_profiles,
-    quick_methods,
     settings_grid,
+    with_budget,
 )
 
 __all__ = [
     "AFTER_GAP_S", "BETA_GRID", "FS", "FUSION_GRID", "FUSION_HYBRID_GRID", "GAP_PREDICTION_PAIRS", "GATING_PAIRS",
-    "HEADLINE", "HYBRID_GRID", "KALMAN_GRID", "KINDS", "LATENCY_RULES", "MADGWICK_BETA", "MAX_SETTINGS", "PROFILES",
+    "HEADLINE", "HYBRID_GRID", "KALMAN_GRID", "KINDS", "LATENCY_RULES", "MADGWICK_BETA", "DEFAULT_BUDGET", "PROFILES",
     "RECOVERY_THRESHOLD_DEG", "VQF_GRID", "VQF_HYBRID_GRID", "LossToleranceResult", "Method",
-    "default_methods", "evaluate", "load_recordings", "paper001_methods", "paper001_profiles", "quick_methods",
-    "response_window_s", "settings_grid", "single_frame_trust",
+    "Choice", "Range", "default_methods", "evaluate", "load_recordings", "paper001_methods", "paper001_profiles",
+    "response_window_s", "settings_grid", "single_frame_trust", "with_budget",
 ]

@@ -9,7 +9,12 @@ with PASS/MISS and margins, the two side questions (does gating the single frame
 hybrids, does predicting through a gap help the peers) and where the best causal filter's error
 lies.  ``--out FILE.csv`` also writes the per-trial table.
 
-    python -m wsnlib.studies.loss_tolerance [--quick] [--seed 2021] [--draws 1] [--trials NAME ...] [--out F.csv]
+The runs go to local worker processes (``--jobs``, default one per core), or to a Dask cluster
+(``--scheduler tcp://host:8786``); ``--budget N`` gives every method N settings
+(:func:`~wsnlib.studies.loss_tolerance.with_budget`), e.g. 1,000 over every BROAD trial on a cluster:
+
+    python -m wsnlib.studies.loss_tolerance [--quick] [--seed 2021] [--draws 1] [--trials NAME ...]
+        [--budget N] [--jobs N | --scheduler ADDRESS] [--out F.csv]
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ import time
 
 import numpy as np
 
+from wsnlib import parallel
 from wsnlib.io.broad import broad_trials
 from wsnlib.studies import loss_tolerance as study
 from wsnlib.studies.loss_tolerance import summary
@@ -28,6 +34,13 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m wsnlib.studies.loss_tolerance",
                                      description="Loss-tolerant orientation on BROAD recordings (notebook 10's study).")
     parser.add_argument("--quick", action="store_true", help="2 trials, 2 settings per method")
+    parser.add_argument("--budget", type=int, metavar="N",
+                        help="settings per method: the grid, then draws over its search space "
+                             "(default: the hand-picked grids, at most 8)")
+    parser.add_argument("--jobs", type=int, default=-1, metavar="N",
+                        help="local worker processes (default -1: one per core; 1: none)")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="run on the Dask cluster of this scheduler, e.g. tcp://host:8786")
     parser.add_argument("--seed", type=int, default=2021, help="seed of the loss masks and the bootstrap")
     parser.add_argument("--draws", type=int, default=1, help="Gilbert-Elliott masks per trial and profile")
     parser.add_argument("--trials", nargs="+", metavar="NAME", help="BROAD trial names (default: every one present)")
@@ -42,13 +55,27 @@ def main(argv=None) -> int:
         names = names[:2]
     if len(names) < 2:
         raise SystemExit("need at least 2 BROAD trials (in $WSNLIB_BROAD_DIR, or --trials) for leave-one-trial-out")
-    methods = study.quick_methods() if args.quick else study.default_methods()
+    loss_rng, boot_rng, budget_rng = np.random.default_rng(args.seed).spawn(3)
+    methods = study.default_methods()
+    budget = 2 if args.quick and args.budget is None else args.budget
+    if budget is not None:
+        methods = study.with_budget(methods, budget, rng=budget_rng)
+    where = f"Dask cluster {args.scheduler}" if args.scheduler else f"{args.jobs} local job(s)"
     print(f"{len(names)} BROAD trials, tuned at {study.HEADLINE} (mean burst 3 packets of 6 samples), "
-          f"{args.draws} draw(s) per trial and random profile, seed {args.seed}")
+          f"{args.draws} draw(s) per trial and random profile, seed {args.seed}, "
+          f"{max(len(m.grid) for m in methods.values())} settings per method, on {where}")
+    try:
+        client = parallel.connect(args.scheduler) if args.scheduler else None
+    except ValueError as exc:
+        raise SystemExit(f"--scheduler: {exc}") from None
     start = time.perf_counter()
     recordings = study.load_recordings(names, progress=False)
-    loss_rng, boot_rng = np.random.default_rng(args.seed).spawn(2)
-    result = study.evaluate(recordings, rng=loss_rng, methods=methods, draws=args.draws, progress=True)
+    try:
+        result = study.evaluate(recordings, rng=loss_rng, methods=methods, draws=args.draws, n_jobs=args.jobs,
+                                scheduler=client, progress=True)
+    finally:
+        if client is not None:
+            client.close()
     elapsed = time.perf_counter() - start
     if args.out:
         result.per_trial.to_csv(args.out, index=False)

@@ -12,7 +12,7 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
-from wsnlib import loss, loto, metrics
+from wsnlib import loss, loto, metrics, parallel
 from wsnlib.orientation import SingleFrameGate, single_frame_trusted
 from wsnlib.studies.loss_tolerance.registry import FS, HEADLINE, PROFILES, Method, default_methods
 
@@ -48,7 +48,8 @@ class LossToleranceResult:
         profile, ``error`` (method → total error (°) per sample under it, NaN where the
         reference is missing) and ``lossless`` (the same without loss).
     seconds : pandas.Series
-        Run time per method (s, tuning and scoring).
+        Run time per method (s, tuning and scoring), summed over its jobs wherever they ran
+        (compute time, not wall-clock time).
     methods : dict[str, Method]
     profiles : tuple of LossProfile
     """
@@ -113,6 +114,30 @@ def _score_rows(name, method, rows, setting, rec, masks, quat):
     return out, total
 
 
+#: Settings per tuning job: a budget of 8 makes one job per method and trial.
+SETTINGS_PER_JOB = 8
+
+
+def _tuning_job(method, rec, received, settings):
+    """Headline RMSE (total, heading, inclination; mean over the masks ``received``) of each of
+    ``settings`` on one trial ``(len(settings), 3)``, and the seconds it took."""
+    start = time.perf_counter()
+    scores = np.empty((len(settings), 3))
+    for i, setting in enumerate(settings):
+        rmse = metrics.broad_rmse_deg(method.run(rec, setting, received), rec.quat_ref, rec.movement)
+        scores[i] = [np.mean(rmse[key]) for key in ("total", "heading", "inclination")]
+    return scores, time.perf_counter() - start
+
+
+def _scoring_job(name, method, rec, masks, rows, setting, burst):
+    """Result rows of one method on one trial under every mask; its total error without loss and
+    under the burst profile (row ``burst``, or None) for the traces; the seconds it took."""
+    start = time.perf_counter()
+    quat = method.run(rec, setting, masks)
+    new_rows, total = _score_rows(name, method, rows, setting, rec, masks, quat)
+    return new_rows, total[0], None if burst is None else total[burst], time.perf_counter() - start
+
+
 def _masks(profiles, n_samples: int, rng: np.random.Generator, draws: int):
     """Masks ``(K, T)`` of every profile (``draws`` of each random one) and each row's (profile, draw)."""
     masks, rows = [], []
@@ -124,8 +149,13 @@ def _masks(profiles, n_samples: int, rng: np.random.Generator, draws: int):
 
 
 def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[str, Method] | None = None,
-             profiles=PROFILES, headline: str = HEADLINE, draws: int = 1, progress: bool = True) -> LossToleranceResult:
+             profiles=PROFILES, headline: str = HEADLINE, draws: int = 1, n_jobs: int = -1, scheduler=None,
+             progress: bool = True) -> LossToleranceResult:
     """Tune every method leave-one-trial-out at ``headline`` and score it under every profile.
+
+    Every run of a method on a trial is a job of :func:`wsnlib.parallel.run_jobs` (up to
+    :data:`SETTINGS_PER_JOB` settings per tuning job); the results do not depend on where
+    the jobs ran.
 
     Parameters
     ----------
@@ -143,8 +173,12 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
         Profile at which the settings are tuned.
     draws : int
         Masks drawn per trial for each random (Gilbert–Elliott) profile, ≥ 1.
+    n_jobs : int
+        Local worker processes (-1, default: one per core; 1: none, everything in this process).
+    scheduler : str or distributed.Client, optional
+        Run the jobs on a Dask cluster instead (address ``"tcp://host:8786"``, or a client).
     progress : bool
-        Show a tqdm progress bar over the trials.
+        Show tqdm progress bars over the jobs.
 
     Returns
     -------
@@ -184,17 +218,23 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
     for name, trial_rng in zip(names, rng.spawn(len(names)), strict=True):
         masks[name], rows[name] = _masks(profiles, recordings[name].n_samples, trial_rng, draws)
     seconds = dict.fromkeys(methods, 0.0)
+    # Tuning jobs, one per method, trial and SETTINGS_PER_JOB settings.  Without a cluster, each
+    # method's first job runs in this process first: each kernel is compiled once, into numba's
+    # on-disk cache, which the local workers then read.
+    where = [(m, j, first) for j in range(len(names)) for m, method in methods.items()
+             for first in range(0, len(method.grid), SETTINGS_PER_JOB)]
+    where.sort(key=lambda job: (job[1], job[2]) != (0, 0))
+    at_headline = {name: [k for k, (profile, _) in enumerate(rows[name]) if profile.name == headline]
+                   for name in names}
+    jobs = [(methods[m], recordings[names[j]], masks[names[j]][at_headline[names[j]]],
+             methods[m].grid[first:first + SETTINGS_PER_JOB]) for m, j, first in where]
     scores = {m: np.empty((len(methods[m].grid), len(names), 3)) for m in methods}  # total, heading, inclination
-    for j, name in enumerate(_progress(names, f"tuning at {headline}", progress)):
-        rec = recordings[name]
-        at_headline = [k for k, (profile, _) in enumerate(rows[name]) if profile.name == headline]
-        for m, method in methods.items():
-            start = time.perf_counter()
-            for i, setting in enumerate(method.grid):
-                quat = method.run(rec, setting, masks[name][at_headline])
-                rmse = metrics.broad_rmse_deg(quat, rec.quat_ref, rec.movement)
-                scores[m][i, j] = [np.mean(rmse[key]) for key in ("total", "heading", "inclination")]
-            seconds[m] += time.perf_counter() - start
+    warm_up = len(methods) if scheduler is None else 0
+    done = parallel.run_jobs(_tuning_job, jobs, n_jobs=n_jobs, scheduler=scheduler, in_process_first=warm_up,
+                             progress=progress, desc=f"tuning at {headline}")
+    for (m, j, first), (score, elapsed) in zip(where, done, strict=True):
+        scores[m][first:first + len(score), j] = score
+        seconds[m] += elapsed
     choice = {m: loto.leave_one_out_choice(scores[m][..., 0]) for m in methods}
     tuning = pd.DataFrame([{"method": m, "setting_index": i, "setting": str(s), "trial": name,
                             "rmse_total": scores[m][i, j, 0], "rmse_heading": scores[m][i, j, 1],
@@ -204,24 +244,25 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
     choices = pd.DataFrame([{"method": m, "trial": name, "setting_index": int(choice[m][j]),
                              "setting": str(methods[m].grid[choice[m][j]])}
                             for m in methods for j, name in enumerate(names)])
+    bursts = {name: next((k for k, (profile, _) in enumerate(rows[name]) if profile.model == "burst"), None)
+              for name in names}
+    jobs = [(name, method, recordings[name], masks[name], rows[name], method.grid[choice[m][j]], bursts[name])
+            for j, name in enumerate(names) for m, method in methods.items()]
+    done = iter(parallel.run_jobs(_scoring_job, jobs, n_jobs=n_jobs, scheduler=scheduler, progress=progress,
+                                  desc="scoring every profile"))
     results, traces = [], {}
-    for j, name in enumerate(_progress(names, "scoring every profile", progress)):
-        rec = recordings[name]
-        trace = {"time_s": np.arange(rec.n_samples) / FS, "error": {}, "lossless": {}}
-        burst = next((k for k, (profile, _) in enumerate(rows[name]) if profile.model == "burst"), None)
-        if burst is not None:
-            trace["received"] = masks[name][burst]
-            trace["burst_ends"] = np.flatnonzero(metrics.gap_end_mask(masks[name][burst]))
-        for m, method in methods.items():
-            start = time.perf_counter()
-            setting = method.grid[choice[m][j]]
-            quat = method.run(rec, setting, masks[name])
-            new_rows, total = _score_rows(name, method, rows[name], setting, rec, masks[name], quat)
+    for name in names:
+        trace = {"time_s": np.arange(recordings[name].n_samples) / FS, "error": {}, "lossless": {}}
+        if bursts[name] is not None:
+            trace["received"] = masks[name][bursts[name]]
+            trace["burst_ends"] = np.flatnonzero(metrics.gap_end_mask(masks[name][bursts[name]]))
+        for m in methods:
+            new_rows, lossless, burst_error, elapsed = next(done)
             results += new_rows
-            trace["lossless"][m] = total[0]
-            if burst is not None:
-                trace["error"][m] = total[burst]
-            seconds[m] += time.perf_counter() - start
+            trace["lossless"][m] = lossless
+            if burst_error is not None:
+                trace["error"][m] = burst_error
+            seconds[m] += elapsed
         traces[name] = trace
     return LossToleranceResult(per_trial=pd.DataFrame(results), tuning=tuning, choices=choices, traces=traces,
                                seconds=pd.Series(seconds, name="seconds"), methods=methods, profiles=profiles)

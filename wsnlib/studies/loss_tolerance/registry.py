@@ -1,9 +1,11 @@
-"""The loss-tolerance study's registries: methods with their grids, and the loss profiles.
+"""The loss-tolerance study's registries: methods with their grids and search spaces, and the loss profiles.
 
 :func:`default_methods` and :data:`PROFILES` are notebook 10's (issue 11's study),
 :func:`paper001_methods` and :func:`paper001_profiles` notebook 05's (paper 001's options on real
-recordings).  What each method and profile is, and why the grids are as they are: the package
-docstring, :mod:`wsnlib.studies.loss_tolerance`.
+recordings).  :func:`with_budget` gives every method of a registry the same number of settings
+(its hand-picked grid first, then quasi-random draws over its search space).  What each method
+and profile is, and why the grids are as they are: the package docstring,
+:mod:`wsnlib.studies.loss_tolerance`.
 """
 
 from __future__ import annotations
@@ -11,9 +13,11 @@ from __future__ import annotations
 import dataclasses
 import functools
 import itertools
+import zlib
 from collections.abc import Callable, Mapping
 
 import numpy as np
+from scipy.stats import qmc
 
 from wsnlib.loss import LossProfile, hold_last
 from wsnlib.orientation import (
@@ -30,8 +34,9 @@ from wsnlib.studies.hybrid_tuning import hybrid_options, mu_options
 
 #: Sampling rate of the study (Hz): the paper's 50 Hz; BROAD is resampled to it.
 FS = 50.0
-#: Largest grid of any method (the tuning budget, the same for peers and ours).
-MAX_SETTINGS = 8
+#: The default tuning budget: every hand-picked grid holds at most this many settings (the same
+#: for peers and ours); :func:`with_budget` sets another.
+DEFAULT_BUDGET = 8
 #: Madgwick's recommended β (rad/s), the data-fusion gain inside our hybrid.
 MADGWICK_BETA = 0.041
 #: Kinds of method: causal (ours), peer (other libraries), offline.
@@ -43,20 +48,66 @@ LATENCY_RULES = {"none": "0 s: causal, each sample on arrival",
 
 
 @dataclasses.dataclass(frozen=True)
+class Range:
+    """A setting's range in a search space: ``low`` to ``high``, uniform on a log scale with
+    ``log``, rounded to an integer with ``integer`` (floats keep 3 significant digits)."""
+
+    low: float
+    high: float
+    log: bool = True
+    integer: bool = False
+
+    def __post_init__(self):
+        if not (np.isfinite(self.low) and np.isfinite(self.high) and self.low < self.high):
+            raise ValueError(f"Range needs finite low < high, got {self.low!r}, {self.high!r}")
+        if self.log and self.low <= 0:
+            raise ValueError(f"a log Range needs low > 0, got {self.low!r}")
+
+    def value(self, u: float):
+        """The value at ``u`` ∈ [0, 1) of the range."""
+        if self.log:
+            x = float(np.exp(np.log(self.low) + u * (np.log(self.high) - np.log(self.low))))
+        else:
+            x = self.low + u * (self.high - self.low)
+        return int(round(x)) if self.integer else float(f"{x:.3g}")
+
+
+@dataclasses.dataclass(frozen=True)
+class Choice:
+    """A setting taking one of ``values`` (equally often) in a search space."""
+
+    values: tuple
+
+    def __post_init__(self):
+        if len(self.values) == 0:
+            raise ValueError("Choice needs at least one value")
+
+    def value(self, u: float):
+        """The value at ``u`` ∈ [0, 1): ``values[floor(u · len(values))]``."""
+        return self.values[min(int(u * len(self.values)), len(self.values) - 1)]
+
+
+@dataclasses.dataclass(frozen=True)
 class Method:
-    """One entry of the registry: how to run a method with a setting, its grid, kind and latency.
+    """One entry of the registry: how to run a method with a setting, its grid, kind, latency
+    and search space.
 
     Attributes
     ----------
     name : str
     kind : {"causal", "peer", "offline"}
     grid : tuple of dict
-        Settings tried by the tuning (at most :data:`MAX_SETTINGS`).
+        Settings tried by the tuning, in order (at least one).
     run : callable
         ``run(recording, setting, received) -> quat``: ``received`` ``(M, T)`` bool, ``quat``
         ``(M, T, 4)`` ENU quaternions, signals of ``recording`` sampled at :data:`FS`.
+        A module-level function or a ``functools.partial`` of one: it is pickled to the
+        worker processes of the sweeps.
     latency : {"none", "gap", "offline"}
         Key of :data:`LATENCY_RULES`.
+    space : mapping setting name → Range or Choice
+        Where :func:`with_budget` draws settings beyond ``grid``; empty (default): nothing to
+        tune beyond the grid.
     """
 
     name: str
@@ -64,14 +115,18 @@ class Method:
     grid: tuple
     run: Callable
     latency: str = "none"
+    space: Mapping = dataclasses.field(default_factory=dict)
 
     def __post_init__(self):
         if self.kind not in KINDS:
             raise ValueError(f"kind must be one of {KINDS}, got {self.kind!r}")
         if self.latency not in LATENCY_RULES:
             raise ValueError(f"latency must be one of {tuple(LATENCY_RULES)}, got {self.latency!r}")
-        if not 1 <= len(self.grid) <= MAX_SETTINGS:
-            raise ValueError(f"grid of {self.name!r} must hold 1 to {MAX_SETTINGS} settings, got {len(self.grid)}")
+        if len(self.grid) == 0:
+            raise ValueError(f"grid of {self.name!r} must hold at least one setting")
+        for key, dimension in dict(self.space).items():
+            if not isinstance(dimension, Range | Choice):
+                raise ValueError(f"space[{key!r}] of {self.name!r} must be a Range or a Choice, got {dimension!r}")
 
 
 def _madgwick(rec, setting, received, **options):
@@ -122,8 +177,10 @@ def settings_grid(fixed: Mapping | None = None, **axes) -> tuple[dict, ...]:
 
 #: Madgwick's β (rad/s) tried for every Madgwick variant.
 BETA_GRID = settings_grid(beta=(0.01, 0.02, 0.041, 0.07, 0.1, 0.2, 0.4, 0.8))
+BETA_SPACE = {"beta": Range(0.005, 1.0)}
 #: ρτ (samples) of our hybrid, ρ = 1 (plain and gated).
 HYBRID_GRID = settings_grid(rho_tau=(1, 3, 6, 12, 24, 48, 96, 192))
+HYBRID_SPACE = {"rho_tau": Range(1, 384, integer=True)}
 #: Our Kalman filter and smoother (``replay``, and :class:`wsnlib.orientation.KalmanSettings`
 #: fields; the rest at their defaults): gap replay on/off, how strongly the accelerometer's noise
 #: grows with the recent linear-acceleration level, and the order / window (s) of the linear
@@ -132,14 +189,23 @@ HYBRID_GRID = settings_grid(rho_tau=(1, 3, 6, 12, 24, 48, 96, 192))
 KALMAN_GRID = tuple({"replay": replay, "acc_disturbance_factor": factor,
                      "gap_rate_prediction_order": order, "gap_rate_prediction_window_s": window}
                     for replay in (True, False) for factor in (4.0, 16.0) for order, window in ((24, 3.0), (48, 6.0)))
+#: Beyond the grid (:func:`with_budget`), the order and the window vary independently; a window
+#: shorter than 3 × order samples makes the filter predict at a constant rate instead.
+KALMAN_SPACE = {"replay": Choice((True, False)), "acc_disturbance_factor": Range(1.0, 64.0),
+                "gap_rate_prediction_order": Range(4, 64, integer=True),
+                "gap_rate_prediction_window_s": Range(1.0, 10.0)}
 #: Fusion's gain (plain and with constant-rate prediction in a gap).
 FUSION_GRID = settings_grid(gain=(0.1, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0))
+FUSION_SPACE = {"gain": Range(0.05, 32.0)}
 #: Fusion wrapped in our hybrid (plain and gated): gain × ρτ (samples).
 FUSION_HYBRID_GRID = settings_grid(gain=(0.5, 2.0), rho_tau=(6, 24, 96, 384))
+FUSION_HYBRID_SPACE = {"gain": Range(0.25, 8.0), "rho_tau": Range(3, 768, integer=True)}
 #: VQF's τ_acc, τ_mag (s): the first 8 of a 3 × 3 product (plain and with constant-rate prediction).
-VQF_GRID = settings_grid(tauAcc=(1.0, 3.0, 10.0), tauMag=(3.0, 9.0, 30.0))[:MAX_SETTINGS]
+VQF_GRID = settings_grid(tauAcc=(1.0, 3.0, 10.0), tauMag=(3.0, 9.0, 30.0))[:DEFAULT_BUDGET]
+VQF_SPACE = {"tauAcc": Range(0.3, 30.0), "tauMag": Range(1.0, 100.0)}
 #: VQF with its authors' defaults, wrapped in our hybrid: ρτ (samples).
 VQF_HYBRID_GRID = settings_grid({"tauAcc": 3.0, "tauMag": 9.0}, rho_tau=(6, 24, 96, 384))
+VQF_HYBRID_SPACE = {"rho_tau": Range(3, 768, integer=True)}
 
 
 def default_methods(grids: Mapping[str, tuple] | None = None) -> dict[str, Method]:
@@ -156,32 +222,36 @@ def default_methods(grids: Mapping[str, tuple] | None = None) -> dict[str, Metho
     ----------
     grids : mapping method name → sequence of dict, optional
         Grids replacing the default ones (module constants such as :data:`KALMAN_GRID`) of the
-        methods named, e.g. ``{"Kalman": settings_grid(replay=(True, False))}``; each
-        holds 1 to :data:`MAX_SETTINGS` settings.
+        methods named, e.g. ``{"Kalman": settings_grid(replay=(True, False))}``.  For the same
+        number of settings for every method, see :func:`with_budget`.
     """
     entries = [
-        Method("hold_last", "causal", BETA_GRID, _madgwick),
-        Method("constant_rate", "causal", BETA_GRID, functools.partial(_madgwick, gap="constant_rate")),
+        Method("hold_last", "causal", BETA_GRID, _madgwick, space=BETA_SPACE),
+        Method("constant_rate", "causal", BETA_GRID, functools.partial(_madgwick, gap="constant_rate"),
+               space=BETA_SPACE),
         Method("gyro_interpolation", "causal", BETA_GRID, functools.partial(_madgwick, replay=True),
-               latency="gap"),
-        Method("hybrid (feedback)", "causal", HYBRID_GRID, _hybrid),
-        Method("gated hybrid (feedback)", "causal", HYBRID_GRID, functools.partial(_hybrid, gated=True)),
-        Method("Kalman", "causal", KALMAN_GRID, functools.partial(_kalman, offline=False)),
-        Method("smoother", "offline", KALMAN_GRID, functools.partial(_kalman, offline=True), latency="offline"),
-        Method("Fusion", "peer", FUSION_GRID, functools.partial(_peer, library="Fusion", hybrid=False)),
+               latency="gap", space=BETA_SPACE),
+        Method("hybrid (feedback)", "causal", HYBRID_GRID, _hybrid, space=HYBRID_SPACE),
+        Method("gated hybrid (feedback)", "causal", HYBRID_GRID, functools.partial(_hybrid, gated=True),
+               space=HYBRID_SPACE),
+        Method("Kalman", "causal", KALMAN_GRID, functools.partial(_kalman, offline=False), space=KALMAN_SPACE),
+        Method("smoother", "offline", KALMAN_GRID, functools.partial(_kalman, offline=True), latency="offline",
+               space=KALMAN_SPACE),
+        Method("Fusion", "peer", FUSION_GRID, functools.partial(_peer, library="Fusion", hybrid=False),
+               space=FUSION_SPACE),
         Method("Fusion, constant rate", "peer", FUSION_GRID,
-               functools.partial(_peer, library="Fusion", hybrid=False, gap="constant_rate")),
+               functools.partial(_peer, library="Fusion", hybrid=False, gap="constant_rate"), space=FUSION_SPACE),
         Method("Fusion + hybrid (feedback)", "peer", FUSION_HYBRID_GRID,
-               functools.partial(_peer, library="Fusion", hybrid=True)),
+               functools.partial(_peer, library="Fusion", hybrid=True), space=FUSION_HYBRID_SPACE),
         Method("Fusion + gated hybrid (feedback)", "peer", FUSION_HYBRID_GRID,
-               functools.partial(_peer, library="Fusion", hybrid=True, gated=True)),
-        Method("VQF", "peer", VQF_GRID, functools.partial(_peer, library="VQF", hybrid=False)),
+               functools.partial(_peer, library="Fusion", hybrid=True, gated=True), space=FUSION_HYBRID_SPACE),
+        Method("VQF", "peer", VQF_GRID, functools.partial(_peer, library="VQF", hybrid=False), space=VQF_SPACE),
         Method("VQF, constant rate", "peer", VQF_GRID,
-               functools.partial(_peer, library="VQF", hybrid=False, gap="constant_rate")),
+               functools.partial(_peer, library="VQF", hybrid=False, gap="constant_rate"), space=VQF_SPACE),
         Method("VQF (defaults)", "peer", ({"tauAcc": 3.0, "tauMag": 9.0},),
                functools.partial(_peer, library="VQF", hybrid=False)),
         Method("VQF + hybrid (feedback)", "peer", VQF_HYBRID_GRID,
-               functools.partial(_peer, library="VQF", hybrid=True)),
+               functools.partial(_peer, library="VQF", hybrid=True), space=VQF_HYBRID_SPACE),
     ]
     methods = {m.name: m for m in entries}
     for name, grid in dict(grids or {}).items():
@@ -191,17 +261,63 @@ def default_methods(grids: Mapping[str, tuple] | None = None) -> dict[str, Metho
     return methods
 
 
+def _space_draws(method: Method, n: int, seed: int) -> list[dict]:
+    """``n`` settings of ``method``'s space: a scrambled Sobol sequence, the first grid setting's
+    other entries kept.  Seeded by ``seed`` and the space and grid (not the name), so methods that
+    share both (a pair of :data:`GATING_PAIRS`, the Kalman filter and its smoother) share draws."""
+    names = list(method.space)
+    key = zlib.crc32(repr((sorted((k, repr(v)) for k, v in method.space.items()), method.grid)).encode())
+    sobol = qmc.Sobol(len(names), scramble=True, rng=np.random.default_rng([seed, key]))
+    points = sobol.random_base2(int(np.ceil(np.log2(n))))[:n]
+    return [{**method.grid[0], **{name: method.space[name].value(u) for name, u in zip(names, point, strict=True)}}
+            for point in points]
+
+
+def with_budget(methods: Mapping[str, Method], budget: int, *, rng: np.random.Generator | None = None
+                ) -> dict[str, Method]:
+    """The registry with ``budget`` settings per method: the tuning budget, the same for every method.
+
+    A method keeps the first ``budget`` settings of its hand-picked grid; when its grid is
+    shorter, quasi-random draws over its search space (:attr:`Method.space`, a scrambled Sobol
+    sequence, so the draws cover the space evenly) fill it up.  A method without a space (e.g.
+    ``"VQF (defaults)"``: its authors' setting) keeps its grid.  ``with_budget(methods, 2)`` is
+    the quick mode; ``with_budget(methods, 1000, rng=...)`` a cluster's sweep.
+
+    Parameters
+    ----------
+    methods : mapping name → Method
+    budget : int
+        Settings per method, ≥ 1.
+    rng : numpy.random.Generator, optional
+        Seeds the draws; needed only when some grid is shorter than ``budget``.
+
+    Raises
+    ------
+    ValueError
+        ``budget`` not a positive integer, or draws needed without ``rng``.
+    """
+    if isinstance(budget, bool) or not isinstance(budget, int | np.integer) or budget < 1:
+        raise ValueError(f"budget must be a positive integer, got {budget!r}")
+    budget = int(budget)
+    short = [name for name, m in methods.items() if m.space and len(m.grid) < budget]
+    if short and not isinstance(rng, np.random.Generator):
+        raise ValueError(f"a budget of {budget} draws settings for {', '.join(short)}: pass rng, a "
+                         f"numpy.random.Generator")
+    seed = int(rng.integers(2**63)) if short else 0
+    out = {}
+    for name, method in methods.items():
+        grid = method.grid[:budget]
+        if name in short:
+            grid = grid + tuple(_space_draws(method, budget - len(grid), seed))
+        out[name] = dataclasses.replace(method, grid=grid)
+    return out
+
+
 #: Pairs (without, with) of the study's two side questions: does gating the single frame
 #: help the hybrids, and does constant-rate prediction in a gap help the peers?
 GATING_PAIRS = (("hybrid (feedback)", "gated hybrid (feedback)"),
                 ("Fusion + hybrid (feedback)", "Fusion + gated hybrid (feedback)"))
 GAP_PREDICTION_PAIRS = (("Fusion", "Fusion, constant rate"), ("VQF", "VQF, constant rate"))
-
-
-def quick_methods(methods: Mapping[str, Method] | None = None, n_settings: int = 2) -> dict[str, Method]:
-    """The registry with each grid cut to its first ``n_settings`` settings (quick mode)."""
-    methods = default_methods() if methods is None else methods
-    return {name: dataclasses.replace(m, grid=m.grid[:n_settings]) for name, m in methods.items()}
 
 
 #: Name of the headline profile (tuning and targets).
