@@ -136,7 +136,9 @@ constants the compiled step reads (``constants.gyro_var``) are in
 :func:`~._kalman_kernels.inject`, one sample :func:`~._kalman_kernels.kalman_step`, the loop
 :func:`~._kalman_kernels.kalman_stream` (also the forward pass of
 :func:`wsnlib.orientation.smooth_orientation`) and the parallel batch
-:func:`~._kalman_kernels.run_kalman`; this module holds the public functions
+:func:`~._kalman_kernels.run_kalman` (speed by structure: ``predict`` propagates only the
+non-zero blocks of F, written as two shears ``F = F_v F_θ``, and every measurement update is a
+sequence of scalar ones); this module holds the public functions
 (:func:`kalman_orientation` over recordings, :func:`kalman_step` on a :class:`KalmanState` one
 sample at a time) and :class:`KalmanReference`, the same equations as numpy matrices.  What
 happens in a gap (the rates, the replay) is :mod:`wsnlib.orientation.gaps`, shared with
