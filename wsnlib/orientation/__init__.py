@@ -8,7 +8,10 @@ mask ``(..., T)``.  One door each:
 * :func:`madgwick` — Madgwick's filter, holding its estimate over gaps (paper 001's receiver);
 * :func:`estimate_orientation` — Madgwick's filter with every loss-handling option: paper
   001's hybrid SLERP (eqs. (3)–(4)) and its Sec. V alternatives (:mod:`.loss_handling`);
-* :func:`kalman_orientation` — the gap-aware error-state Kalman filter (:mod:`.kalman`);
+* :func:`kalman_orientation` — the gap-aware error-state Kalman filter (:mod:`.kalman`); the
+  same filter one sample at a time for a live receiver: :func:`kalman_initial_state` and
+  :func:`kalman_step` on a :class:`KalmanState`; its equations as numpy matrices:
+  :class:`KalmanReference`;
 * :func:`smooth_orientation` — its offline RTS smoother with curves across gaps
   (:mod:`.smoothing`);
 * :func:`fusion_orientation`, :func:`vqf_orientation` — x-io Fusion and VQF as peers with the
@@ -58,7 +61,14 @@ holds the argument checks (the vocabulary's among them) the public functions sha
 """
 
 from wsnlib.orientation.hybrid_blend import SingleFrameGate, single_frame_trusted
-from wsnlib.orientation.kalman import KalmanSettings, kalman_orientation
+from wsnlib.orientation.kalman import (
+    KalmanReference,
+    KalmanSettings,
+    KalmanState,
+    kalman_initial_state,
+    kalman_orientation,
+    kalman_step,
+)
 from wsnlib.orientation.loss_handling import estimate_orientation
 from wsnlib.orientation.lost_run import effective_lost_run, slerp_weight
 from wsnlib.orientation.madgwick import madgwick, madgwick_step
@@ -68,13 +78,17 @@ from wsnlib.orientation.smoothing import smooth_orientation
 from wsnlib.orientation.triad import tilt_quaternion, triad
 
 __all__ = [
+    "KalmanReference",
     "KalmanSettings",
+    "KalmanState",
     "SingleFrameGate",
     "davenport",
     "effective_lost_run",
     "estimate_orientation",
     "fusion_orientation",
+    "kalman_initial_state",
     "kalman_orientation",
+    "kalman_step",
     "madgwick",
     "madgwick_step",
     "quest",
