@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _calibration import BROAD_CALIBRATION_TRIALS
 
 from wsnlib import paths
 from wsnlib import quaternion as Q
@@ -51,15 +52,7 @@ class CopyDownloader:
         Path(output_file).write_bytes(data)
 
 
-SHARED_TRIALS = [  # the 17 trials of ../shared/data/broad (see its README)
-    "02_undisturbed_slow_rotation_B", "04_undisturbed_slow_rotation_with_breaks_A",
-    "05_undisturbed_slow_rotation_with_breaks_B", "07_undisturbed_fast_rotation_B",
-    "09_undisturbed_fast_rotation_with_breaks_B", "11_undisturbed_slow_translation_B",
-    "14_undisturbed_slow_translation_with_breaks_B", "16_undisturbed_fast_translation_B",
-    "25_disturbed_tapping_B", "27_disturbed_phone_vibration_B", "29_disturbed_stationary_magnet_B",
-    "30_disturbed_stationary_magnet_C", "31_disturbed_stationary_magnet_D", "33_disturbed_attached_magnet_2cm",
-    "34_disturbed_attached_magnet_3cm", "35_disturbed_attached_magnet_4cm", "36_disturbed_attached_magnet_5cm",
-]
+SHARED_TRIALS = list(BROAD_CALIBRATION_TRIALS)  # the 17 trials of ../shared/data/broad (see its README)
 BLOB_ONLY = {13, 17, 19, 20, 22, 23, 37, 38, 39}  # trials whose SHA-256 the registry lacks
 
 
