@@ -110,6 +110,21 @@ def test_the_study_gives_the_same_tables_on_one_process_local_processes_and_a_da
             assert set(other.seconds.index) == set(result.seconds.index) and (other.seconds > 0).all()
 
 
+def test_a_budget_beyond_one_job_is_scored_setting_by_setting_as_in_a_small_grid():
+    """With more settings than SETTINGS_PER_JOB a method's tuning is split over jobs; each
+    setting's score is still the one it gets on its own."""
+    recordings = {f"trial{i}": _recording(i, n=300) for i in range(2)}
+    profiles = [p for p in lt.PROFILES if p.name in ("lossless", lt.HEADLINE)]
+    method = lt.with_budget({"hold_last": lt.default_methods()["hold_last"]}, lt.SETTINGS_PER_JOB + 3,
+                            rng=np.random.default_rng(1))["hold_last"]
+    tail = dataclasses.replace(method, grid=method.grid[lt.SETTINGS_PER_JOB:])
+    runs = [lt.evaluate(recordings, rng=np.random.default_rng(5), methods={"hold_last": m}, profiles=profiles,
+                        n_jobs=2, progress=False).tuning for m in (method, tail)]
+    whole = runs[0][runs[0]["setting_index"] >= lt.SETTINGS_PER_JOB].reset_index(drop=True)
+    pd.testing.assert_frame_equal(whole.drop(columns="setting_index"), runs[1].drop(columns="setting_index"))
+    assert len(runs[0]) == (lt.SETTINGS_PER_JOB + 3) * 2
+
+
 def test_run_jobs_keeps_the_jobs_order_and_checks_its_arguments():
     from wsnlib.parallel import run_jobs
 

@@ -77,6 +77,7 @@ command line.  This package's door gathers the names of the first two.
 from wsnlib.studies.loss_tolerance.evaluation import (
     AFTER_GAP_S,
     RECOVERY_THRESHOLD_DEG,
+    SETTINGS_PER_JOB,
     LossToleranceResult,
     evaluate,
     load_recordings,
@@ -113,7 +114,7 @@ from wsnlib.studies.loss_tolerance.registry import (
 __all__ = [
     "AFTER_GAP_S", "BETA_GRID", "FS", "FUSION_GRID", "FUSION_HYBRID_GRID", "GAP_PREDICTION_PAIRS", "GATING_PAIRS",
     "HEADLINE", "HYBRID_GRID", "KALMAN_GRID", "KINDS", "LATENCY_RULES", "MADGWICK_BETA", "DEFAULT_BUDGET", "PROFILES",
-    "RECOVERY_THRESHOLD_DEG", "VQF_GRID", "VQF_HYBRID_GRID", "LossToleranceResult", "Method",
+    "RECOVERY_THRESHOLD_DEG", "SETTINGS_PER_JOB", "VQF_GRID", "VQF_HYBRID_GRID", "LossToleranceResult", "Method",
     "Choice", "Range", "default_methods", "evaluate", "load_recordings", "paper001_methods", "paper001_profiles",
     "response_window_s", "settings_grid", "single_frame_trust", "with_budget",
 ]
