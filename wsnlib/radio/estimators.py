@@ -318,7 +318,9 @@ class ProbabilisticKNN(_FingerprintEstimator):
         return out
 
     def _gmm(self, X: np.ndarray, inverse: np.ndarray) -> np.ndarray:
+        from sklearn import config_context
         from sklearn.mixture import GaussianMixture
+        from threadpoolctl import threadpool_limits
 
         n_fp, n_anchors = self.radio_map_.shape
         min_bw = float(self.min_bandwidth_db)
@@ -330,6 +332,7 @@ class ProbabilisticKNN(_FingerprintEstimator):
         weights = np.zeros((n_fp, n_anchors, n_max))
         order = np.argsort(inverse, kind="stable")
         bounds = np.searchsorted(inverse[order], np.arange(n_fp + 1))
+        serial, threaded = [], []  # cells to fit: (position, anchor, readings, components)
         for pos in range(n_fp):
             rows = X[order[bounds[pos] : bounds[pos + 1]]]
             for anchor in range(n_anchors):
@@ -342,11 +345,24 @@ class ProbabilisticKNN(_FingerprintEstimator):
                 if n_comp == 1 and np.ptp(values) == 0:
                     means[pos, anchor, 0], sigmas[pos, anchor, 0], weights[pos, anchor, 0] = values[0], min_bw, 1.0
                     continue
+                # The k-means start of a fit sums readings per OpenMP thread (chunks of 256); one
+                # thread gives the same bits for one chunk or whole-dBm readings (exact sums), and
+                # spares these tiny fits the threads' cost (most of their time on a busy machine).
+                exact = values.size <= 256 or np.all(values == np.round(values))
+                (serial if exact else threaded).append((pos, anchor, values, n_comp))
+
+        def fit_cells(cells):
+            for pos, anchor, values, n_comp in cells:
                 gmm = GaussianMixture(n_components=n_comp, covariance_type="spherical", reg_covar=min_bw**2,
                                       random_state=int(seeds[pos, anchor])).fit(values[:, None])
                 means[pos, anchor, :n_comp] = gmm.means_[:, 0]
                 sigmas[pos, anchor, :n_comp] = np.sqrt(gmm.covariances_)
                 weights[pos, anchor, :n_comp] = gmm.weights_
+
+        with config_context(assume_finite=True, skip_parameter_validation=True):  # the readings are checked
+            with threadpool_limits(limits=1, user_api="openmp"):
+                fit_cells(serial)
+            fit_cells(threaded)
         offset = self.grid_[None, None, :, None] - means[:, :, None, :]  # (L, A, G, C)
         mass = _bin_mass(offset, sigmas[:, :, None, :])
         return np.einsum("lagc,lac->lag", mass, weights)
