@@ -70,14 +70,16 @@ import numpy as np
 import pandas as pd
 
 from wsnlib._validation import check_positive, check_type
-from wsnlib.io.rss import block_order
 from wsnlib.io.sidecar import (
+    check_columns,
     check_names,
+    check_order,
     check_sidecar_units,
     finite_column,
-    load_sidecar,
     name_column,
+    read_table,
     sidecar_path,
+    sort_rows,
     write_table_with_sidecar,
 )
 from wsnlib.testbed import TARGET_NAMES
@@ -129,50 +131,13 @@ def _check_kind(kind) -> str:
 
 def _validate(df, kind: str, targets, where: str) -> pd.DataFrame:
     """Check and normalise a sample table; errors name ``where`` and the column."""
-    if not isinstance(df, pd.DataFrame):
-        raise ValueError(f"{where}: expected a pandas DataFrame, got {type(df).__name__}")
-    expected = list(columns(kind))
-    got = list(df.columns)
-    if got != expected:
-        missing = [c for c in expected if c not in got]
-        unknown = [c for c in got if c not in expected]
-        detail = f"missing {missing}" if missing else f"unknown {unknown}" if unknown else f"order {got}"
-        raise ValueError(f"{where}: columns must be exactly {expected} ({detail})")
-    if len(df) == 0:
-        raise ValueError(f"{where}: has no data rows")
+    check_columns(df, columns(kind), where)
     out = {column: finite_column(df, column, where) for column in ("time_s",) + VALUE_COLUMNS[kind]}
     out.update({column: name_column(df, column, where) for column in TEXT_COLUMNS})
     stray = sorted(set(out["target"]) - set(targets))
     if stray:
         raise ValueError(f"{where}: column 'target' has target(s) {stray} not in the sidecar's targets {list(targets)}")
-    return pd.DataFrame({c: out[c] for c in expected})
-
-
-def _sort(frame: pd.DataFrame, targets) -> pd.DataFrame:
-    rank = frame["target"].map({t: i for i, t in enumerate(targets)}).to_numpy()
-    order = np.lexsort((rank, frame["time_s"].to_numpy(), block_order(frame)))
-    return frame.iloc[order].reset_index(drop=True)
-
-
-def _check_order(frame: pd.DataFrame, targets, where: str) -> None:
-    block = block_order(frame)
-    if np.any(np.diff(block) < 0):
-        row = int(np.argmax(np.diff(block) < 0)) + 2
-        raise ValueError(f"{where}: column 'session': rows of each (user, session) must be contiguous (data row {row})")
-    rank = frame["target"].map({t: i for i, t in enumerate(targets)}).to_numpy()
-    time = frame["time_s"].to_numpy()
-    same = block[1:] == block[:-1]
-    dt = np.diff(time)
-    drank = np.diff(rank)
-    backwards = same & ((dt < 0) | ((dt == 0) & (drank < 0)))
-    if np.any(backwards):
-        row = int(np.argmax(backwards)) + 2
-        raise ValueError(f"{where}: column 'time_s': rows must be ordered by time, then target, within each "
-                         f"(user, session); data row {row} is out of order")
-    duplicate = same & (dt == 0) & (drank == 0)
-    if np.any(duplicate):
-        row = int(np.argmax(duplicate)) + 2
-        raise ValueError(f"{where}: column 'target': duplicate sample of one target at one time at data row {row}")
+    return pd.DataFrame({c: out[c] for c in columns(kind)})
 
 
 def write_samples(df: pd.DataFrame, path, kind: str, metadata: dict | None = None, *, rate_hz: float | None = None,
@@ -200,9 +165,6 @@ def write_samples(df: pd.DataFrame, path, kind: str, metadata: dict | None = Non
         The CSV path.  Writing the same table again gives byte-identical files.
     """
     kind = _check_kind(kind)
-    path = Path(path)
-    if path.suffix.lower() == ".json":
-        raise ValueError(f"path must name the CSV file, not the sidecar: {path}")
     targets = check_names(targets, "targets")
     where = f"{kind} table for {path}"
     rate = rate_hz if rate_hz is not None else (getattr(df, "attrs", {}) or {}).get("rate_hz")
@@ -210,8 +172,8 @@ def write_samples(df: pd.DataFrame, path, kind: str, metadata: dict | None = Non
         raise ValueError(f"{where}: rate_hz is required (argument or df.attrs['rate_hz'])")
     rate = check_positive(rate, "rate_hz")
     metadata = check_type({} if metadata is None else metadata, dict, "metadata")
-    frame = _sort(_validate(df, kind, targets, where), targets)
-    _check_order(frame, targets, where)
+    frame = sort_rows(_validate(df, kind, targets, where), {"target": targets})
+    check_order(frame, {"target": targets}, where, "sample of one target at one time")
     for column in ("time_s",) + VALUE_COLUMNS[kind]:
         frame[column] = np.round(frame[column].to_numpy(dtype=float), 6) + 0.0  # -0.0 prints as 0
     sidecar = {"format": FORMAT_NAME, "format_version": FORMAT_VERSION, "kind": kind, "rate_hz": rate,
@@ -244,11 +206,8 @@ def read_samples(path, kind: str | None = None) -> tuple[pd.DataFrame, dict]:
         a sidecar of another kind, units other than :data:`UNITS` of the kind, a row count or
         SHA-256 that disagrees with the CSV (a truncated or edited copy).
     """
-    path = Path(path)
-    if not path.exists():
-        raise ValueError(f"{path}: no such file")
+    meta, raw = read_table(path, FORMAT_NAME, FORMAT_VERSION, what="a sample table")
     side = sidecar_path(path)
-    meta = load_sidecar(path, FORMAT_NAME, FORMAT_VERSION, required=True, what="a sample table")
     if meta.get("kind") not in VALUE_COLUMNS:
         raise ValueError(f"{side}: 'kind' must be one of {KINDS}, got {meta.get('kind')!r}")
     if kind is not None and meta["kind"] != _check_kind(kind):
@@ -259,14 +218,8 @@ def read_samples(path, kind: str | None = None) -> tuple[pd.DataFrame, dict]:
         meta["targets"] = list(check_names(meta.get("targets", ()), "targets"))
     except ValueError as exc:
         raise ValueError(f"{side}: {exc}") from exc
-    if not isinstance(meta.setdefault("metadata", {}), dict):
-        raise ValueError(f"{side}: 'metadata' must be an object")
-    try:
-        raw = pd.read_csv(path, dtype=str, keep_default_na=False, na_filter=False)
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        raise ValueError(f"{path}: cannot be parsed as CSV ({exc})") from exc
     frame = _validate(raw, meta["kind"], meta["targets"], str(path))
-    _check_order(frame, meta["targets"], str(path))
+    check_order(frame, {"target": meta["targets"]}, path, "sample of one target at one time")
     frame.attrs = {"rate_hz": meta["rate_hz"], "kind": meta["kind"]}
     return frame, meta
 

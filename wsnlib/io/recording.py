@@ -74,11 +74,10 @@ import pandas as pd
 
 from wsnlib._validation import as_float_array, check_positive, check_type
 from wsnlib.io.sidecar import (
-    check_name,
     check_names,
-    check_sidecar_units,
     finite_column,
-    load_sidecar,
+    name_column,
+    read_table,
     sidecar_path,
     write_table_with_sidecar,
 )
@@ -200,9 +199,6 @@ def write_recording(recording: Recording, path) -> Path:
         If ``path`` ends in ``.json`` or the metadata is not JSON serialisable.
     """
     check_type(recording, Recording, "recording")
-    path = Path(path)
-    if path.suffix.lower() == ".json":
-        raise ValueError(f"path must name the CSV file, not the sidecar: {path}")
     n_nodes, n_samples = len(recording.nodes), recording.n_samples
     data: dict[str, object] = {"time_s": np.repeat(recording.time_s, n_nodes),
                                "node": np.tile(np.array(recording.nodes, dtype=object), n_samples)}
@@ -222,26 +218,6 @@ def write_recording(recording: Recording, path) -> Path:
                "nodes": list(recording.nodes), "units": UNITS, "frame_convention": FRAME_CONVENTION,
                "has_quaternions": recording.quat_true is not None, "metadata": recording.metadata}
     return write_table_with_sidecar(frame, path, sidecar, FLOAT_FORMAT, what="recording.metadata")
-
-
-def _read_sidecar(path: Path) -> dict | None:
-    side = sidecar_path(path)
-    meta = load_sidecar(path, FORMAT_NAME, FORMAT_VERSION, required=False, what="a recording")
-    if meta is None:
-        return None
-    for key in ("fs_hz", "nodes", "units"):
-        if key not in meta:
-            raise ValueError(f"{side}: missing key {key!r}")
-    try:
-        check_positive(meta["fs_hz"], "fs_hz")
-    except ValueError as exc:
-        raise ValueError(f"{side}: {exc}") from exc
-    if not isinstance(meta["nodes"], list) or not meta["nodes"]:
-        raise ValueError(f"{side}: 'nodes' must be a non-empty list of node names")
-    check_sidecar_units(meta, UNITS, side)
-    if not isinstance(meta.get("metadata", {}), dict):
-        raise ValueError(f"{side}: 'metadata' must be an object")
-    return meta
 
 
 def read_recording(path) -> Recording:
@@ -268,13 +244,17 @@ def read_recording(path) -> Recording:
         that disagrees with the sidecar's ``fs_hz`` by more than 1 %, or a bad sidecar.
     """
     path = Path(path)
-    if not path.exists():
-        raise ValueError(f"{path}: no such file")
-    meta = _read_sidecar(path)
-    try:
-        frame = pd.read_csv(path, dtype={"node": str}, keep_default_na=False, na_values=[])
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        raise ValueError(f"{path}: cannot be parsed as CSV ({exc})") from exc
+    meta, frame = read_table(path, FORMAT_NAME, FORMAT_VERSION, what="a recording", required=False,
+                             keys=("fs_hz", "nodes", "units"), units=UNITS, dtype={"node": str},
+                             keep_default_na=False, na_values=[])
+    if meta is not None:
+        try:
+            check_positive(meta["fs_hz"], "fs_hz")
+            if not isinstance(meta["nodes"], list):
+                raise ValueError("'nodes' must be a non-empty list of node names")
+            nodes = check_names(meta["nodes"], "nodes")
+        except ValueError as exc:
+            raise ValueError(f"{sidecar_path(path)}: {exc}") from exc
 
     columns = list(frame.columns)
     missing = [c for c in BASE_COLUMNS if c not in columns]
@@ -297,23 +277,13 @@ def read_recording(path) -> Recording:
                          f"but {path} {'has' if quat_present else 'lacks'} the quat_* columns")
 
     numeric = {column: finite_column(frame, column, path) for column in expected if column != "node"}
-    node_col = frame["node"].to_numpy(dtype=object)
-    for row, name in enumerate(node_col):
-        if not isinstance(name, str) or not name.strip():
-            raise ValueError(f"{path}: column 'node' is empty at data row {row + 1}")
-
-    if meta is not None:
-        nodes = tuple(meta["nodes"])
-        for name in nodes:
-            try:
-                check_name(name, "node name")
-            except ValueError as exc:
-                raise ValueError(f"{sidecar_path(path)}: {exc}") from exc
+    node_col = name_column(frame, "node", path)
+    if meta is None:
+        nodes = tuple(dict.fromkeys(node_col))
+    else:
         stray = sorted(set(node_col) - set(nodes))
         if stray:
             raise ValueError(f"{path}: column 'node' has node(s) {stray} not listed in the sidecar")
-    else:
-        nodes = tuple(dict.fromkeys(node_col))
 
     n_nodes = len(nodes)
     counts = {name: int(np.sum(node_col == name)) for name in nodes}
@@ -345,7 +315,7 @@ def read_recording(path) -> Recording:
             if not math.isclose(median_step, 1.0 / fs, rel_tol=0.01):
                 raise ValueError(f"{path}: column 'time_s' has median step {median_step:.6g} s, which "
                                  f"disagrees with fs_hz = {fs:g} in {sidecar_path(path)}")
-        metadata = dict(meta.get("metadata", {}))
+        metadata = dict(meta["metadata"])
     else:
         if n_samples < 2:
             raise ValueError(f"{path}: without a sidecar, fs needs at least two samples")

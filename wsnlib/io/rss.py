@@ -81,12 +81,15 @@ import pandas as pd
 
 from wsnlib._validation import check_positive, check_type
 from wsnlib.io.sidecar import (
+    block_order,
+    check_columns,
     check_names,
-    check_sidecar_units,
+    check_order,
     finite_column,
-    load_sidecar,
     name_column,
+    read_table,
     sidecar_path,
+    sort_rows,
     write_table_with_sidecar,
 )
 from wsnlib.io.vectors import RssVectors, window_readings
@@ -129,19 +132,7 @@ _INT_RE = re.compile(r"^-?\d+$")
 
 def validate_table(df: pd.DataFrame, anchors, targets, where: str) -> pd.DataFrame:
     """Check and normalise a long RSS table; errors name ``where`` and the column."""
-    if not isinstance(df, pd.DataFrame):
-        raise ValueError(f"{where}: expected a pandas DataFrame, got {type(df).__name__}")
-    columns = list(df.columns)
-    missing = [c for c in COLUMNS if c not in columns]
-    if missing:
-        raise ValueError(f"{where}: missing column(s) {missing}; expected {list(COLUMNS)}")
-    unknown = [c for c in columns if c not in COLUMNS]
-    if unknown:
-        raise ValueError(f"{where}: unknown column(s) {unknown}; expected {list(COLUMNS)}")
-    if columns != list(COLUMNS):
-        raise ValueError(f"{where}: columns must be in the order {list(COLUMNS)}, got {columns}")
-    if len(df) == 0:
-        raise ValueError(f"{where}: has no data rows")
+    check_columns(df, COLUMNS, where)
     out = {column: finite_column(df, column, where) for column in FLOAT_COLUMNS}
     rss = df["rss_dbm"]
     if pd.api.types.is_integer_dtype(rss.dtype):
@@ -175,48 +166,9 @@ def validate_table(df: pd.DataFrame, anchors, targets, where: str) -> pd.DataFra
     return pd.DataFrame({c: out[c] for c in COLUMNS})
 
 
-def block_order(frame: pd.DataFrame) -> np.ndarray:
-    """Block index per row: (user, session) pairs numbered in order of first appearance."""
-    return pd.factorize(frame["user"].astype(str) + "\x1f" + frame["session"].astype(str), sort=False)[0]
-
-
-def sort_rows(frame: pd.DataFrame, anchors, targets) -> pd.DataFrame:
-    """Rows in file order: (user, session) blocks in order of appearance, then time, target, anchor."""
-    block = block_order(frame)
-    t_rank = frame["target"].map({t: i for i, t in enumerate(targets)}).to_numpy()
-    a_rank = frame["anchor"].map({a: i for i, a in enumerate(anchors)}).to_numpy()
-    order = np.lexsort((a_rank, t_rank, frame["time_s"].to_numpy(), block))
-    return frame.iloc[order].reset_index(drop=True)
-
-
 def check_rows(frame: pd.DataFrame, anchors, targets, where: str) -> None:
-    """Order, uniqueness and per-packet consistency of an already sorted-or-not table."""
-    block = block_order(frame)
-    if np.any(np.diff(block) < 0):
-        row = int(np.argmax(np.diff(block) < 0)) + 1
-        raise ValueError(f"{where}: column 'session': rows of each (user, session) must be contiguous; data row "
-                         f"{row + 1} returns to an earlier block")
-    t_rank = frame["target"].map({t: i for i, t in enumerate(targets)}).to_numpy()
-    a_rank = frame["anchor"].map({a: i for i, a in enumerate(anchors)}).to_numpy()
-    time = frame["time_s"].to_numpy()
-    key = np.stack([block, time, t_rank, a_rank], axis=1)
-    same_block = block[1:] == block[:-1]
-    step = key[1:] - key[:-1]
-    # Lexicographic comparison of consecutive rows within a block.
-    first_nonzero = np.argmax(step[:, 1:] != 0, axis=1)
-    sign = np.sign(step[np.arange(len(step)), 1 + first_nonzero])
-    all_zero = ~np.any(step[:, 1:] != 0, axis=1)
-    bad_order = same_block & ~all_zero & (sign < 0)
-    if np.any(bad_order):
-        row = int(np.argmax(bad_order)) + 1
-        raise ValueError(f"{where}: column 'time_s': rows must be ordered by time, target, anchor within each "
-                         f"(user, session); data row {row + 1} is out of order")
-    dup = same_block & all_zero
-    if np.any(dup):
-        row = int(np.argmax(dup)) + 1
-        raise ValueError(f"{where}: column 'anchor': duplicate report of one packet by one anchor at data row "
-                         f"{row + 1}")
-    packet = same_block & (step[:, 1] == 0) & (step[:, 2] == 0)
+    """Order, uniqueness and per-packet consistency of a table (:func:`wsnlib.io.sidecar.check_order`)."""
+    packet = check_order(frame, {"target": targets, "anchor": anchors}, where, "report of one packet by one anchor")
     for column in ("label", "x_m", "y_m", "z_m"):
         values = frame[column].to_numpy()
         differs = packet & (values[1:] != values[:-1])
@@ -261,9 +213,6 @@ def write_rss(df: pd.DataFrame, path, metadata: dict | None = None, *, packet_ra
         Bad columns, values or names (naming the column), duplicate or inconsistent packet
         rows, a missing packet rate, metadata that is not JSON.
     """
-    path = Path(path)
-    if path.suffix.lower() == ".json":
-        raise ValueError(f"path must name the CSV file, not the sidecar: {path}")
     anchors = check_names(anchors, "anchors")
     targets = check_names(targets, "targets")
     where = f"table for {path}"
@@ -276,7 +225,7 @@ def write_rss(df: pd.DataFrame, path, metadata: dict | None = None, *, packet_ra
     positions = _check_positions(positions, anchors, where)
     metadata = check_type({} if metadata is None else metadata, dict, "metadata")
 
-    frame = sort_rows(validate_table(df, anchors, targets, where), anchors, targets)
+    frame = sort_rows(validate_table(df, anchors, targets, where), {"target": targets, "anchor": anchors})
     check_rows(frame, anchors, targets, where)
     # Round first and add 0.0 so that -0.0 and tiny negatives print as 0.000000.
     text = frame.copy()
@@ -314,25 +263,6 @@ def _check_positions(positions, anchors, where: str) -> dict:
     return out
 
 
-def _read_sidecar(path: Path) -> dict:
-    side = sidecar_path(path)
-    meta = load_sidecar(path, FORMAT_NAME, FORMAT_VERSION, required=True, what="an RSS recording")
-    for key in ("packet_rate_hz", "anchors", "targets"):
-        if key not in meta:
-            raise ValueError(f"{side}: missing key {key!r}")
-    check_sidecar_units(meta, UNITS, side)
-    try:
-        meta["packet_rate_hz"] = check_positive(meta["packet_rate_hz"], "packet_rate_hz")
-        meta["anchors"] = list(check_names(meta["anchors"], "anchors"))
-        meta["targets"] = list(check_names(meta["targets"], "targets"))
-        meta["anchor_positions_m"] = _check_positions(meta.get("anchor_positions_m", {}), meta["anchors"], str(side))
-    except ValueError as exc:
-        raise ValueError(f"{side}: {exc}") from exc
-    if not isinstance(meta.setdefault("metadata", {}), dict):
-        raise ValueError(f"{side}: 'metadata' must be an object")
-    return meta
-
-
 def read_rss(path) -> tuple[pd.DataFrame, dict]:
     """Read an RSS recording written by :func:`write_rss` (or converted into its format).
 
@@ -361,13 +291,16 @@ def read_rss(path) -> tuple[pd.DataFrame, dict]:
         than :data:`UNITS`; a row count or SHA-256 that disagrees with the CSV).
     """
     path = Path(path)
-    if not path.exists():
-        raise ValueError(f"{path}: no such file")
-    meta = _read_sidecar(path)
+    meta, raw = read_table(path, FORMAT_NAME, FORMAT_VERSION, what="an RSS recording",
+                           keys=("packet_rate_hz", "anchors", "targets"), units=UNITS)
     try:
-        raw = pd.read_csv(path, dtype=str, keep_default_na=False, na_filter=False)
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        raise ValueError(f"{path}: cannot be parsed as CSV ({exc})") from exc
+        meta["packet_rate_hz"] = check_positive(meta["packet_rate_hz"], "packet_rate_hz")
+        meta["anchors"] = list(check_names(meta["anchors"], "anchors"))
+        meta["targets"] = list(check_names(meta["targets"], "targets"))
+        meta["anchor_positions_m"] = _check_positions(meta.get("anchor_positions_m", {}), meta["anchors"],
+                                                      str(sidecar_path(path)))
+    except ValueError as exc:
+        raise ValueError(f"{sidecar_path(path)}: {exc}") from exc
     frame = validate_table(raw, meta["anchors"], meta["targets"], str(path))
     check_rows(frame, meta["anchors"], meta["targets"], str(path))
     frame.attrs = {"packet_rate_hz": meta["packet_rate_hz"], "anchor_positions_m": meta["anchor_positions_m"]}

@@ -3,9 +3,9 @@
 A recording file is ``<name>.csv`` plus ``<name>.json`` (the sidecar).  The formats
 (:mod:`wsnlib.io.recording` for IMU recordings, :mod:`wsnlib.io.rss`, :mod:`wsnlib.io.accel`)
 define their columns and sidecar keys; this module writes both files byte-reproducibly and
-atomically (:func:`write_table_with_sidecar`), and reads and checks a sidecar
-(:func:`load_sidecar`: format name and version, and the CSV's row count and SHA-256 —
-:data:`CSV_ROWS_KEY`, :data:`CSV_SHA256_KEY` — so a truncated or edited CSV is refused).
+atomically (:func:`write_table_with_sidecar`), and reads a CSV with its checked sidecar
+(:func:`read_table`; :func:`load_sidecar`: format name and version, and the CSV's row count and
+SHA-256 — :data:`CSV_ROWS_KEY`, :data:`CSV_SHA256_KEY` — so a truncated or edited CSV is refused).
 The checks every format applies to its columns live here too: numbers (:func:`finite_column`)
 and names (:func:`check_name`, :func:`check_names`, :func:`name_column`: non-empty, without
 commas, quotes, line breaks or surrounding spaces).
@@ -49,7 +49,7 @@ def _json_default(value):
     raise TypeError(f"{type(value).__name__} is not JSON serialisable")
 
 
-def write_table_with_sidecar(frame, path: Path, sidecar: dict, float_format: str, what: str = "metadata") -> Path:
+def write_table_with_sidecar(frame, path, sidecar: dict, float_format: str, what: str = "metadata") -> Path:
     """Write ``frame`` as CSV and ``sidecar`` as ``<name>.json`` (sorted keys), byte-reproducibly.
 
     Shared by the recording formats of :mod:`wsnlib.io.recording`, :mod:`wsnlib.io.rss` and
@@ -57,8 +57,12 @@ def write_table_with_sidecar(frame, path: Path, sidecar: dict, float_format: str
     when the sidecar is not JSON-serialisable.  The sidecar gains :data:`CSV_ROWS_KEY` (the
     number of data rows) and :data:`CSV_SHA256_KEY` (the SHA-256 of the CSV's bytes), which
     :func:`load_sidecar` checks, so a truncated or altered copy is refused.  Both files are
-    written atomically (temporary file + rename), the CSV first.
+    written atomically (temporary file + rename), the CSV first.  ``path`` must name the CSV,
+    not the sidecar (``ValueError``).
     """
+    path = Path(path)
+    if path.suffix.lower() == ".json":
+        raise ValueError(f"path must name the CSV file, not the sidecar: {path}")
     csv_bytes = frame.to_csv(None, index=False, float_format=float_format, lineterminator="\n").encode("utf-8")
     sidecar = {**sidecar, CSV_ROWS_KEY: len(frame), CSV_SHA256_KEY: hashlib.sha256(csv_bytes).hexdigest()}
     try:
@@ -137,6 +141,70 @@ def name_column(frame, column: str, where) -> np.ndarray:
     return values
 
 
+def check_columns(df, columns, where) -> None:
+    """``ValueError`` naming ``where`` unless ``df`` is a DataFrame with exactly ``columns``, in order, and rows."""
+    if not isinstance(df, pd.DataFrame):
+        raise ValueError(f"{where}: expected a pandas DataFrame, got {type(df).__name__}")
+    got, columns = list(df.columns), list(columns)
+    missing = [c for c in columns if c not in got]
+    if missing:
+        raise ValueError(f"{where}: missing column(s) {missing}; expected the columns {columns}")
+    unknown = [c for c in got if c not in columns]
+    if unknown:
+        raise ValueError(f"{where}: unknown column(s) {unknown}; expected the columns {columns}")
+    if got != columns:
+        raise ValueError(f"{where}: columns must be in the order {columns}, got {got}")
+    if len(df) == 0:
+        raise ValueError(f"{where}: has no data rows")
+
+
+def block_order(frame: pd.DataFrame) -> np.ndarray:
+    """Block index per row of a long table: (user, session) pairs numbered in order of first appearance."""
+    return pd.factorize(frame["user"].astype(str) + "\x1f" + frame["session"].astype(str), sort=False)[0]
+
+
+def _row_keys(frame: pd.DataFrame, orders: dict) -> np.ndarray:
+    """Per row: block, ``time_s``, then the rank of each column of ``orders`` in its list of names."""
+    ranks = [frame[column].map({name: i for i, name in enumerate(names)}).to_numpy()
+             for column, names in orders.items()]
+    return np.stack([block_order(frame), frame["time_s"].to_numpy(), *ranks], axis=1)
+
+
+def sort_rows(frame: pd.DataFrame, orders: dict) -> pd.DataFrame:
+    """Rows in file order: (user, session) blocks in order of appearance, then time, then each column
+    of ``orders`` (``{column: names}``) in the order of its names."""
+    return frame.iloc[np.lexsort(_row_keys(frame, orders).T[::-1])].reset_index(drop=True)
+
+
+def check_order(frame: pd.DataFrame, orders: dict, where, duplicate: str) -> np.ndarray:
+    """``ValueError`` naming ``where``, the column and the data row unless ``frame`` is in the file order
+    of :func:`sort_rows` without two rows of equal key (``duplicate`` says what such a pair is).
+
+    Returns, per pair of consecutive rows, whether they share block, time and every column of
+    ``orders`` but the last (the rows of one packet, for the per-packet checks of a format).
+    """
+    key = _row_keys(frame, orders)
+    step = key[1:] - key[:-1]
+    if np.any(step[:, 0] < 0):
+        row = int(np.argmax(step[:, 0] < 0)) + 1
+        raise ValueError(f"{where}: column 'session': rows of each (user, session) must be contiguous; data row "
+                         f"{row + 1} returns to an earlier block")
+    same_block = step[:, 0] == 0
+    # Lexicographic comparison of consecutive rows within a block.
+    first_nonzero = np.argmax(step[:, 1:] != 0, axis=1)
+    sign = np.sign(step[np.arange(len(step)), 1 + first_nonzero])
+    all_zero = ~np.any(step[:, 1:] != 0, axis=1)
+    bad_order = same_block & ~all_zero & (sign < 0)
+    if np.any(bad_order):
+        row = int(np.argmax(bad_order)) + 1
+        raise ValueError(f"{where}: column 'time_s': rows must be ordered by {', '.join(['time', *orders])} within "
+                         f"each (user, session); data row {row + 1} is out of order")
+    if np.any(same_block & all_zero):
+        row = int(np.argmax(same_block & all_zero)) + 1
+        raise ValueError(f"{where}: column {list(orders)[-1]!r}: duplicate {duplicate} at data row {row + 1}")
+    return same_block & ~np.any(step[:, 1:-1] != 0, axis=1)
+
+
 def load_sidecar(path: Path, format_name: str, format_version: int, *, required: bool, what: str) -> dict | None:
     """Read and check the ``<name>.json`` sidecar of a recording file (format name and version).
 
@@ -175,3 +243,34 @@ def check_sidecar_units(meta: dict, units: dict, side: Path) -> None:
         if found.get(key) != unit:
             raise ValueError(f"{side}: units[{key!r}] must be {unit!r} (convert the data first), "
                              f"got {found.get(key)!r}")
+
+
+def read_table(path, format_name: str, format_version: int, *, what: str, required: bool = True, keys=(),
+               units: dict | None = None, **csv_options) -> tuple[dict | None, pd.DataFrame]:
+    """Read the CSV ``path`` of a recording file and its checked sidecar: ``(sidecar or None, table)``.
+
+    The sidecar is checked by :func:`load_sidecar` (``required``, ``what``), must hold every
+    key of ``keys`` and, if given, the ``units`` (:func:`check_sidecar_units`); its
+    ``metadata`` (default ``{}``) must be an object.  The CSV is read by :func:`pandas.read_csv`
+    with ``csv_options`` (default: every column as text, no NA parsing, for the format's own
+    checks).  ``ValueError`` naming the file: none there, a bad sidecar, a CSV that cannot be
+    parsed.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise ValueError(f"{path}: no such file")
+    meta = load_sidecar(path, format_name, format_version, required=required, what=what)
+    if meta is not None:
+        side = sidecar_path(path)
+        for key in keys:
+            if key not in meta:
+                raise ValueError(f"{side}: missing key {key!r}")
+        if units is not None:
+            check_sidecar_units(meta, units, side)
+        if not isinstance(meta.setdefault("metadata", {}), dict):
+            raise ValueError(f"{side}: 'metadata' must be an object")
+    try:
+        table = pd.read_csv(path, **(csv_options or {"dtype": str, "keep_default_na": False, "na_filter": False}))
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{path}: cannot be parsed as CSV ({exc})") from exc
+    return meta, table
