@@ -353,7 +353,7 @@ class SearchData:
 
     def fitted(self, approaches=APPROACHES) -> SearchData:
         """A copy whose estimators for ``approaches`` are fitted (each fitted once, here)."""
-        approaches = _check_approaches(approaches)
+        approaches = _check_choices(approaches, APPROACHES, "approaches")
         changes = {}
         for approach, name, default in (("deterministic", "knn", KNNFingerprint),
                                         ("probabilistic", "pknn", ProbabilisticKNN)):
@@ -372,15 +372,16 @@ class SearchData:
         return dataclasses.replace(self, proximal=proximal)
 
 
-def _check_approaches(approaches) -> tuple[str, ...]:
-    if isinstance(approaches, str):
-        approaches = (approaches,)
-    approaches = tuple(approaches)
-    if not approaches:
-        raise ValueError("approaches must name at least one approach")
-    for a in approaches:
-        _check_approach(a)
-    return tuple(a for a in APPROACHES if a in approaches)
+def _check_choices(values, allowed: tuple[str, ...], name: str) -> tuple[str, ...]:
+    """``values`` (one name or several) as a tuple in the order of ``allowed``; ``ValueError`` naming
+    ``name`` if it is empty or holds a value not in ``allowed``."""
+    values = (values,) if isinstance(values, str) else tuple(values)
+    if not values:
+        raise ValueError(f"{name} must name at least one of {allowed}")
+    for value in values:
+        if value not in allowed:
+            raise ValueError(f"{name} must be among {allowed}, got {value!r}")
+    return tuple(a for a in allowed if a in values)
 
 
 def _as_users(data) -> tuple[list, list[SearchData]]:

@@ -63,7 +63,7 @@ from wsnlib.optimize.data import (
     SearchGrid,
     Setting,
     _as_users,
-    _check_approaches,
+    _check_choices,
     _check_estimate,
     format_subset,
 )
@@ -224,37 +224,33 @@ def _user_pe(data: SearchData, approach: str, grid: SearchGrid, masks: np.ndarra
     n = data.online_rss.shape[0]
     if approach == "deterministic":
         est = data.knn
-        positions = est.positions_
         knn_cfg = grid.knn_configs()
-        per = len(knn_cfg)
         # (k index, p index) of each unique setting per (subset, metric): k = 1 once, at p index 0
         k_idx = np.array([grid.knn_neighbors.index(k) for k, _ in knn_cfg])
         p_idx = np.array([0 if p is None else grid.powers.index(p) for _, p in knn_cfg])
         terms = {m: copy.copy(est).set_params(metric=m).anchor_terms(data.online_rss) for m in grid.metrics}
-        n_metrics = len(grid.metrics)
-        out = np.empty((ctx.n_variants, masks.shape[0] * n_metrics * per, ctx.movements.size))
-        step = _chunk_size(grid, approach, n, chunk_elements)
-        for start in range(0, masks.shape[0], step):
-            chunk = np.arange(start, min(start + step, masks.shape[0]))
-            for mi, metric in enumerate(grid.metrics):
-                grid_est = knn_grid_from_terms(terms[metric], masks[chunk], positions, grid.knn_neighbors,
+        n_metrics, per = len(grid.metrics), len(knn_cfg)
+
+        def estimates(chunk):  # radio estimates (3, s·per, n) of a chunk of subsets, per metric
+            for metric in grid.metrics:
+                grid_est = knn_grid_from_terms(terms[metric], masks[chunk], est.positions_, grid.knn_neighbors,
                                                grid.powers, metric, coordinates_first=True)  # (3, s, K, P, n)
-                radio = grid_est[:, :, k_idx, p_idx].reshape(3, -1, n)                     # (3, s·per, n)
-                ids = ((chunk[:, None] * n_metrics + mi) * per + np.arange(per)).ravel()
-                out[:, ids] = ctx.movement_pe(radio)
-            bar.update(1)
-        return out
-    est = data.pknn
-    loglik = est.anchor_log_likelihoods(data.online_rss)
-    per = len(grid.pknn_neighbors)
-    out = np.empty((ctx.n_variants, masks.shape[0] * per, ctx.movements.size))
+                yield grid_est[:, :, k_idx, p_idx].reshape(3, -1, n)
+    else:
+        est = data.pknn
+        loglik = est.anchor_log_likelihoods(data.online_rss)
+        n_metrics, per = 1, len(grid.pknn_neighbors)
+
+        def estimates(chunk):
+            yield pknn_grid_from_loglik(loglik, masks[chunk], est.positions_, grid.pknn_neighbors,
+                                        coordinates_first=True).reshape(3, -1, n)            # (3, s, K, n)
+    out = np.empty((ctx.n_variants, masks.shape[0] * n_metrics * per, ctx.movements.size))
     step = _chunk_size(grid, approach, n, chunk_elements)
     for start in range(0, masks.shape[0], step):
         chunk = np.arange(start, min(start + step, masks.shape[0]))
-        radio = pknn_grid_from_loglik(loglik, masks[chunk], est.positions_, grid.pknn_neighbors,
-                                      coordinates_first=True)                            # (3, s, K, n)
-        ids = (chunk[:, None] * per + np.arange(per)).ravel()
-        out[:, ids] = ctx.movement_pe(radio.reshape(3, -1, n))
+        for mi, radio in enumerate(estimates(chunk)):
+            ids = ((chunk[:, None] * n_metrics + mi) * per + np.arange(per)).ravel()
+            out[:, ids] = ctx.movement_pe(radio)
         bar.update(1)
     return out
 
@@ -326,7 +322,7 @@ def search(data, *, approaches=APPROACHES, estimate: str = "hybrid", grid: Searc
         ``metric`` (None for p-kNN), ``k``, ``p_s`` (nullable; <NA> for ``k = 1`` and p-kNN),
         ``user``, ``movement``, ``pe_cm`` (eq. (11), **cm**), ``n_samples`` (rows averaged).
     """
-    approaches = _check_approaches(approaches)
+    approaches = _check_choices(approaches, APPROACHES, "approaches")
     estimate = _check_estimate(estimate)
     grid = check_type(SearchGrid() if grid is None else grid, SearchGrid, "grid")
     labels, users = _as_users(data)

@@ -19,14 +19,9 @@ import numpy as np
 import pandas as pd
 
 from wsnlib._validation import check_type
-from wsnlib.optimize.data import APPROACHES, SearchGrid, _check_approaches, _paired_users, format_subset
+from wsnlib.optimize.data import APPROACHES, SearchGrid, _check_choices, _paired_users, format_subset
 from wsnlib.optimize.engine import DEFAULT_CHUNK_ELEMENTS, _search
-from wsnlib.optimize.selection import _argbest, _Cube, _cubes, _setting_record, proximal_from_selection
-
-# --------------------------------------------------------------------------------------
-# Beyond the paper: how optimistic is picking the best of thousands of settings?
-# --------------------------------------------------------------------------------------
-
+from wsnlib.optimize.selection import _argbest, _Cube, _cubes, _nan_mean, _setting_record, proximal_from_selection
 
 # --------------------------------------------------------------------------------------
 # Selection regret with swapped folds and standard errors; target 2 without the leak
@@ -53,18 +48,6 @@ class _Fold:
     test_movements: np.ndarray
     train_users: np.ndarray
     test_users: np.ndarray
-
-
-def _check_splits(splits) -> tuple[str, ...]:
-    if isinstance(splits, str):
-        splits = (splits,)
-    splits = tuple(splits)
-    if not splits:
-        raise ValueError("splits must name at least one split")
-    for s in splits:
-        if s not in SPLITS:
-            raise ValueError(f"splits must be among {SPLITS}, got {s!r}")
-    return splits
 
 
 def _check_halves(first, second) -> tuple[tuple, tuple]:
@@ -98,12 +81,6 @@ def _folds(cube: _Cube, first, second, splits) -> list[_Fold]:
     return folds
 
 
-def _nanmean(values: np.ndarray, axis) -> np.ndarray:
-    count = np.sum(~np.isnan(values), axis=axis)
-    total = np.nansum(values, axis=axis)
-    return np.where(count > 0, total / np.maximum(count, 1), np.nan)
-
-
 def _fold_picks(cube: _Cube, fold: _Fold) -> dict[str, np.ndarray]:
     """Settings chosen on the fold's selection data: ``global`` (1,) and ``per_movement`` (M′,)."""
     train = cube.user_mean(fold.train_users)[:, fold.train_movements]              # (C, M')
@@ -115,23 +92,23 @@ def _fold_units(cube: _Cube, fold: _Fold, selection: str, picks: np.ndarray) -> 
     """Per test unit (user) of one fold: in-sample, out-of-sample and oracle PE (cm)."""
     train = cube.user_mean(fold.train_users)[:, fold.train_movements]              # (C, M')
     test = cube.pe[:, fold.test_movements][:, :, fold.test_users]                   # (C, M', U')
-    test_mean = _nanmean(test, axis=-1)                                            # (C, M')
+    test_mean = _nan_mean(test, axis=-1)                                            # (C, M')
     in_units = None
     if np.array_equal(fold.train_users, fold.test_users):  # the units are in the selection data too
         in_units = cube.pe[:, fold.train_movements][:, :, fold.test_users]
     if selection == "global":
         pick = int(picks[0])
         oracle = _argbest(_Cube.movement_mean(test_mean))
-        out_u = _nanmean(test[pick], axis=0)                                        # (U',)
-        oracle_u = _nanmean(test[oracle], axis=0)
-        in_u = (_nanmean(in_units[pick], axis=0) if in_units is not None
+        out_u = _nan_mean(test[pick], axis=0)                                        # (U',)
+        oracle_u = _nan_mean(test[oracle], axis=0)
+        in_u = (_nan_mean(in_units[pick], axis=0) if in_units is not None
                 else np.full(out_u.shape, _Cube.movement_mean(train)[pick]))
     else:
         cols = np.arange(test.shape[1])
         oracles = np.array([_argbest(test_mean[:, j]) if not np.all(np.isnan(test_mean[:, j])) else 0 for j in cols])
-        out_u = _nanmean(test[picks, cols], axis=0)                                 # (M', U') → (U',)
-        oracle_u = _nanmean(test[oracles, cols], axis=0)
-        in_u = (_nanmean(in_units[picks, cols], axis=0) if in_units is not None
+        out_u = _nan_mean(test[picks, cols], axis=0)                                 # (M', U') → (U',)
+        oracle_u = _nan_mean(test[oracles, cols], axis=0)
+        in_u = (_nan_mean(in_units[picks, cols], axis=0) if in_units is not None
                 else np.full(out_u.shape, np.nanmean(train[picks, cols])))
     rows = []
     for k, u in enumerate(fold.test_users):
@@ -216,7 +193,7 @@ def selection_regret(results: pd.DataFrame, *, first=(1, 2, 3, 4), second=(5, 6,
         five PE figures.
     """
     first, second = _check_halves(first, second)
-    splits = _check_splits(splits)
+    splits = _check_choices(splits, SPLITS, "splits")
     rows = []
     for approach, cube in _cubes(results).items():
         for fold in _folds(cube, first, second, splits):
@@ -274,10 +251,10 @@ def coupled_selection_regret(target1, target2, *, approaches=APPROACHES, grid: S
         As :func:`selection_regret`, with an outer index level ``target`` (1, 2), or a
         ``target`` column with ``by_unit``.
     """
-    approaches = _check_approaches(approaches)
+    approaches = _check_choices(approaches, APPROACHES, "approaches")
     grid = check_type(SearchGrid() if grid is None else grid, SearchGrid, "grid")
     first, second = _check_halves(first, second)
-    splits = _check_splits(splits)
+    splits = _check_choices(splits, SPLITS, "splits")
     labels1, users1, users2 = _paired_users(target1, target2)
     users1 = [u.fitted(approaches) for u in users1]
     users2 = [u.fitted(approaches) for u in users2]

@@ -83,10 +83,10 @@ class _Cube:
         return _nan_mean(pe if movements is None else pe[:, movements])
 
 
-def _nan_mean(pe: np.ndarray) -> np.ndarray:
-    """Mean over the last axis of the values that are not NaN (NaN where there are none)."""
-    count = np.sum(~np.isnan(pe), axis=-1)
-    return np.where(count > 0, np.nansum(pe, axis=-1) / np.maximum(count, 1), np.nan)
+def _nan_mean(pe: np.ndarray, axis: int = -1) -> np.ndarray:
+    """Mean over ``axis`` of the values that are not NaN (NaN where there are none)."""
+    count = np.sum(~np.isnan(pe), axis=axis)
+    return np.where(count > 0, np.nansum(pe, axis=axis) / np.maximum(count, 1), np.nan)
 
 
 def _argbest(values: np.ndarray) -> int:

@@ -37,7 +37,7 @@ from wsnlib.optimize.data import (
     APPROACHES,
     SearchGrid,
     _check_approach,
-    _check_approaches,
+    _check_choices,
     _check_estimate,
     _paired_users,
     format_subset,
@@ -205,7 +205,7 @@ def paper_tables(target1, target2, *, approaches=APPROACHES, estimate: str = "hy
     approaches, estimate, grid, progress, chunk_elements
         As in :func:`search`.
     """
-    approaches = _check_approaches(approaches)
+    approaches = _check_choices(approaches, APPROACHES, "approaches")
     estimate = _check_estimate(estimate)
     grid = SearchGrid() if grid is None else grid
     labels1, users1, users2 = _paired_users(target1, target2)
