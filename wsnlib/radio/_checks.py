@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wsnlib._validation import check_count, check_positive
+from wsnlib._validation import as_float_array, check_count, check_positive
 
 METRICS = ("euclidean", "manhattan")
 PMF_METHODS = ("histogram", "parzen", "gmm")
@@ -88,14 +88,9 @@ def _check_training(X, y) -> tuple[np.ndarray, np.ndarray]:
     if np.all(readings >= 0.0):
         raise ValueError(f"X holds only readings >= 0 (from {readings.min():g} to {readings.max():g}): that is "
                          "linear power (e.g. mW), not RSS in dBm; convert with 10 * log10(P / 1 mW)")
-    try:
-        y = np.asarray(y, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"y must be a numeric array, got {type(y).__name__}") from exc
+    y = as_float_array(y, "y")
     if y.ndim != 2 or y.shape[0] != X.shape[0] or y.shape[1] == 0:
         raise ValueError(f"y must have shape ({X.shape[0]}, n_coordinates), like X's rows; got {y.shape}")
-    if not np.all(np.isfinite(y)):
-        raise ValueError("y contains NaN or inf")
     return X, y + 0.0  # + 0.0 turns -0.0 into 0.0, so both group together
 
 
@@ -132,7 +127,7 @@ def _as_subset_masks(subset_mask, n_anchors: int) -> tuple[np.ndarray, bool]:
     return mask, single
 
 
-def _check_terms(terms, name: str, positions) -> tuple[np.ndarray, np.ndarray]:
+def _check_terms(terms, name: str, positions, *, log_pmf: bool = False) -> tuple[np.ndarray, np.ndarray]:
     terms = np.asarray(terms, dtype=float)
     if terms.ndim != 3:
         raise ValueError(f"{name} must have shape (n_vectors, n_fingerprints, n_anchors), got {terms.shape}")
@@ -142,6 +137,8 @@ def _check_terms(terms, name: str, positions) -> tuple[np.ndarray, np.ndarray]:
                          f"got {positions.shape}")
     if np.any(np.isnan(terms)):
         raise ValueError(f"{name} contains NaN")
+    if log_pmf and np.any(np.isinf(terms)):
+        raise ValueError(f"{name} contains inf (log-PMFs must be floored)")
     return terms, positions
 
 

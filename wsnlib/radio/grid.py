@@ -288,9 +288,7 @@ def pknn_from_loglik(loglik, subset_mask, positions, n_neighbors=3):
     ndarray, shape (S, n, D) (or (n, D) for a 1-D ``subset_mask``)
         Equal to ``ProbabilisticKNN(k, ..., anchors=subset).fit(...).predict(X)`` per subset.
     """
-    loglik, positions = _check_terms(loglik, "loglik", positions)
-    if np.any(np.isinf(loglik)):
-        raise ValueError("loglik contains inf (log-PMFs must be floored)")
+    loglik, positions = _check_terms(loglik, "loglik", positions, log_pmf=True)
     masks, single = _as_subset_masks(subset_mask, loglik.shape[2])
     k = _check_n_neighbors(n_neighbors, loglik.shape[1])
     est = _pknn_batch(loglik, masks, positions, k)[0]
@@ -319,9 +317,7 @@ def pknn_grid_from_loglik(loglik, subset_mask, positions, n_neighbors=(1, 2, 3, 
     -------
     ndarray, shape (S, K, n, D) (or (K, n, D) for a 1-D ``subset_mask``)
     """
-    loglik, positions = _check_terms(loglik, "loglik", positions)
-    if np.any(np.isinf(loglik)):
-        raise ValueError("loglik contains inf (log-PMFs must be floored)")
+    loglik, positions = _check_terms(loglik, "loglik", positions, log_pmf=True)
     masks, single = _as_subset_masks(subset_mask, loglik.shape[2])
     ks = _check_grid_ints(n_neighbors, "n_neighbors", loglik.shape[1])
     kmax = max(ks)
