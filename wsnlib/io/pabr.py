@@ -190,6 +190,21 @@ def _registry_files(prefix: str, suffix: str = "") -> list[str]:
     """Registry paths starting with ``prefix`` and ending with ``suffix``, sorted."""
     return sorted(name for name in PABR_REGISTRY if name.startswith(prefix) and name.endswith(suffix))
 
+
+def _files_of(folder: str, suffix: str, data_dir, download: bool, downloader) -> list[Path]:
+    """The files ``*<suffix>`` of the dataset's ``folder`` (e.g. ``"hst/set_1"``), sorted.  If it holds
+    none, every such file of the registry is downloaded first (``download=False``: ``FileNotFoundError``)."""
+    path = pabr_dir(data_dir) / folder
+    files = sorted(path.glob(f"*{suffix}"))
+    if not files:
+        if not download:
+            _require_path(path, f"folder {folder}", kind="folder")
+            raise FileNotFoundError(_missing_message(path / f"*{suffix}", f"files of {folder}"))
+        for name in _registry_files(f"{folder}/", suffix):
+            pabr_file(name, data_dir, download=True, downloader=downloader)
+        files = sorted(path.glob(f"*{suffix}"))
+    return files
+
 # --------------------------------------------------------------------------------------
 # Parsing the files into tables
 # --------------------------------------------------------------------------------------
@@ -391,15 +406,7 @@ def load_pabr_fingerprints(set_name: str = "set_1", data_dir=None, *, common_spa
         check_count(common_span_packets, "common_span_packets")
     receivers = load_pabr_receivers(data_dir, download=download, downloader=downloader)
     folder = pabr_dir(data_dir) / "hst" / set_name
-    files = sorted(folder.glob("*.mbd"))
-    if not files:
-        if not download:
-            _require_path(folder, f"fingerprint folder hst/{set_name}", kind="folder")
-            raise FileNotFoundError(f"PABR fingerprint folder {folder} holds no .mbd files (set {PABR_DIR_ENV_VAR}, "
-                                    f"or call with download=True)")
-        for name in _registry_files(f"hst/{set_name}/", ".mbd"):
-            pabr_file(name, data_dir, download=True, downloader=downloader)
-        files = sorted(folder.glob("*.mbd"))
+    files = _files_of(f"hst/{set_name}", ".mbd", data_dir, download, downloader)
     mac_of = dict(zip(receivers["receiver"], receivers["mac"], strict=True))
     contents, meta = [], []
     for path in files:
@@ -447,16 +454,8 @@ def pabr_track_names(data_dir=None, *, download: bool = True, downloader=None) -
     Those in ``trk/``; if it holds none, every track of the registry is downloaded first
     (unless ``download=False``, which raises ``FileNotFoundError``).
     """
-    folder = pabr_dir(data_dir) / "trk"
-    names = sorted(p.name[: -len(_TRACK_SUFFIX)] for p in folder.glob(f"*{_TRACK_SUFFIX}"))
-    if not names:
-        if not download:
-            _require_path(folder, "track folder trk", kind="folder")
-            raise FileNotFoundError(_missing_message(folder / f"*{_TRACK_SUFFIX}", "track files"))
-        for name in _registry_files("trk/", _TRACK_SUFFIX):
-            pabr_file(name, data_dir, download=True, downloader=downloader)
-        names = sorted(p.name[: -len(_TRACK_SUFFIX)] for p in folder.glob(f"*{_TRACK_SUFFIX}"))
-    return names
+    files = _files_of("trk", _TRACK_SUFFIX, data_dir, download, downloader)
+    return sorted(p.name[: -len(_TRACK_SUFFIX)] for p in files)
 
 
 def load_pabr_tracks(tracks=None, data_dir=None, *, download: bool = True, downloader=None) -> pd.DataFrame:
