@@ -289,3 +289,46 @@ def test_readers_refuse_undocumented_units(rng, rss_table, tmp_path, kind, units
         read(path)
     assert sidecar_path(path).name in str(info.value)
     assert repr(key) in str(info.value) or key == "units"
+
+
+# --------------------------------------------------------------------------------------------
+# Issue 23: dataset folders, registries and RSS targets that a user gets wrong
+# --------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("loader", ["broad", "pabr"])
+def test_dataset_folder_variable_naming_a_file_is_refused(tmp_path, monkeypatch, loader):
+    from wsnlib.io import broad, pabr
+
+    module, folder_of = {"broad": (broad, broad.broad_dir), "pabr": (pabr, pabr.pabr_dir)}[loader]
+    a_file = tmp_path / "not_a_folder.mat"
+    a_file.write_bytes(b"x")
+    variable = module.BROAD_DIR_ENV_VAR if loader == "broad" else module.PABR_DIR_ENV_VAR
+    monkeypatch.setenv(variable, str(a_file))
+    with pytest.raises(NotADirectoryError, match=rf"\${variable}.*not_a_folder\.mat is a file"):
+        folder_of()
+    with pytest.raises(NotADirectoryError, match=r"data_dir .*is a file"):
+        folder_of(a_file)
+
+
+def test_malformed_registry_row_names_the_line(tmp_path, monkeypatch):
+    from importlib import resources
+
+    from wsnlib.io import download
+
+    (tmp_path / "registry").mkdir()
+    monkeypatch.setattr(resources, "files", lambda package: tmp_path)
+    (tmp_path / "registry" / "toy.tsv").write_text("# toy\nfile\tsha256\na.mat\tabc\nb.mat\n")
+    with pytest.raises(ValueError, match=r"toy\.tsv, line 4: 1 tab-separated fields, expected 2"):
+        download.read_registry("toy", ["file", "sha256"])
+    with pytest.raises(ValueError, match=r"toy\.tsv: expected the header"):
+        download.read_registry("toy", ["file", "sha256", "bytes"])
+
+
+def test_rss_vectors_of_a_target_without_packets_is_refused():
+    table = pd.DataFrame({"time_s": [0.0, 0.1], "user": "u1", "session": "s1", "target": "T1", "anchor": "A1",
+                          "rss_dbm": [-60, -61], "label": "p0", "x_m": 0.0, "y_m": 0.0, "z_m": 0.0})
+    assert len(RSS.rss_vectors(table, target="T1", anchors=("A1",))) > 0
+    with pytest.raises(ValueError, match=r"target 't1' has no packets.*\['T1'\]"):
+        RSS.rss_vectors(table, target="t1", anchors=("A1",))
+

@@ -320,3 +320,20 @@ def test_trial_validation_names_trial_and_key(trial):
         dataclasses.replace(trial, quat_ref=quat)
     with pytest.raises(ValueError, match="movement"):
         dataclasses.replace(trial, movement=trial.movement.astype(np.uint8))
+
+
+@needs_files
+def test_a_file_replaced_after_verification_is_checked_by_content(tmp_path):
+    """Issue 23: same size and mtime, other bytes (a copy replaced in place): the remembered
+    verification must not let a raw reader error through; the file is hashed again and named."""
+    path = tmp_path / TRIAL_FILE
+    shutil.copyfile(SOURCE_DIR / TRIAL_FILE, path)
+    broad_io.load_broad(TRIAL, tmp_path, download=False)
+    stat = path.stat()
+    data = bytearray(path.read_bytes())
+    data[len(data) // 2 : len(data) // 2 + 64] = bytes(64)  # inside the compressed signals
+    path.write_bytes(bytes(data))
+    os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns))
+    with pytest.raises(ValueError, match="SHA-256") as info:
+        broad_io.load_broad(TRIAL, tmp_path, download=False)
+    assert str(path) in str(info.value)

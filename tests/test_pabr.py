@@ -512,3 +512,58 @@ def test_registry_matches_the_shared_full_files(tmp_path):
     fake = CopyDownloader(SOURCE_DIR)
     downloaded = pabr.load_pabr_tracks("straight_04", tmp_path, downloader=fake)  # verified by the real registry
     pd.testing.assert_frame_equal(downloaded, pabr.load_pabr_tracks("straight_04", SOURCE_DIR))
+
+
+# ------------------------------------------------------------------ files a copy or a conversion got wrong (issue 23)
+
+
+def test_empty_file_is_named(tiny):
+    (tiny / "hst" / "set_1" / "sensor12_0.16_2.19_1.85.mbd").write_bytes(b"")
+    with pytest.raises(ValueError, match=r"sensor12_0\.16_2\.19_1\.85\.mbd: the file is empty"):
+        pabr.load_pabr_fingerprints("set_1", tiny)
+    (tiny / "trk" / "walk_all_sensors.mbd").write_bytes(b"")
+    with pytest.raises(ValueError, match=r"walk_all_sensors\.mbd: the file is empty"):
+        pabr.load_pabr_tracks("walk", tiny)
+
+
+def test_timestamps_in_milliseconds_are_refused(tiny):
+    path = tiny / "hst" / "set_1" / "sensor11_0.16_2.19_1.85.mbd"
+    path.write_text(_hst("sensor11", [-80, -81], t0=1569304545701.0))
+    with pytest.raises(ValueError, match=r"sensor11_0\.16_2\.19_1\.85\.mbd, line 1: timestamp .*milliseconds"):
+        pabr.load_pabr_fingerprints("set_1", tiny)
+    (tiny / "trk" / "walk_all_sensors.mbd").write_text(_trk_line(1581249601408.7, "sensor10", -70, (1, 2, 1.8)))
+    with pytest.raises(ValueError, match=r"walk_all_sensors\.mbd, line 1: timestamp .*milliseconds"):
+        pabr.load_pabr_tracks("walk", tiny)
+
+
+def test_positions_in_centimetres_are_refused(tiny):
+    (tiny / "hst" / "set_1" / "sensor12_1036_28_185.mbd").write_text(_hst("sensor12", [-50]))
+    with pytest.raises(ValueError, match=r"sensor12_1036_28_185\.mbd, line 1: reference point position .* not cm"):
+        pabr.load_pabr_fingerprints("set_1", tiny)
+    lines = _trk_line(10.0, "sensor10", -70, (100.0, 200.0, 180.0)) + _trk_line(10.4, "sensor11", -80, (120, 200, 180))
+    (tiny / "trk" / "walk_all_sensors.mbd").write_text(lines)
+    with pytest.raises(ValueError, match=r"walk_all_sensors\.mbd, line 1: ground-truth position .* not cm"):
+        pabr.load_pabr_tracks("walk", tiny)
+
+
+def test_a_packet_stored_twice_counts_once(tiny):
+    walk = tiny / "trk" / "walk_all_sensors.mbd"
+    first = walk.read_text().splitlines(keepends=True)[0]
+    walk.write_text(walk.read_text() + first)
+    with pytest.warns(UserWarning, match="dropped 1 of 6 packets that repeat an earlier line"):
+        tr = pabr.load_pabr_tracks("walk", tiny)
+    assert len(tr) == 4 and tr.attrs["n_dropped_repeated"] == 1 and tr.attrs["n_packets_read"] == 6
+    path = tiny / "hst" / "set_1" / "sensor11_0.16_2.19_1.85.mbd"
+    path.write_text(path.read_text() + path.read_text().splitlines(keepends=True)[-1])
+    with pytest.warns(UserWarning, match="dropped 1 of 13 packets"):
+        fp = pabr.load_pabr_fingerprints("set_1", tiny)
+    assert (fp["receiver"] == "sensor11").sum() == 3 and fp.attrs["n_dropped_repeated"] == 1
+
+
+def test_a_shuffled_track_is_returned_in_time_order(tiny):
+    walk = tiny / "trk" / "walk_all_sensors.mbd"
+    lines = walk.read_text().splitlines(keepends=True)
+    walk.write_text("".join(lines[::-1]))
+    tr = pabr.load_pabr_tracks("walk", tiny)
+    np.testing.assert_array_equal(tr["timestamp"], [10.0, 10.4, 11.2, 12.1])
+    assert list(tr["receiver"]) == ["sensor10", "sensor11", "sensor10", "sensor12"]

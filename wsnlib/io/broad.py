@@ -138,6 +138,13 @@ def _verify_file(path: Path, expected: RegistryEntry) -> None:
     _VERIFIED_HASHES[key] = actual
 
 
+def _forget_verified(path: Path) -> None:
+    """Drop what :func:`_verify_file` remembers of ``path``, so that the next check hashes its content."""
+    resolved = str(path.resolve())
+    for key in [key for key in _VERIFIED_HASHES if key[0] == resolved]:
+        del _VERIFIED_HASHES[key]
+
+
 def broad_file(filename: str, data_dir=None, *, download: bool = True, downloader=None) -> Path:
     """Path of a verified BROAD file, downloading it first if it is missing.
 
@@ -326,7 +333,15 @@ def load_broad(trial, data_dir=None, *, download: bool = True, downloader=None) 
 
     name = _broad_trial_name(trial)
     path = broad_file(f"{name}.mat", data_dir, download=download, downloader=downloader)
-    mat = scipy.io.loadmat(path)
+    try:
+        mat = scipy.io.loadmat(path)
+    except Exception as exc:  # any reader failure: check the content before blaming the reader
+        # A file replaced after it was verified (same size and mtime) passes the remembered check:
+        # hash it again, which names a changed file; a file whose content is right but unreadable is named here.
+        _forget_verified(path)
+        _verify_file(path, BROAD_REGISTRY[f"{name}.mat"])
+        raise ValueError(f"BROAD trial {name!r}: {path} matches the registry but cannot be read as a MATLAB "
+                         f"file ({type(exc).__name__}: {exc})") from exc
     missing = [key for key in ("imu_gyr", "imu_acc", "imu_mag", "opt_quat", "movement", "sampling_rate")
                if key not in mat]
     if missing:

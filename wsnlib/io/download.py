@@ -39,13 +39,20 @@ class RegistryEntry:
 
 
 def data_folder(data_dir, env_var: str, name: str) -> Path:
-    """A dataset's folder: ``data_dir``, else ``$<env_var>``, else ``<ROOT>/data/raw/<name>`` (not created here)."""
-    if data_dir is not None:
-        return Path(data_dir).expanduser().resolve()
+    """A dataset's folder: ``data_dir``, else ``$<env_var>``, else ``<ROOT>/data/raw/<name>`` (not created here).
+
+    Raises ``NotADirectoryError`` naming the argument or the variable when it names an existing file.
+    """
     override = os.environ.get(env_var)
-    if override:
-        return Path(override).expanduser().resolve()
-    return paths.ROOT / "data" / "raw" / name
+    if data_dir is not None:
+        folder, source = Path(data_dir).expanduser().resolve(), "data_dir"
+    elif override:
+        folder, source = Path(override).expanduser().resolve(), f"${env_var}"
+    else:
+        return paths.ROOT / "data" / "raw" / name
+    if folder.is_file():
+        raise NotADirectoryError(f"{source} must name the {name} folder, but {folder} is a file")
+    return folder
 
 
 def read_registry(name: str, header: list[str]) -> list[list[str]]:
@@ -53,10 +60,16 @@ def read_registry(name: str, header: list[str]) -> list[list[str]]:
     from importlib import resources
 
     text = resources.files("wsnlib").joinpath("registry", f"{name}.tsv").read_text(encoding="utf-8")
-    rows = [line.split("\t") for line in text.splitlines() if line and not line.startswith("#")]
-    if rows[0] != header:
-        raise ValueError(f"wsnlib/registry/{name}.tsv: unexpected header {rows[0]}")
-    return rows[1:]
+    rows = [(number, line.split("\t")) for number, line in enumerate(text.splitlines(), start=1)
+            if line and not line.startswith("#")]
+    if not rows or rows[0][1] != header:
+        found = rows[0][1] if rows else None
+        raise ValueError(f"wsnlib/registry/{name}.tsv: expected the header {header}, got {found}")
+    for number, fields in rows[1:]:
+        if len(fields) != len(header):
+            raise ValueError(f"wsnlib/registry/{name}.tsv, line {number}: {len(fields)} tab-separated fields, "
+                             f"expected {len(header)} ({', '.join(header)})")
+    return [fields for _, fields in rows[1:]]
 
 
 def git_blob_sha1_of(path: Path) -> str:

@@ -47,9 +47,13 @@ What the loaders return
 
 Parsing is strict: a line with the wrong number of fields, a field that is not a number, or a
 non-finite number (``nan``, ``inf``) raises ``ValueError`` naming the file and the line.
-Invalid readings — RSSI above 0 dBm or below −100 dBm (:data:`RSSI_MIN_DBM`) — are dropped.
-How many is in ``DataFrame.attrs`` (``n_packets_read``, ``n_dropped_invalid_rssi``) and
-logged at INFO level.  The dataset has no missing-value code: a receiver that did not hear
+An empty file, a timestamp that is not a Unix time in seconds (milliseconds, say) and a
+position that lies far outside the receivers' extent (centimetres, say) raise ``ValueError``
+naming the file and the line.  Invalid readings — RSSI above 0 dBm or below −100 dBm
+(:data:`RSSI_MIN_DBM`) — are dropped, and so are lines that repeat an earlier one exactly (a
+packet stored twice, with a ``UserWarning``).  How many is in ``DataFrame.attrs``
+(``n_packets_read``, ``n_dropped_repeated``, ``n_dropped_invalid_rssi``) and logged at INFO level.
+The dataset has no missing-value code: a receiver that did not hear
 a packet simply has no line.
 
 Online vectors: :func:`pabr_vectors`
@@ -281,6 +285,9 @@ def load_pabr_receivers(data_dir=None, *, download: bool = True, downloader=None
 
 def _file_bytes(path: Path) -> tuple[bytes, int]:
     data = path.read_bytes()
+    if not data.strip():
+        raise ValueError(f"{path}: the file is empty (every file of the dataset holds packets; an interrupted copy "
+                         f"or download?): delete it to download it again")
     if data and not data.endswith(b"\n"):
         data += b"\n"
     return data, sum(1 for line in data.splitlines() if line.strip())
@@ -347,12 +354,45 @@ def _read_mbd(files: list[tuple[Path, bytes]], names: list[str]) -> pd.DataFrame
     return table
 
 
+#: Above this a timestamp cannot be Unix seconds (year 5138): the dataset's are ~1.6e9 s, in ms ~1.6e12.
+_LARGEST_UNIX_S = 1e11
+
+
+def _check_units(table: pd.DataFrame, receivers: pd.DataFrame, files: list[tuple[Path, bytes]], what: str) -> None:
+    """``ValueError`` naming the file and line of a timestamp in milliseconds or a position not in metres.
+
+    ``table``'s rows are in the order of ``files``' lines.  A position may lie outside the receivers'
+    bounding box of ``cnf/tetam.dev`` (the dataset's points reach 2.4 m out), but not by more than the
+    box's diagonal (at least 5 m): positions in centimetres would put it hundreds of metres out.
+    """
+    time_s = table["timestamp"].to_numpy()
+    if np.any(time_s > _LARGEST_UNIX_S):
+        row = int(np.argmax(time_s > _LARGEST_UNIX_S))
+        path, number, _ = _line_of_row(files, row)
+        raise ValueError(f"{path}, line {number}: timestamp {time_s[row]:.6g} is not a Unix time in seconds "
+                         f"(above {_LARGEST_UNIX_S:.0e}; milliseconds?)")
+    box = receivers[["x", "y", "z"]].to_numpy()
+    low, high = box.min(axis=0), box.max(axis=0)
+    xyz = table[["x", "y", "z"]].to_numpy()
+    outside = np.linalg.norm(xyz - np.clip(xyz, low, high), axis=1)
+    bad = outside > max(5.0, float(np.linalg.norm(high - low)))
+    if np.any(bad):
+        row = int(np.argmax(bad))
+        path, number, _ = _line_of_row(files, row)
+        raise ValueError(f"{path}, line {number}: {what} position {xyz[row].tolist()} lies {outside[row]:.1f} m "
+                         f"outside the receivers' extent in cnf/tetam.dev (positions must be in metres, not cm)")
+
+
 def _drop_invalid(table: pd.DataFrame, what: str) -> pd.DataFrame:
-    valid = (table["rssi"] >= RSSI_MIN_DBM) & (table["rssi"] <= RSSI_MAX_DBM)
-    n_read, n_dropped = len(table), int((~valid).sum())
-    table = table.loc[valid].reset_index(drop=True)
-    table.attrs["n_packets_read"] = n_read
-    table.attrs["n_dropped_invalid_rssi"] = n_dropped
+    """Drop repeated packets (identical rows; one ``UserWarning``) and RSSI outside the valid range; count both."""
+    repeated = table.duplicated().to_numpy()
+    valid = ((table["rssi"] >= RSSI_MIN_DBM) & (table["rssi"] <= RSSI_MAX_DBM)).to_numpy()
+    n_read, n_repeated, n_dropped = len(table), int(repeated.sum()), int((~valid & ~repeated).sum())
+    table = table.loc[valid & ~repeated].reset_index(drop=True)
+    table.attrs.update(n_packets_read=n_read, n_dropped_repeated=n_repeated, n_dropped_invalid_rssi=n_dropped)
+    if n_repeated:
+        warnings.warn(f"PABR {what}: dropped {n_repeated} of {n_read} packets that repeat an earlier line exactly "
+                      f"(the same packet stored twice)", UserWarning, stacklevel=3)
     logger.info("PABR %s: dropped %d of %d packets with RSSI outside [%g, %g] dBm", what, n_dropped, n_read,
                 RSSI_MIN_DBM, RSSI_MAX_DBM)
     return table
@@ -392,7 +432,8 @@ def load_pabr_fingerprints(set_name: str = "set_1", data_dir=None, *, common_spa
         Columns ``point`` (int, numbered in order of (x, y, z)), ``x``, ``y``, ``z`` (m),
         ``receiver`` (categorical, receiver order), ``timestamp`` (s), ``rssi`` (dBm); sorted
         by point, receiver, timestamp.  ``attrs``: ``set_name``, ``n_points``,
-        ``n_packets_read`` (after the cut), ``n_dropped_invalid_rssi``, ``source``.
+        ``n_packets_read`` (after the cut), ``n_dropped_repeated``, ``n_dropped_invalid_rssi``,
+        ``source``.
 
     Raises
     ------
@@ -440,6 +481,7 @@ def load_pabr_fingerprints(set_name: str = "set_1", data_dir=None, *, common_spa
                           "receiver": pd.Categorical(sensor, categories=list(receivers["receiver"])),
                           "timestamp": raw["timestamp"].to_numpy(dtype=float),
                           "rssi": raw["rssi"].to_numpy(dtype=float)})
+    _check_units(table, receivers, contents, "reference point")
     table = table.sort_values(["point", "receiver", "timestamp"], kind="stable").reset_index(drop=True)
     if common_span_packets is not None:
         table = _cut_common_span(table, int(common_span_packets))
@@ -475,8 +517,9 @@ def load_pabr_tracks(tracks=None, data_dir=None, *, download: bool = True, downl
     -------
     DataFrame
         Columns ``track`` (categorical), ``timestamp`` (s), ``receiver`` (categorical),
-        ``rssi`` (dBm), ``x``, ``y``, ``z`` (m, ground truth); in file (time) order within each
-        track.  ``attrs``: ``n_packets_read``, ``n_dropped_invalid_rssi``, ``source``.
+        ``rssi`` (dBm), ``x``, ``y``, ``z`` (m, ground truth); in time order within each track
+        (stable: the files' order where timestamps tie).  ``attrs``: ``n_packets_read``,
+        ``n_dropped_repeated``, ``n_dropped_invalid_rssi``, ``source``.
     """
     receivers = load_pabr_receivers(data_dir, download=download, downloader=downloader)
     folder = pabr_dir(data_dir) / "trk"
@@ -510,6 +553,9 @@ def load_pabr_tracks(tracks=None, data_dir=None, *, download: bool = True, downl
                           "timestamp": raw["timestamp"].to_numpy(dtype=float),
                           "receiver": pd.Categorical(raw["mac"].map(alias_of), categories=list(receivers["receiver"])),
                           **{c: raw[c].to_numpy(dtype=float) for c in ("rssi", "x", "y", "z")}})
+    _check_units(table, receivers, contents, "ground-truth")
+    # receive order is not always time order (sub-millisecond swaps in the dataset's own files)
+    table = table.sort_values(["track", "timestamp"], kind="stable").reset_index(drop=True)
     table = _drop_invalid(table, "tracks")
     unheard = [name for name in receivers["receiver"] if name not in set(table["receiver"])]
     if unheard:

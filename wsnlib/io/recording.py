@@ -66,6 +66,7 @@ The sidecar machinery all CSV + JSON formats share is :mod:`wsnlib.io.sidecar`.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -279,6 +280,9 @@ def read_recording(path) -> Recording:
     numeric = {column: finite_column(frame, column, path) for column in expected if column != "node"}
     node_col = name_column(frame, "node", path)
     if meta is None:
+        warnings.warn(f"{path}: no sidecar {sidecar_path(path).name}; fs and the node order are inferred, and a copy "
+                      f"cut short at a row boundary cannot be told from a shorter recording (write_recording "
+                      f"writes the sidecar with the row count and SHA-256)", UserWarning, stacklevel=2)
         nodes = tuple(dict.fromkeys(node_col))
     else:
         stray = sorted(set(node_col) - set(nodes))

@@ -338,7 +338,7 @@ def rss_vectors(df: pd.DataFrame, window_packets: int | None = None, *, window_s
         Vector columns; default :data:`wsnlib.testbed.ANCHOR_NAMES` (the table's anchors
         must be among them).
     target : str, optional
-        Keep only this target.
+        Keep only this target; a target with no packets in ``df`` is a ``ValueError``.
     fill : None, "last", "floor" or float
         What replaces a missing reading (:mod:`wsnlib.io.vectors`): None keeps NaN
         (training vectors); ``"last"`` carries the anchor's last value forward within the
@@ -365,6 +365,9 @@ def rss_vectors(df: pd.DataFrame, window_packets: int | None = None, *, window_s
         targets = TARGET_NAMES
     frame = validate_table(df, anchors, targets, "rss_vectors table")
     if target is not None:
+        present = list(dict.fromkeys(frame["target"].astype(str)))
+        if target not in present:
+            raise ValueError(f"target {target!r} has no packets in the rss_vectors table; its targets are {present}")
         frame = frame[frame["target"] == target].reset_index(drop=True)
     if len(frame):  # streams (user, session) in order of appearance, then target, then time
         block = block_order(frame)
