@@ -1,0 +1,83 @@
+"""Is a recording plausible as a whole?  Unit and channel mistakes that a sensor person makes.
+
+An orientation filter fed a gyro in deg/s, an accelerometer in g or the accelerometer and the
+magnetometer swapped does not fail: it returns an orientation that is wrong by 15° to 180°,
+silently.  :func:`check_imu_plausible` looks at the whole recording (the medians of the vector
+norms over the received samples, so a few outliers or a fast movement cannot trip it) and raises
+``ValueError`` naming the likely cause.  The bounds are wide on purpose: they refuse only what no
+human-motion recording in the documented units can look like.
+
+* gyroscope (rad/s): the median ‖ω‖ of human motion is below ~3 rad/s (BROAD's fastest trials:
+  ~2.5); above :data:`GYRO_MEDIAN_MAX_RAD_S` = 20 rad/s (1,150 °/s, all the time) the gyro is in
+  deg/s (a 1 rad/s motion reads 57).
+* accelerometer and magnetometer swapped: the median ‖acc‖ of a body sensor stays near g
+  (9.81 m/s²), the median ‖mag‖ near the earth's field (25–65 µT); ‖acc‖ in the field's range
+  together with ‖mag‖ near g is a swap.
+* accelerometer scale (only where a filter uses the magnitude of gravity, ``gravity=``): a median
+  ‖acc‖ off ``gravity`` by more than a factor 2 is an accelerometer in g (median ≈ 1) or a
+  ``gravity`` setting that does not match the data.  Filters that normalise the accelerometer
+  (Madgwick's) pass no ``gravity``: for them any consistent unit is fine.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Above this median ‖gyr‖ (rad/s) a recording's gyro is taken to be in deg/s.
+GYRO_MEDIAN_MAX_RAD_S = 20.0
+#: Median ‖acc‖ range (m/s²) read as "this is the magnetometer" (the earth's field is 25–65 µT).
+SWAPPED_ACC_RANGE = (15.0, 100.0)
+#: Median ‖mag‖ range (µT) read as "this is the accelerometer" (g ≈ 9.81 m/s²).
+SWAPPED_MAG_RANGE = (4.0, 15.0)
+#: Largest factor between the median ‖acc‖ and ``gravity`` (either way).
+ACC_SCALE_FACTOR_MAX = 2.0
+
+
+def _median_norm(vectors: np.ndarray, received: np.ndarray | None) -> float:
+    norms = np.linalg.norm(vectors, axis=-1)
+    if received is not None:
+        norms = norms[np.broadcast_to(received, norms.shape)]
+    return float(np.median(norms)) if norms.size else float("nan")
+
+
+def check_imu_plausible(gyr: np.ndarray, acc: np.ndarray, mag: np.ndarray | None = None,
+                        received: np.ndarray | None = None, *, gravity: float | None = None,
+                        where: str = "") -> None:
+    """Raise ``ValueError`` naming the likely cause if a recording is implausible as a whole.
+
+    Parameters
+    ----------
+    gyr, acc : numpy.ndarray, shape (..., T, 3)
+        Angular rate (rad/s) and specific force (m/s²), body frame; already checked finite.
+    mag : numpy.ndarray, shape (..., T, 3), optional
+        Magnetic field (µT), body frame; None for an IMU without magnetometer.
+    received : numpy.ndarray of bool, broadcastable to (..., T), optional
+        Only received samples count (lost ones may hold anything).
+    gravity : float, optional
+        The magnitude of gravity (m/s²) the caller's filter expects the accelerometer to read at
+        rest; None skips the scale check.
+    where : str
+        Prefix of the message (the calling function's name).
+
+    The checks and their bounds are in the module docstring.  Nothing is checked when no sample
+    is received.
+    """
+    prefix = f"{where}: " if where else ""
+    gyr_median = _median_norm(gyr, received)
+    if gyr_median > GYRO_MEDIAN_MAX_RAD_S:
+        raise ValueError(f"{prefix}gyr looks like deg/s, not rad/s: its median norm is {gyr_median:.3g} "
+                         f"(human motion: below ~3 rad/s); convert it with np.radians")
+    acc_median = _median_norm(acc, received)
+    if mag is not None:
+        mag_median = _median_norm(mag, received)
+        if (SWAPPED_ACC_RANGE[0] <= acc_median <= SWAPPED_ACC_RANGE[1]
+                and SWAPPED_MAG_RANGE[0] <= mag_median <= SWAPPED_MAG_RANGE[1]):
+            raise ValueError(f"{prefix}acc and mag look swapped: median norm of acc {acc_median:.3g} (a magnetic "
+                             f"field in µT?), of mag {mag_median:.3g} (gravity in m/s²?)")
+    if gravity is not None and np.isfinite(acc_median):
+        ratio = acc_median / gravity
+        if not 1.0 / ACC_SCALE_FACTOR_MAX <= ratio <= ACC_SCALE_FACTOR_MAX:
+            in_g = 0.5 <= acc_median <= 2.0
+            hint = "the accelerometer in g? multiply it by 9.80665" if in_g else "acc in other units than m/s²?"
+            raise ValueError(f"{prefix}acc's median norm is {acc_median:.3g} m/s² but the filter's gravity is "
+                             f"{gravity:.4g} m/s²: {hint} (or set gravity to what the data reads at rest)")
