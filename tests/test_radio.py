@@ -23,7 +23,7 @@ def users():
 
 @pytest.fixture(scope="module")
 def training(users):
-    return R.training_session(users[0], rng=np.random.default_rng(11))
+    return R.static_session(users[0], rng=np.random.default_rng(11), hold_s=30.0, session="training")
 
 
 @pytest.fixture(scope="module")
@@ -242,7 +242,7 @@ def test_some_posture_anchor_pairs_are_nearly_constant(training):
 def test_online_static_session_on_another_day(users, training):
     rng = np.random.default_rng(12)
     later = users[0].moved(rng)
-    online = R.online_static_session(later, rng=rng)
+    online = R.static_session(later, rng=rng, hold_s=10.0, session="online_static")
     assert set(online["session"]) == {"online_static"}
     assert sorted(online["label"].unique()) == list(T.POSTURES)
     # The same posture reads more alike on both days than different postures do.

@@ -24,7 +24,7 @@ Kinect and the paper's hand-derived reference (:mod:`.optical`) and whole campai
 (:mod:`.campaign`)::
 
     users = make_users(5, rng=rng)
-    train = training_session(users[0], rng=rng)                     # long RSS table
+    train = static_session(users[0], rng=rng, hold_s=30.0, session="training")  # long RSS table
     online = online_dynamic_session(users[0].moved(rng), rng=rng)   # another day
     kin = movement("lower_P2_P3_P1", 3.0).sample(users[0], fs=50.0)  # ArmKinematics
 
@@ -64,17 +64,15 @@ from wsnlib.sim.imu import ImuSamples, ImuSpec, ideal_imu, simulate_imu, simulat
 from wsnlib.sim.radio import (
     concat_rss,
     online_dynamic_session,
-    online_static_session,
     simulate_rss,
     static_session,
-    training_session,
 )
 from wsnlib.sim.radio_channel import RadioChannel, link_budget
 
 __all__ = [
     "ArmMotion", "ArmTrajectory", "BodyShape", "ImuSamples", "ImuSpec", "RadioChannel", "User", "arc",
     "arm_extension", "arm_kinematics", "concat_rss", "concatenate", "hold", "ideal_imu", "link_budget", "make_users",
-    "minimum_jerk", "movement", "movement_set", "online_dynamic_session", "online_static_session", "pitch_ramp",
-    "reach_and_flex", "simulate_imu", "simulate_recording", "simulate_rss", "static_session", "training_session",
+    "minimum_jerk", "movement", "movement_set", "online_dynamic_session", "pitch_ramp",
+    "reach_and_flex", "simulate_imu", "simulate_recording", "simulate_rss", "static_session",
     "transition", "user_from_height",
 ]

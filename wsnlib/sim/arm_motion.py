@@ -345,15 +345,18 @@ def movement(name: str, duration_s: float, *, label: str | None = None) -> ArmMo
     return arc(postures[0], postures[-1], duration_s, via=via, label=name if label is None else label)
 
 
-def rotate_to(q_start, q_end, duration_s: float, *, label: str = TRANSITION_LABEL) -> ArmMotion:
-    """Turn the arm from orientation ``q_start`` to ``q_end`` at constant angular speed.
+def transition(posture_from, posture_to, duration_s: float, *, label: str = TRANSITION_LABEL) -> ArmMotion:
+    """Move between postures at constant angular speed, arriving in ``posture_to``'s orientation.
 
-    One rotation about the fixed axis of ``q_end ⊗ q_start*`` (SLERP of the orientations,
-    shorter way round), so the arm arrives in ``q_end`` exactly, axial twist included.
-    Equal orientations give a hold.
+    ``posture_from`` / ``posture_to``: a posture name (its :func:`posture_orientation`), an
+    arm direction (3,) (:func:`direction_orientation`) or an orientation quaternion (4,).
+    One rotation about the fixed axis of ``q_to ⊗ q_from*`` (SLERP of the orientations,
+    shorter way round), so the arm arrives in ``q_to`` exactly, axial twist included; equal
+    orientations give a hold.  Used for the unlabelled moves between the recorded postures and
+    movements of a session.
     """
-    q0 = Q.normalize(as_float_array(q_start, "q_start", last_dim=4))
-    q1 = Q.normalize(as_float_array(q_end, "q_end", last_dim=4))
+    q0 = Q.normalize(_as_orientation(posture_from))
+    q1 = Q.normalize(_as_orientation(posture_to))
     rel = Q.canonical(Q.multiply(q1, Q.conjugate(q0)))
     vec_norm = float(fixed_order.norm(rel[1:]))
     angle = 2.0 * float(np.arctan2(vec_norm, rel[0]))
@@ -361,17 +364,6 @@ def rotate_to(q_start, q_end, duration_s: float, *, label: str = TRANSITION_LABE
     if angle < 1e-9:
         return _single_piece(duration, q0, [0.0, 0.0, 1.0], 0.0, label)
     return _single_piece(duration, q0, rel[1:] / vec_norm, angle / duration, label)
-
-
-def transition(posture_from, posture_to, duration_s: float, *, label: str = TRANSITION_LABEL) -> ArmMotion:
-    """Move between postures at constant angular speed, arriving in ``posture_to``'s orientation.
-
-    ``posture_from`` / ``posture_to``: a posture name (its :func:`posture_orientation`), an
-    arm direction (3,) (:func:`direction_orientation`) or an orientation quaternion (4,).
-    Used for the unlabelled moves between the recorded postures and movements of a session;
-    see :func:`rotate_to`.
-    """
-    return rotate_to(_as_orientation(posture_from), _as_orientation(posture_to), duration_s, label=label)
 
 
 def _as_orientation(value) -> np.ndarray:

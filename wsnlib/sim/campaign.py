@@ -52,9 +52,8 @@ from wsnlib.sim.radio import (
     concat_rss,
     online_dynamic_motion,
     online_dynamic_session,
-    online_static_session,
     simulate_rss,
-    training_session,
+    static_session,
 )
 from wsnlib.sim.radio_channel import RadioChannel
 from wsnlib.sim.sunspot import SunspotAcc, SunspotAccSpec, output_times, simulate_sunspot_acc
@@ -92,7 +91,8 @@ def simulate_campaign(n_users: int = 5, *, rng: np.random.Generator, hold_s: flo
     hold_s : float
         Seconds each posture is held in training (paper: about 30 s, ~1000 vectors per target).
     static_hold_s : float
-        Seconds each posture is held in the online static session.
+        Seconds each posture is held in the online static session (not given in the paper;
+        assumed).
     dynamic : bool
         Also simulate the online dynamic session (8 movements).
 
@@ -103,10 +103,10 @@ def simulate_campaign(n_users: int = 5, *, rng: np.random.Generator, hold_s: flo
     users = make_users(check_count(n_users, "n_users"), rng=rng)
     frames, online_users = [], []
     for user in users:
-        frames.append(training_session(user, rng=rng, hold_s=hold_s))
+        frames.append(static_session(user, rng=rng, hold_s=hold_s, session="training"))
         day2 = user.moved(rng)
         online_users.append(day2)
-        frames.append(online_static_session(day2, rng=rng, hold_s=static_hold_s))
+        frames.append(static_session(day2, rng=rng, hold_s=static_hold_s, session="online_static"))
         if dynamic:
             frames.append(online_dynamic_session(day2, rng=rng))
     return Campaign(rss=concat_rss(frames), users=tuple(users), online_users=tuple(online_users))
@@ -463,7 +463,7 @@ def simulate_dynamic_campaign(n_users: int = 5, *, rng: np.random.Generator, hol
     """Training RSS and the online dynamic session with RSS, accelerometers and Kinect, per user.
 
     For each user, in this order from ``rng``: the training session
-    (:func:`wsnlib.sim.radio.training_session`, postures held ``hold_s``), the online day
+    (:func:`wsnlib.sim.radio.static_session`, postures held ``hold_s``), the online day
     (:meth:`User.moved`), the dynamic motion (:func:`wsnlib.sim.radio.online_dynamic_motion`:
     the four movements twice, 2–4 s each at constant speed, short holds and transitions),
     then — all from that one motion — its RSS (:func:`wsnlib.sim.radio.simulate_rss`, session
@@ -504,7 +504,7 @@ def simulate_dynamic_campaign(n_users: int = 5, *, rng: np.random.Generator, hol
     training, dynamic, acc_frames, kinect_frames = [], [], [], []
     online_users, motions, acc_streams, kinect_streams = [], [], [], []
     for user in users:
-        training.append(training_session(user, rng=rng, hold_s=hold_s, channel=channel))
+        training.append(static_session(user, rng=rng, hold_s=hold_s, session="training", channel=channel))
         day2 = user.moved(rng)
         motion = online_dynamic_motion(rng=rng, durations_s=durations_s)
         dynamic.append(simulate_rss(motion, day2, rng=rng, channel=channel, session=DYNAMIC_SESSION))

@@ -7,9 +7,8 @@ docstring gives the equations and the sources of every number): the deterministi
 bursts, per-radio offsets, read noise, rounding and packet loss (:func:`simulate_rss`).
 
 Each session builds an arm motion (:mod:`wsnlib.sim.arm_motion`) and records its RSS with
-:func:`simulate_rss`.  :func:`static_session` is the one static session;
-:func:`training_session` and :func:`online_static_session` are it with the paper's training and
-online defaults; :func:`online_dynamic_session` performs the movements.
+:func:`simulate_rss`.  :func:`static_session` holds the postures (the training and the online
+static sessions); :func:`online_dynamic_session` performs the movements.
 """
 
 from __future__ import annotations
@@ -248,11 +247,13 @@ def static_session(user: User, *, rng: np.random.Generator, hold_s: float, sessi
                    include_transitions: bool = False) -> pd.DataFrame:
     """The user holds P1 … P5 for ``hold_s`` each, moving between them in ``transition_s``.
 
-    Rows recorded while moving are labelled ``"transition"`` and dropped unless
-    ``include_transitions``.  Each hold is the posture turned by a random rotation of
-    ``posture_jitter_deg`` rms per axis (the user's imprecision; *assumed* 2°); the recorded
-    positions are the true, jittered ones.  From ``rng``: the jitter of every posture, then the
-    RSS (:func:`simulate_rss`).
+    Paper 002's training phase holds each posture 30 s (~1000 fingerprint vectors per target),
+    session ``"training"``; its online phase, static part, holds them again on another day
+    (``user.moved(rng)``), session ``"online_static"``.  Rows recorded while moving are
+    labelled ``"transition"`` and dropped unless ``include_transitions``.  Each hold is the
+    posture turned by a random rotation of ``posture_jitter_deg`` rms per axis (the user's
+    imprecision; *assumed* 2°); the recorded positions are the true, jittered ones.  From
+    ``rng``: the jitter of every posture, then the RSS (:func:`simulate_rss`).
 
     Parameters
     ----------
@@ -279,27 +280,6 @@ def static_session(user: User, *, rng: np.random.Generator, hold_s: float, sessi
         df = df[df["label"] != "transition"].reset_index(drop=True)
         df.attrs = attrs
     return df
-
-
-def training_session(user: User, *, rng: np.random.Generator, hold_s: float = 30.0, transition_s: float = 3.0,
-                     posture_jitter_deg: float = 2.0, packet_rate_hz: float = 30.0, channel: RadioChannel | None = None,
-                     session: str = "training", include_transitions: bool = False) -> pd.DataFrame:
-    """Training phase: :func:`static_session` with the paper's 30 s per posture (~1000
-    fingerprint vectors per target), session ``"training"``."""
-    return static_session(user, rng=rng, hold_s=hold_s, session=session, transition_s=transition_s,
-                          posture_jitter_deg=posture_jitter_deg, packet_rate_hz=packet_rate_hz, channel=channel,
-                          include_transitions=include_transitions)
-
-
-def online_static_session(user: User, *, rng: np.random.Generator, hold_s: float = 10.0, transition_s: float = 3.0,
-                          posture_jitter_deg: float = 2.0, packet_rate_hz: float = 30.0,
-                          channel: RadioChannel | None = None, session: str = "online_static",
-                          include_transitions: bool = False) -> pd.DataFrame:
-    """Online phase, static part: :func:`static_session` with ``hold_s`` 10 s (not given in the
-    paper, *assumed*), session ``"online_static"``; pass ``user.moved(rng)`` for another day."""
-    return static_session(user, rng=rng, hold_s=hold_s, session=session, transition_s=transition_s,
-                          posture_jitter_deg=posture_jitter_deg, packet_rate_hz=packet_rate_hz, channel=channel,
-                          include_transitions=include_transitions)
 
 
 def movement_label(index: int, name: str) -> str:
