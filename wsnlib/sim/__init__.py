@@ -18,8 +18,8 @@ joint-angle trajectories (:mod:`.arm`) and paper 002's straight-arm motions (:mo
 both produce it.
 
 Paper 002's radio testbed: the users and their bodies (:mod:`.body`), the arm's postures and
-movements (:mod:`.arm_motion`), the radio channel and link budget (:mod:`.radio_channel`), the
-RSS recordings and sessions (:mod:`.radio`), the SunSPOT accelerometer (:mod:`.sunspot`), the
+movements (:mod:`.arm_motion`), the radio channel, link budget, RSS recordings and sessions
+(:mod:`.radio`), the SunSPOT accelerometer (:mod:`.sunspot`), the
 Kinect and the paper's hand-derived reference (:mod:`.optical`) and whole campaigns
 (:mod:`.campaign`)::
 
@@ -41,8 +41,7 @@ module                 notebooks
 :mod:`.trials`         03, 04, sol 03, sol 04
 :mod:`.body`           06–09, sol 06–09
 :mod:`.arm_motion`     06–09, sol 06–09
-:mod:`.radio_channel`  06–09, sol 06–09 (08 also perturbs it: radio sensitivity)
-:mod:`.radio`          06–09, sol 06–09
+:mod:`.radio`          06–09, sol 06–09 (08 also perturbs the channel: radio sensitivity)
 :mod:`.sunspot`        07–09, sol 07–09
 :mod:`.optical`        Kinect 07–09 and sol 07–09; the hand-derived reference 09 only
 :mod:`.campaign`       06 and sol 06 (``simulate_campaign``); 07–09 and sol 07–09 (``dynamic_campaign``)
@@ -62,12 +61,13 @@ from wsnlib.sim.arm_motion import ArmMotion, arc, concatenate, hold, movement, t
 from wsnlib.sim.body import BodyShape, User, make_users, user_from_height
 from wsnlib.sim.imu import ImuSamples, ImuSpec, ideal_imu, simulate_imu, simulate_recording
 from wsnlib.sim.radio import (
+    RadioChannel,
     concat_rss,
+    link_budget,
     online_dynamic_session,
     simulate_rss,
     static_session,
 )
-from wsnlib.sim.radio_channel import RadioChannel, link_budget
 
 __all__ = [
     "ArmMotion", "ArmTrajectory", "BodyShape", "ImuSamples", "ImuSpec", "RadioChannel", "User", "arc",

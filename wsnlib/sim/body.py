@@ -5,7 +5,7 @@ T2 mid forearm); seven anchors are worn (A1, A4, A6, A7: t-shirt pockets and a h
 in the room (A2, A3, A5).  This module holds the user's geometry — body shape, anchor sites,
 :class:`User` (with its arm as :attr:`User.geometry`) and the solids that shadow the radio links
 (:func:`body_solids`, :func:`chord_length`); the arm's postures and movements are
-:mod:`wsnlib.sim.arm_motion`, and :mod:`wsnlib.sim.radio_channel` turns the geometry into
+:mod:`wsnlib.sim.arm_motion`, and :mod:`wsnlib.sim.radio` turns the geometry into
 received signal strengths.
 
 Shoulder frame

@@ -49,13 +49,13 @@ from wsnlib.sim.arm_motion import ArmMotion
 from wsnlib.sim.body import User, make_users
 from wsnlib.sim.optical import PAPER_CAMERA_DISTANCE_M, KinectModel, kinect_target_positions, simulate_kinect
 from wsnlib.sim.radio import (
+    RadioChannel,
     concat_rss,
     online_dynamic_motion,
     online_dynamic_session,
     simulate_rss,
     static_session,
 )
-from wsnlib.sim.radio_channel import RadioChannel
 from wsnlib.sim.sunspot import SunspotAcc, SunspotAccSpec, output_times, simulate_sunspot_acc
 from wsnlib.testbed import TARGET_NAMES
 
