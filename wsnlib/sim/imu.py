@@ -252,11 +252,6 @@ class ImuSpec:
         """Per-sample accelerometer white-noise standard deviation (m/s²) at ``fs``."""
         return self.acc_noise_density_ug * 1e-6 * frames.STANDARD_GRAVITY * np.sqrt(self.noise_bandwidth(fs))
 
-    def mag_noise_std_si(self, fs: float) -> float:
-        """Per-sample magnetometer noise standard deviation (µT); independent of ``fs``."""
-        check_positive(fs, "fs")
-        return self.mag_noise_ut
-
 
 # --------------------------------------------------------------------------------------------
 # Readings
@@ -377,7 +372,7 @@ def simulate_imu(truth: ArmKinematics, spec: ImuSpec | None = None, *, rng: np.r
     acc_noise = spec.acc_noise_std_si(fs) * rng.standard_normal(shape)
 
     mag_bias = spec.mag_bias_ut * rng.standard_normal(per_run)
-    mag_noise = spec.mag_noise_std_si(fs) * rng.standard_normal(shape)
+    mag_noise = spec.mag_noise_ut * rng.standard_normal(shape)  # per sample, whatever fs
 
     acc_exact, mag_exact = ideal.acc, ideal.mag
     if disturbance is not None:

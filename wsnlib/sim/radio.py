@@ -718,7 +718,7 @@ def _static_motion(rng, postures, hold_s, transition_s, jitter_deg):
         q = direction_orientation(direction)
         if q_prev is not None:
             pieces.append(transition(q_prev, q, transition_s))
-        pieces.append(hold(posture, hold_s, label=posture, q_start=q))
+        pieces.append(hold(q, hold_s, label=posture))
         q_prev = q
     return concatenate(pieces)
 
