@@ -18,8 +18,7 @@ from wsnlib.sim.arm_motion import concatenate, hold, movement
 from wsnlib.sim.campaign import simulate_kinect_stream
 from wsnlib.sim.imu import ideal_imu, simulate_imu
 from wsnlib.sim.optical import KinectModel
-from wsnlib.sim.radio import simulate_rss
-from wsnlib.sim.radio_channel import RadioChannel, antenna_positions, link_budget
+from wsnlib.sim.radio import RadioChannel, antenna_positions, link_budget, simulate_rss
 from wsnlib.sim.sunspot import SunspotAccSpec, ideal_specific_force, simulate_sunspot_acc
 
 FS = 200.0

@@ -9,7 +9,7 @@ from wsnlib import quaternion as Q
 from wsnlib.frames import STANDARD_GRAVITY
 from wsnlib.io import accel
 from wsnlib.posture import gravity_gate, pitch_from_acc
-from wsnlib.sim.arm_motion import hold, movement
+from wsnlib.sim.arm_motion import concatenate, hold, movement
 from wsnlib.sim.campaign import (
     DYNAMIC_SESSION,
     movement_number,
@@ -111,7 +111,7 @@ def test_downsampling_uses_only_the_samples_of_the_previous_window(method):
 
 def test_mounting_and_segment_axis_give_the_same_pitch():
     user = paper_user()
-    motion = hold("P3", 0.5).then(movement("horizontal_P3_P4", 2.0)).then(hold("P4", 0.5))
+    motion = concatenate([hold("P3", 0.5), movement("horizontal_P3_P4", 2.0), hold("P4", 0.5)])
     mounting = Q.from_axis_angle([0.0, 0.0, 1.0], -np.pi / 2)  # the SPOT's long edge (its y) along the arm
     np.testing.assert_allclose(segment_axis_in_device(mounting), [0.0, 1.0, 0.0], atol=1e-12)
     plain = simulate_sunspot_acc(motion, user, rng=np.random.default_rng(0), spec=SunspotAccSpec.noise_free())

@@ -1,6 +1,6 @@
 """The library's layers hold: every wsnlib module imports only its own layer or those below.
 
-A module's layer is given by its first name under ``wsnlib`` (``wsnlib.sim.radio_channel`` →
+A module's layer is given by its first name under ``wsnlib`` (``wsnlib.sim.radio`` →
 ``sim``), so a new top-level module or package must be placed in :data:`LAYERS` before the test
 passes.  The scan reads ``import`` statements with :mod:`ast` (also those inside functions), so a
 lazy import that runs upward is caught as well; a failure lists every offending arrow as

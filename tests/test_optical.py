@@ -295,10 +295,7 @@ def _call(**overrides):
         ({"camera_position": np.zeros((2, 3))}, "batch shape"),
         ({"occluded": np.zeros((10, 3))}, "boolean"),
         ({"occluded": np.zeros((4, 3), dtype=bool)}, "does not fit"),
-        ({"parents": (-1, 0)}, "parents"),
-        ({"parents": (-1, 1, 1)}, "parents"),
         ({"relative_to": "camera"}, "relative_to"),
-        ({"shoulder_index": 3}, "shoulder_index"),
         ({"model": {"bias_std_m": 0.0}}, "KinectModel"),
     ],
 )

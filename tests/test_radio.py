@@ -11,9 +11,8 @@ from wsnlib.io import rss as RSS
 from wsnlib.sim import arm_motion as M
 from wsnlib.sim import body as B
 from wsnlib.sim import radio as R
-from wsnlib.sim import radio_channel as C
 
-QUIET = dataclasses.replace(C.RadioChannel(), slow_sigma_db=0.0, interference_fraction=0.0, rssi_noise_db=0.0)
+QUIET = dataclasses.replace(R.RadioChannel(), slow_sigma_db=0.0, interference_fraction=0.0, rssi_noise_db=0.0)
 
 
 @pytest.fixture(scope="module")
@@ -23,7 +22,7 @@ def users():
 
 @pytest.fixture(scope="module")
 def training(users):
-    return R.training_session(users[0], rng=np.random.default_rng(11))
+    return R.static_session(users[0], rng=np.random.default_rng(11), hold_s=30.0, session="training")
 
 
 @pytest.fixture(scope="module")
@@ -57,10 +56,10 @@ def test_link_through_the_torso_is_nlos_and_shadowed():
     through = np.array([-0.60, 0.0, -0.425])
     user = _user_with_anchors(through, through)
     kin = M.hold("P1", 1.0).kinematics(np.array([0.5]), user)
-    lb = C.link_budget(kin, user, target=1)
+    lb = R.link_budget(kin, user, target=1)
     assert lb.nlos[0, 0] and lb.nlos[0, 1]
     assert lb.chord_m[0, 0] > 0.30
-    ch = C.RadioChannel()
+    ch = R.RadioChannel()
     d = lb.distance_m[0, 0]
     onbody_cap = ch.onbody_nlos.mean_db(d) - ch.onbody_los.mean_db(d)
     assert lb.body_loss_db[0, 0] == pytest.approx(onbody_cap)  # fully shadowed: the NLOS fit
@@ -74,28 +73,28 @@ def test_link_in_free_space_has_no_body_loss():
     free = np.array([0.05, 1.0, -0.425])
     user = _user_with_anchors(free, free)
     kin = M.hold("P1", 1.0).kinematics(np.array([0.5]), user)
-    lb = C.link_budget(kin, user, target=1)
+    lb = R.link_budget(kin, user, target=1)
     assert not lb.nlos[0, 0] and not lb.nlos[0, 1]
     assert lb.body_loss_db[0, 0] == 0.0 and lb.body_loss_db[0, 1] == 0.0
-    assert lb.k_factor_db[0, 0] == pytest.approx(C.RadioChannel().fading_k_onbody_los_db)
-    np.testing.assert_allclose(lb.path_loss_db[0, 1], C.OFFBODY.mean_db(lb.distance_m[0, 1]))
+    assert lb.k_factor_db[0, 0] == pytest.approx(R.RadioChannel().fading_k_onbody_los_db)
+    np.testing.assert_allclose(lb.path_loss_db[0, 1], R.OFFBODY.mean_db(lb.distance_m[0, 1]))
 
 
 def test_dipole_gain_is_maximal_broadside_and_minimal_along_the_axis():
     axis = np.array([0.0, 0.0, 1.0])
     angles = np.radians(np.linspace(0.0, 90.0, 91))
     links = np.stack([np.sin(angles), np.zeros_like(angles), np.cos(angles)], axis=-1)
-    gain = C.dipole_gain_db(links, axis, peak_dbi=0.0, floor_db=-10.0)
+    gain = R.dipole_gain_db(links, axis, peak_dbi=0.0, floor_db=-10.0)
     assert gain[0] == pytest.approx(-10.0)
     assert gain[-1] == pytest.approx(0.0)
     assert np.all(np.diff(gain) >= 0.0)
-    assert C.dipole_gain_db([0.0, 0.0, -3.0], axis) == pytest.approx(-10.0)  # both ways along the axis
+    assert R.dipole_gain_db([0.0, 0.0, -3.0], axis) == pytest.approx(-10.0)  # both ways along the axis
 
 
 def test_antenna_gain_follows_the_arm_segment(users):
     user = users[0]
-    ups = C.link_budget(M.hold("P2", 1.0).kinematics(np.array([0.5]), user), user, 0)
-    fwd = C.link_budget(M.hold("P3", 1.0).kinematics(np.array([0.5]), user), user, 0)
+    ups = R.link_budget(M.hold("P2", 1.0).kinematics(np.array([0.5]), user), user, 0)
+    fwd = R.link_budget(M.hold("P3", 1.0).kinematics(np.array([0.5]), user), user, 0)
     assert not np.allclose(ups.gain_target_db, fwd.gain_target_db)
     # Arm up: the segment (antenna axis) is vertical, so the gain towards a room anchor level
     # with the node is near the broadside maximum; arm forward: the anchor straight ahead
@@ -105,7 +104,7 @@ def test_antenna_gain_follows_the_arm_segment(users):
 
 
 def test_short_unshadowed_onbody_links_beat_the_farthest_room_anchor():
-    ch = C.RadioChannel()
+    ch = R.RadioChannel()
     far_room = ch.offbody.mean_db(2.8)  # A5 is ~2.8 m from the shoulder
     assert ch.onbody_los.mean_db(0.25) < far_room
     assert ch.onbody_nlos.mean_db(0.40) > far_room  # … but a shadowed one does not
@@ -117,7 +116,7 @@ def test_closer_anchors_usually_read_higher(users):
         for posture in T.POSTURES:
             kin = M.hold(posture, 1.0).kinematics(np.array([0.5]), user)
             for target in (0, 1):
-                lb = C.link_budget(kin, user, target)
+                lb = R.link_budget(kin, user, target)
                 distance.extend(lb.distance_m[0])
                 power.extend(lb.mean_rx_dbm[0])
                 worn.extend(lb.worn)
@@ -156,7 +155,7 @@ def test_static_run_fading_spread_and_correlation_time(static_run):
     expected = np.std(R.rician_fading_db(7.0, R.gauss_markov(200_000, 0.5, rng=np.random.default_rng(2),
                                                                complex_valued=True)))
     rate = 30.0
-    rho = np.exp(-1.0 / rate / C.RadioChannel().coherence_time_s)
+    rho = np.exp(-1.0 / rate / R.RadioChannel().coherence_time_s)
     for (target, anchor), rows in static_run.groupby(["target", "anchor"]):
         x = rows["rss_dbm"].to_numpy()
         if anchor in ("A2", "A3", "A5"):  # off-body links: K = 7 dB
@@ -179,11 +178,11 @@ def test_loss_fraction(static_run):
 
 def test_readings_below_sensitivity_are_lost():
     user = paper_user(environment_seed=4)
-    channel = dataclasses.replace(C.RadioChannel().ideal(), sensitivity_dbm=-70.0)
+    channel = dataclasses.replace(R.RadioChannel().ideal(), sensitivity_dbm=-70.0)
     df = R.simulate_rss(M.hold("P1", 5.0), user, rng=np.random.default_rng(0), channel=channel)
     assert df["rss_dbm"].min() >= -70
     kin = M.hold("P1", 5.0).kinematics(np.array([1.0]), user)
-    weak = (C.link_budget(kin, user, 0, channel).mean_rx_dbm[0] < -70.5).sum()
+    weak = (R.link_budget(kin, user, 0, channel).mean_rx_dbm[0] < -70.5).sum()
     assert weak > 0 and df[df["target"] == "T1"]["anchor"].nunique() == 7 - weak
 
 
@@ -242,7 +241,7 @@ def test_some_posture_anchor_pairs_are_nearly_constant(training):
 def test_online_static_session_on_another_day(users, training):
     rng = np.random.default_rng(12)
     later = users[0].moved(rng)
-    online = R.online_static_session(later, rng=rng)
+    online = R.static_session(later, rng=rng, hold_s=10.0, session="online_static")
     assert set(online["session"]) == {"online_static"}
     assert sorted(online["label"].unique()) == list(T.POSTURES)
     # The same posture reads more alike on both days than different postures do.

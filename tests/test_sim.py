@@ -81,11 +81,11 @@ def test_pitch_and_elbow_of_aligned_extension(heading_deg, axial_deg):
     truth = arm_kinematics(traj)
     assert truth.quat.shape == (2, traj.n_samples, 4)
     assert truth.nodes == ("humerus", "forearm")
-    np.testing.assert_allclose(_pitch_deg(truth.quat[0]), np.degrees(traj.pitch), atol=1e-6)
-    np.testing.assert_allclose(_pitch_deg(truth.quat[1]), np.degrees(traj.pitch), atol=1e-6)
+    np.testing.assert_allclose(_pitch_deg(truth.quat[0]), np.degrees(traj.angles[:, 1]), atol=1e-6)
+    np.testing.assert_allclose(_pitch_deg(truth.quat[1]), np.degrees(traj.angles[:, 1]), atol=1e-6)
     np.testing.assert_allclose(_elbow_deg(truth), 0.0, atol=1e-5)
-    assert np.degrees(traj.pitch[0]) == pytest.approx(-90.0)
-    assert np.degrees(traj.pitch[-1]) == pytest.approx(0.0)
+    assert np.degrees(traj.angles[0, 1]) == pytest.approx(-90.0)
+    assert np.degrees(traj.angles[-1, 1]) == pytest.approx(0.0)
     # Heading: the horizontal part of the humerus direction points at azimuth ψ from north
     # towards west (right-hand rule about up).
     x = Q.rotate(truth.quat[0, -1], X)
@@ -102,8 +102,8 @@ def test_pitch_ramp_is_linear_and_elbow_angle_is_flexion():
 
     wavy = _wavy_trajectory(50.0)
     truth = arm_kinematics(wavy)
-    np.testing.assert_allclose(_pitch_deg(truth.quat[0]), np.degrees(wavy.pitch), atol=1e-6)
-    np.testing.assert_allclose(_elbow_deg(truth), np.degrees(np.abs(wavy.elbow_flexion)), atol=1e-5)
+    np.testing.assert_allclose(_pitch_deg(truth.quat[0]), np.degrees(wavy.angles[:, 1]), atol=1e-6)
+    np.testing.assert_allclose(_elbow_deg(truth), np.degrees(np.abs(wavy.angles[:, 3])), atol=1e-5)
 
 
 def test_quaternions_are_unit_and_continuous():
@@ -360,7 +360,7 @@ def test_scipy_cross_check_of_humerus_orientation():
     """q_humerus = R_z(ψ + 90°) R_y(−θ) R_x(axial) as intrinsic z-y-x Euler angles."""
     traj = _wavy_trajectory(50.0, duration_s=1.0)
     truth = arm_kinematics(traj)
-    euler = np.stack([traj.heading + np.pi / 2, -traj.pitch, traj.axial], axis=-1)
+    euler = np.stack([traj.angles[:, 0] + np.pi / 2, -traj.angles[:, 1], traj.angles[:, 2]], axis=-1)
     expected = Q.from_scipy(Rotation.from_euler("ZYX", euler))
     assert np.degrees(Q.angle_between(truth.quat[0], expected)).max() < 1e-9
 

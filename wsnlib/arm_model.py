@@ -15,7 +15,7 @@ share, below every simulator and estimator (it imports neither :mod:`wsnlib.sim`
 Motion generators produce :class:`ArmKinematics`: the joint-angle trajectories of paper 001
 (:func:`wsnlib.sim.arm.arm_kinematics`) and the constant-speed straight-arm motions of paper
 002 (:meth:`wsnlib.sim.arm_motion.ArmMotion.kinematics`).  Consumers read it: the IMU simulator
-(:mod:`wsnlib.sim.imu`), the radio link budget (:mod:`wsnlib.sim.radio_channel`), the SunSPOT
+(:mod:`wsnlib.sim.imu`), the radio link budget (:mod:`wsnlib.sim.radio`), the SunSPOT
 accelerometer (:mod:`wsnlib.sim.sunspot`), the Kinect-like optical tracker
 (:func:`wsnlib.sim.campaign.simulate_kinect_stream`), and the posture chain
 (:func:`wsnlib.posture.forward_chain`/:func:`~wsnlib.posture.recursive_chain`, whose
@@ -41,7 +41,7 @@ Device ``s`` sits on segment ``s`` at ``device_offsets_m[s]`` along body x from 
 proximal joint (the paper-002 chain's d′), and ``device_normal_offsets_m[s] = (y, z)`` off the
 segment axis in the segment's body frame (e.g. the 4 cm soft tissue to the dorsal skin of
 paper 001's IMU straps).  Paper 002's targets are on the axis (Table 1 convention); the radio
-puts its antenna on the lateral skin on top of that (:func:`wsnlib.sim.radio_channel.antenna_positions`).
+puts its antenna on the lateral skin on top of that (:func:`wsnlib.sim.radio.antenna_positions`).
 """
 
 from __future__ import annotations

@@ -83,7 +83,7 @@ REFERENCES = (
     ("E. Reusens, W. Joseph, B. Latré, B. Braem, G. Vermeeren, E. Tanghe, L. Martens, I. Moerman, "
      'C. Blondia, "Characterization of on-body communication channel and energy efficient topology design '
      'for wireless body area networks", <i>IEEE Transactions on Information Technology in Biomedicine</i> '
-     "13(6):933–945, 2009 (on-body path loss of the simulated radio channel, <code>wsnlib.sim.radio_channel</code>).",
+     "13(6):933–945, 2009 (on-body path loss of the simulated radio channel, <code>wsnlib.sim.radio</code>).",
      "Reusens"),
     ('Š. Obdržálek et al., "Accuracy and robustness of Kinect pose estimation in the context of coaching '
      'of elderly population", IEEE EMBC 2012, pp. 1188–1193 (the Kinect-like baseline, '

@@ -102,7 +102,7 @@ FORMAT_VERSION = 1
 FLOAT_FORMAT = "%.6f"
 
 #: Default floor (dBm) for anchors that never reported: the CC2420's sensitivity (−95 dBm,
-#: see :mod:`wsnlib.sim.radio_channel`).
+#: see :mod:`wsnlib.sim.radio`).
 DEFAULT_FLOOR_DBM = -95.0
 
 UNITS = {"time": "s", "rss": "dBm", "position": "m"}

@@ -18,13 +18,13 @@ joint-angle trajectories (:mod:`.arm`) and paper 002's straight-arm motions (:mo
 both produce it.
 
 Paper 002's radio testbed: the users and their bodies (:mod:`.body`), the arm's postures and
-movements (:mod:`.arm_motion`), the radio channel and link budget (:mod:`.radio_channel`), the
-RSS recordings and sessions (:mod:`.radio`), the SunSPOT accelerometer (:mod:`.sunspot`), the
+movements (:mod:`.arm_motion`), the radio channel, link budget, RSS recordings and sessions
+(:mod:`.radio`), the SunSPOT accelerometer (:mod:`.sunspot`), the
 Kinect and the paper's hand-derived reference (:mod:`.optical`) and whole campaigns
 (:mod:`.campaign`)::
 
     users = make_users(5, rng=rng)
-    train = training_session(users[0], rng=rng)                     # long RSS table
+    train = static_session(users[0], rng=rng, hold_s=30.0, session="training")  # long RSS table
     online = online_dynamic_session(users[0].moved(rng), rng=rng)   # another day
     kin = movement("lower_P2_P3_P1", 3.0).sample(users[0], fs=50.0)  # ArmKinematics
 
@@ -41,8 +41,7 @@ module                 notebooks
 :mod:`.trials`         03, 04, sol 03, sol 04
 :mod:`.body`           06–09, sol 06–09
 :mod:`.arm_motion`     06–09, sol 06–09
-:mod:`.radio_channel`  06–09, sol 06–09 (08 also perturbs it: radio sensitivity)
-:mod:`.radio`          06–09, sol 06–09
+:mod:`.radio`          06–09, sol 06–09 (08 also perturbs the channel: radio sensitivity)
 :mod:`.sunspot`        07–09, sol 07–09
 :mod:`.optical`        Kinect 07–09 and sol 07–09; the hand-derived reference 09 only
 :mod:`.campaign`       06 and sol 06 (``simulate_campaign``); 07–09 and sol 07–09 (``dynamic_campaign``)
@@ -62,19 +61,18 @@ from wsnlib.sim.arm_motion import ArmMotion, arc, concatenate, hold, movement, t
 from wsnlib.sim.body import BodyShape, User, make_users, user_from_height
 from wsnlib.sim.imu import ImuSamples, ImuSpec, ideal_imu, simulate_imu, simulate_recording
 from wsnlib.sim.radio import (
+    RadioChannel,
     concat_rss,
+    link_budget,
     online_dynamic_session,
-    online_static_session,
     simulate_rss,
     static_session,
-    training_session,
 )
-from wsnlib.sim.radio_channel import RadioChannel, link_budget
 
 __all__ = [
     "ArmMotion", "ArmTrajectory", "BodyShape", "ImuSamples", "ImuSpec", "RadioChannel", "User", "arc",
     "arm_extension", "arm_kinematics", "concat_rss", "concatenate", "hold", "ideal_imu", "link_budget", "make_users",
-    "minimum_jerk", "movement", "movement_set", "online_dynamic_session", "online_static_session", "pitch_ramp",
-    "reach_and_flex", "simulate_imu", "simulate_recording", "simulate_rss", "static_session", "training_session",
+    "minimum_jerk", "movement", "movement_set", "online_dynamic_session", "pitch_ramp",
+    "reach_and_flex", "simulate_imu", "simulate_recording", "simulate_rss", "static_session",
     "transition", "user_from_height",
 ]

@@ -140,26 +140,6 @@ class ArmTrajectory:
         """Number of samples T."""
         return self.t.size
 
-    @property
-    def heading(self) -> np.ndarray:
-        """Heading ψ (rad), shape (T,)."""
-        return self.angles[:, 0]
-
-    @property
-    def pitch(self) -> np.ndarray:
-        """Humerus pitch θ (rad), shape (T,)."""
-        return self.angles[:, 1]
-
-    @property
-    def axial(self) -> np.ndarray:
-        """Humeral axial rotation (rad), shape (T,)."""
-        return self.angles[:, 2]
-
-    @property
-    def elbow_flexion(self) -> np.ndarray:
-        """Elbow flexion β (rad), shape (T,)."""
-        return self.angles[:, 3]
-
 
 def _time_axis(fs: float, duration_s: float) -> tuple[float, np.ndarray]:
     fs = check_positive(fs, "fs")

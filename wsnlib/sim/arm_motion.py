@@ -103,7 +103,7 @@ class ArmMotion:
     angular speed about a fixed axis through the shoulder (speed 0 = holding still).
 
     Build with :func:`hold`, :func:`arc`, :func:`movement`, :func:`transition` and
-    :meth:`then` / :func:`concatenate`; evaluate with :meth:`kinematics` or :meth:`sample`.
+    :func:`concatenate`; evaluate with :meth:`kinematics` or :meth:`sample`.
 
     Attributes (one entry per piece)
     --------------------------------
@@ -155,15 +155,6 @@ class ArmMotion:
         """Orientation (4,) at the end of the motion."""
         angle = self.speed[-1] * self.duration_s[-1]
         return Q.multiply(Q.from_axis_angle(self.axis[-1], angle), self.quat_start[-1])
-
-    def then(self, other: ArmMotion) -> ArmMotion:
-        """This motion followed by ``other`` (shifted in time to start at this one's end).
-
-        ``other`` must start where this one ends (same orientation within 1e-6 rad); build it
-        from :attr:`quat_end` (the builders take ``q_start``) if the segment's axial twist
-        matters.
-        """
-        return concatenate([self, other])
 
     def _piece_at(self, t: np.ndarray) -> np.ndarray:
         idx = np.searchsorted(self.start_s, t, side="right") - 1
@@ -242,31 +233,24 @@ def _single_piece(duration_s, quat_start, axis, speed, label) -> ArmMotion:
                      speed=np.array([speed]), labels=(label,))
 
 
-def hold(posture_or_direction, duration_s: float, *, label: str | None = None, q_start=None) -> ArmMotion:
+def hold(posture, duration_s: float, *, label: str | None = None) -> ArmMotion:
     """Hold the arm still for ``duration_s`` seconds.
 
     Parameters
     ----------
-    posture_or_direction : str or array_like (3,)
-        A posture name or an arm direction.
+    posture : str, array_like (3,) or array_like (4,)
+        A posture name, an arm direction or an orientation quaternion (e.g. the end of a
+        previous motion, :attr:`ArmMotion.quat_end`), as in :func:`transition`.
     duration_s : float
     label : str, optional
-        Default: the posture name, or ``"hold"`` for a direction.
-    q_start : array_like (4,), optional
-        Orientation to hold (overrides the direction, e.g. the end of a previous motion).
+        Default: the posture name, or ``"hold"`` for a direction or a quaternion.
     """
-    if isinstance(posture_or_direction, str):
-        q = posture_orientation(posture_or_direction)
-        label = posture_or_direction if label is None else label
-    else:
-        q = direction_orientation(posture_or_direction)
-        label = "hold" if label is None else label
-    if q_start is not None:
-        q = Q.normalize(as_float_array(q_start, "q_start", last_dim=4))
-    return _single_piece(duration_s, q, [0.0, 0.0, 1.0], 0.0, label)
+    if label is None:
+        label = posture if isinstance(posture, str) else "hold"
+    return _single_piece(duration_s, _as_orientation(posture), [0.0, 0.0, 1.0], 0.0, label)
 
 
-def arc(direction_start, direction_end, duration_s: float, *, via=None, label: str = "arc", q_start=None) -> ArmMotion:
+def arc(direction_start, direction_end, duration_s: float, *, via=None, label: str = "arc") -> ArmMotion:
     """Constant-angular-speed great-circle arc of the straight arm (SLERP of directions).
 
     Parameters
@@ -281,9 +265,6 @@ def arc(direction_start, direction_end, duration_s: float, *, via=None, label: s
         opposite, where the great circle is not defined.
     label : str
         Label of every piece.
-    q_start : array_like (4,), optional
-        Segment orientation at the start; default :func:`direction_orientation` of
-        ``direction_start``.  Must point along ``direction_start``.
 
     Returns
     -------
@@ -310,10 +291,7 @@ def arc(direction_start, direction_end, duration_s: float, *, via=None, label: s
         angles.append(angle)
         axes.append(cross / fixed_order.norm(cross))
     speed = sum(angles) / duration
-    q = (direction_orientation(points[0]) if q_start is None
-         else Q.normalize(as_float_array(q_start, "q_start", last_dim=4)))
-    if not np.allclose(Q.rotate(q, [1.0, 0.0, 0.0]), points[0], atol=1e-6):
-        raise ValueError("q_start does not point the arm along direction_start")
+    q = direction_orientation(points[0])
     starts, quats = [], []
     t = 0.0
     for angle, axis in zip(angles, axes, strict=True):
@@ -345,15 +323,18 @@ def movement(name: str, duration_s: float, *, label: str | None = None) -> ArmMo
     return arc(postures[0], postures[-1], duration_s, via=via, label=name if label is None else label)
 
 
-def rotate_to(q_start, q_end, duration_s: float, *, label: str = TRANSITION_LABEL) -> ArmMotion:
-    """Turn the arm from orientation ``q_start`` to ``q_end`` at constant angular speed.
+def transition(posture_from, posture_to, duration_s: float, *, label: str = TRANSITION_LABEL) -> ArmMotion:
+    """Move between postures at constant angular speed, arriving in ``posture_to``'s orientation.
 
-    One rotation about the fixed axis of ``q_end ⊗ q_start*`` (SLERP of the orientations,
-    shorter way round), so the arm arrives in ``q_end`` exactly, axial twist included.
-    Equal orientations give a hold.
+    ``posture_from`` / ``posture_to``: a posture name (its :func:`posture_orientation`), an
+    arm direction (3,) (:func:`direction_orientation`) or an orientation quaternion (4,).
+    One rotation about the fixed axis of ``q_to ⊗ q_from*`` (SLERP of the orientations,
+    shorter way round), so the arm arrives in ``q_to`` exactly, axial twist included; equal
+    orientations give a hold.  Used for the unlabelled moves between the recorded postures and
+    movements of a session.
     """
-    q0 = Q.normalize(as_float_array(q_start, "q_start", last_dim=4))
-    q1 = Q.normalize(as_float_array(q_end, "q_end", last_dim=4))
+    q0 = Q.normalize(_as_orientation(posture_from))
+    q1 = Q.normalize(_as_orientation(posture_to))
     rel = Q.canonical(Q.multiply(q1, Q.conjugate(q0)))
     vec_norm = float(fixed_order.norm(rel[1:]))
     angle = 2.0 * float(np.arctan2(vec_norm, rel[0]))
@@ -361,17 +342,6 @@ def rotate_to(q_start, q_end, duration_s: float, *, label: str = TRANSITION_LABE
     if angle < 1e-9:
         return _single_piece(duration, q0, [0.0, 0.0, 1.0], 0.0, label)
     return _single_piece(duration, q0, rel[1:] / vec_norm, angle / duration, label)
-
-
-def transition(posture_from, posture_to, duration_s: float, *, label: str = TRANSITION_LABEL) -> ArmMotion:
-    """Move between postures at constant angular speed, arriving in ``posture_to``'s orientation.
-
-    ``posture_from`` / ``posture_to``: a posture name (its :func:`posture_orientation`), an
-    arm direction (3,) (:func:`direction_orientation`) or an orientation quaternion (4,).
-    Used for the unlabelled moves between the recorded postures and movements of a session;
-    see :func:`rotate_to`.
-    """
-    return rotate_to(_as_orientation(posture_from), _as_orientation(posture_to), duration_s, label=label)
 
 
 def _as_orientation(value) -> np.ndarray:

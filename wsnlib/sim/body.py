@@ -5,7 +5,7 @@ T2 mid forearm); seven anchors are worn (A1, A4, A6, A7: t-shirt pockets and a h
 in the room (A2, A3, A5).  This module holds the user's geometry — body shape, anchor sites,
 :class:`User` (with its arm as :attr:`User.geometry`) and the solids that shadow the radio links
 (:func:`body_solids`, :func:`chord_length`); the arm's postures and movements are
-:mod:`wsnlib.sim.arm_motion`, and :mod:`wsnlib.sim.radio_channel` turns the geometry into
+:mod:`wsnlib.sim.arm_motion`, and :mod:`wsnlib.sim.radio` turns the geometry into
 received signal strengths.
 
 Shoulder frame
@@ -132,11 +132,6 @@ class BodyShape:
         values = {f.name: getattr(base, f.name) * s for f in dataclasses.fields(cls)}
         values["floor_z_m"] = -SHOULDER_HEIGHT_FRACTION * height
         return cls(**values)
-
-    @property
-    def left_shoulder_x_m(self) -> float:
-        """x (m) of the left shoulder joint (mirror of the right one about the torso)."""
-        return 2.0 * self.torso_center_x_m
 
 
 # --------------------------------------------------------------------------------------------
@@ -423,7 +418,8 @@ def body_solids(user: User, arm_direction=None) -> list[Solid]:
         Solid("neck", "cylinder", np.array([cx, 0.0, b.torso_top_z_m]), b.neck_radius_m, ez, b.neck_length_m, ex,
               b.neck_radius_m),
         Solid("head", "sphere", np.array([cx, 0.0, b.head_center_z_m]), b.head_radius_m),
-        Solid("left_arm", "cylinder", np.array([b.left_shoulder_x_m, 0.0, -b.left_arm_length_m]), b.upper_arm_radius_m,
+        # The left shoulder mirrors the right one (the origin) about the torso centre.
+        Solid("left_arm", "cylinder", np.array([2.0 * cx, 0.0, -b.left_arm_length_m]), b.upper_arm_radius_m,
               ez, b.left_arm_length_m, ex, b.upper_arm_radius_m),
     ]
     if arm_direction is not None:

@@ -14,7 +14,7 @@ plus :class:`DynamicData`, the same aligned per RSS vector.
 
 The Kinect's view of one user is :func:`simulate_kinect_stream` (camera placement, frames at
 30 fps, reported joints, the target positions derived from them); the long accelerometer and
-Kinect tables are :func:`acc_table` and :func:`kinect_table`.  :func:`dynamic_campaign`
+Kinect tables are :func:`sample_table`.  :func:`dynamic_campaign`
 memoises the notebooks' campaign; :func:`write_dynamic_campaign` and
 :func:`read_dynamic_campaign` write and read its files, and real logs converted to the same
 files give the same :class:`DynamicData`.
@@ -49,14 +49,13 @@ from wsnlib.sim.arm_motion import ArmMotion
 from wsnlib.sim.body import User, make_users
 from wsnlib.sim.optical import PAPER_CAMERA_DISTANCE_M, KinectModel, kinect_target_positions, simulate_kinect
 from wsnlib.sim.radio import (
+    RadioChannel,
     concat_rss,
     online_dynamic_motion,
     online_dynamic_session,
-    online_static_session,
     simulate_rss,
-    training_session,
+    static_session,
 )
-from wsnlib.sim.radio_channel import RadioChannel
 from wsnlib.sim.sunspot import SunspotAcc, SunspotAccSpec, output_times, simulate_sunspot_acc
 from wsnlib.testbed import TARGET_NAMES
 
@@ -92,7 +91,8 @@ def simulate_campaign(n_users: int = 5, *, rng: np.random.Generator, hold_s: flo
     hold_s : float
         Seconds each posture is held in training (paper: about 30 s, ~1000 vectors per target).
     static_hold_s : float
-        Seconds each posture is held in the online static session.
+        Seconds each posture is held in the online static session (not given in the paper;
+        assumed).
     dynamic : bool
         Also simulate the online dynamic session (8 movements).
 
@@ -103,10 +103,10 @@ def simulate_campaign(n_users: int = 5, *, rng: np.random.Generator, hold_s: flo
     users = make_users(check_count(n_users, "n_users"), rng=rng)
     frames, online_users = [], []
     for user in users:
-        frames.append(training_session(user, rng=rng, hold_s=hold_s))
+        frames.append(static_session(user, rng=rng, hold_s=hold_s, session="training"))
         day2 = user.moved(rng)
         online_users.append(day2)
-        frames.append(online_static_session(day2, rng=rng, hold_s=static_hold_s))
+        frames.append(static_session(day2, rng=rng, hold_s=static_hold_s, session="online_static"))
         if dynamic:
             frames.append(online_dynamic_session(day2, rng=rng))
     return Campaign(rss=concat_rss(frames), users=tuple(users), online_users=tuple(online_users))
@@ -206,32 +206,26 @@ DYNAMIC_SESSION = "online_dynamic"
 _MOVEMENT_RE = re.compile(r"^M(\d+)_")
 
 
-def acc_table(acc: SunspotAcc, user: str, session: str = DYNAMIC_SESSION) -> pd.DataFrame:
-    """Long accelerometer table (:mod:`wsnlib.io.accel`, kind "acc") of one session.
+def sample_table(kind: str, streams, users, rate_hz: float) -> pd.DataFrame:
+    """Long sample table (:mod:`wsnlib.io.accel`) of the dynamic session, every user in order.
 
-    Values rounded to 6 decimals (the CSV precision), rows ordered by time, then target.
+    ``kind`` ``"acc"``: the accelerometer readings of :class:`SunspotAcc` streams; ``"kinect"``:
+    the target positions of :class:`KinectStream` streams.  ``streams[i]`` is the stream of
+    ``users[i]``.  Values rounded to 6 decimals (the CSV precision), rows ordered by user, time,
+    then target; ``attrs["rate_hz"]`` = ``rate_hz``.
     """
-    return _long_table(acc.time_s, acc.acc, acc.label, user, session, accel.VALUE_COLUMNS["acc"])
-
-
-def kinect_table(stream: KinectStream, user: str, session: str = DYNAMIC_SESSION) -> pd.DataFrame:
-    """Long Kinect table (:mod:`wsnlib.io.accel`, kind "kinect") of one session (as :func:`acc_table`)."""
-    return _long_table(stream.time_s, stream.targets, stream.label, user, session, accel.VALUE_COLUMNS["kinect"])
-
-
-def _long_table(time, values, label, user, session, value_columns) -> pd.DataFrame:
-    n, n_targets = values.shape[:2]
-    flat = values.reshape(n * n_targets, 3)
-    table = {"time_s": np.repeat(time, n_targets), "user": user, "session": session,
-             "target": np.tile(np.asarray(TARGET_NAMES[:n_targets], dtype=object), n),
-             "label": np.repeat(np.asarray(label, dtype=object), n_targets)}
-    for j, column in enumerate(value_columns):
-        table[column] = np.round(flat[:, j], 6) + 0.0  # the CSV precision, so memory and file agree
-    return pd.DataFrame(table).astype({"user": object, "session": object, "target": object, "label": object})
-
-
-def concat_sample_tables(frames, rate_hz: float) -> pd.DataFrame:
-    """Concatenate long sample tables (:func:`acc_table`, :func:`kinect_table`); ``attrs["rate_hz"]`` = ``rate_hz``."""
+    frames = []
+    for stream, user in zip(streams, users, strict=True):
+        values = stream.acc if kind == "acc" else stream.targets
+        n, n_targets = values.shape[:2]
+        flat = values.reshape(n * n_targets, 3)
+        table = {"time_s": np.repeat(stream.time_s, n_targets), "user": user.name, "session": DYNAMIC_SESSION,
+                 "target": np.tile(np.asarray(TARGET_NAMES[:n_targets], dtype=object), n),
+                 "label": np.repeat(np.asarray(stream.label, dtype=object), n_targets)}
+        for j, column in enumerate(accel.VALUE_COLUMNS[kind]):
+            table[column] = np.round(flat[:, j], 6) + 0.0  # the CSV precision, so memory and file agree
+        frames.append(pd.DataFrame(table).astype({"user": object, "session": object, "target": object,
+                                                  "label": object}))
     out = pd.concat(frames, ignore_index=True)
     out.attrs = {"rate_hz": float(rate_hz)}
     return out
@@ -463,7 +457,7 @@ def simulate_dynamic_campaign(n_users: int = 5, *, rng: np.random.Generator, hol
     """Training RSS and the online dynamic session with RSS, accelerometers and Kinect, per user.
 
     For each user, in this order from ``rng``: the training session
-    (:func:`wsnlib.sim.radio.training_session`, postures held ``hold_s``), the online day
+    (:func:`wsnlib.sim.radio.static_session`, postures held ``hold_s``), the online day
     (:meth:`User.moved`), the dynamic motion (:func:`wsnlib.sim.radio.online_dynamic_motion`:
     the four movements twice, 2–4 s each at constant speed, short holds and transitions),
     then — all from that one motion — its RSS (:func:`wsnlib.sim.radio.simulate_rss`, session
@@ -473,11 +467,8 @@ def simulate_dynamic_campaign(n_users: int = 5, *, rng: np.random.Generator, hol
 
     Parameters
     ----------
-    n_users : int
-        Number of users (paper 002: five).
-    rng : numpy.random.Generator
-    hold_s : float
-        Seconds each posture is held in training (paper: about 30 s).
+    n_users, rng, hold_s
+        As in :func:`simulate_campaign`.
     durations_s : array_like (8,), optional
         Durations of the 8 movements, the same for every user; default drawn per user
         uniformly in [2, 4] s.
@@ -501,24 +492,20 @@ def simulate_dynamic_campaign(n_users: int = 5, *, rng: np.random.Generator, hol
     acc_spec = SunspotAccSpec() if acc_spec is None else acc_spec
     kinect_model = KinectModel() if kinect_model is None else kinect_model
     users = make_users(n_users, rng=rng)
-    training, dynamic, acc_frames, kinect_frames = [], [], [], []
-    online_users, motions, acc_streams, kinect_streams = [], [], [], []
+    training, dynamic, online_users, motions, acc_streams, kinect_streams = [], [], [], [], [], []
     for user in users:
-        training.append(training_session(user, rng=rng, hold_s=hold_s, channel=channel))
+        training.append(static_session(user, rng=rng, hold_s=hold_s, session="training", channel=channel))
         day2 = user.moved(rng)
         motion = online_dynamic_motion(rng=rng, durations_s=durations_s)
         dynamic.append(simulate_rss(motion, day2, rng=rng, channel=channel, session=DYNAMIC_SESSION))
-        acc = simulate_sunspot_acc(motion, day2, rng=rng, spec=acc_spec, mounting=mounting)
-        kinect = simulate_kinect_stream(motion, day2, rng=rng, model=kinect_model, camera_distance_m=camera_distance_m)
-        acc_frames.append(acc_table(acc, day2.name))
-        kinect_frames.append(kinect_table(kinect, day2.name))
+        acc_streams.append(simulate_sunspot_acc(motion, day2, rng=rng, spec=acc_spec, mounting=mounting))
+        kinect_streams.append(simulate_kinect_stream(motion, day2, rng=rng, model=kinect_model,
+                                                     camera_distance_m=camera_distance_m))
         online_users.append(day2)
         motions.append(motion)
-        acc_streams.append(acc)
-        kinect_streams.append(kinect)
     dynamic_rss = concat_rss(dynamic)
-    acc_df = concat_sample_tables(acc_frames, acc_spec.output_rate_hz)
-    kinect_df = concat_sample_tables(kinect_frames, kinect_model.frame_rate_hz)
+    acc_df = sample_table("acc", acc_streams, online_users, acc_spec.output_rate_hz)
+    kinect_df = sample_table("kinect", kinect_streams, online_users, kinect_model.frame_rate_hz)
     chains = {u.name: u.geometry for u in online_users}
     return DynamicCampaign(training_rss=concat_rss(training), dynamic_rss=dynamic_rss, acc=acc_df, kinect=kinect_df,
                            data=align_dynamic(dynamic_rss, acc_df, kinect_df, chains), users=tuple(users),

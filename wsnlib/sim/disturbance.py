@@ -29,7 +29,7 @@ Magnetic disturbance (µT)
       field ``B(r) = µ0/(4π) · (3 (m·r̂) r̂ − m) / |r|³`` evaluated in the earth frame at each
       node's position and rotated into the body frame — a time-local disturbance.
 
-Every random draw comes from the Generator passed to :func:`draw_disturbance`, in a fixed
+Every random draw comes from the Generator passed to :func:`disturb`, in a fixed
 order and shape whatever the parameter values (zero levels still consume their draws), so a
 calibration grid over the levels uses common random numbers and the same seed always gives
 the same signals.
@@ -65,13 +65,13 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
 
 from wsnlib import quaternion as Q
 from wsnlib._validation import check_count, check_nonnegative, check_positive, check_rng, check_type
+from wsnlib.arm_model import ArmKinematics
 
 #: µ0 / (4π) in µT·m³/(A·m²): B (µT) = 0.1 · (3 (m·r̂) r̂ − m) / r³ with m in A·m², r in m.
 DIPOLE_CONSTANT_UT_M3_PER_AM2 = 1e-7 * 1e6
@@ -140,36 +140,6 @@ class Disturbance:
         if self.dipole_distance_m[0] < DIPOLE_MIN_DISTANCE_M:
             raise ValueError(f"dipole_distance_m must start at {DIPOLE_MIN_DISTANCE_M} m or more, "
                              f"got {self.dipole_distance_m!r}")
-
-    @property
-    def is_off(self) -> bool:
-        """True when every level is zero (the simulator then gives its clean readings)."""
-        return (self.translation_acc_rms_m_s2 == 0.0 and self.hard_iron_ut == 0.0
-                and self.soft_iron_std == 0.0 and self.dipole_moment_am2 == 0.0)
-
-
-class DisturbanceSignals(NamedTuple):
-    """One draw of the disturbance for a batch of runs; ``B`` = batch shape, ``N`` nodes, ``T`` samples.
-
-    Attributes
-    ----------
-    translation_acc_enu : numpy.ndarray, shape (*B, 1, T, 3)
-        Translational acceleration of the body (m/s², earth frame), shared by the nodes.
-    translation_pos_enu : numpy.ndarray, shape (*B, 1, T, 3)
-        The corresponding displacement (m, earth frame), zero mean.
-    dipole_field_enu : numpy.ndarray, shape (*B, N, T, 3)
-        Field of the passing object at each node (µT, earth frame).
-    hard_iron_body : numpy.ndarray, shape (*B, N, 1, 3)
-        Constant offset (µT, body frame).
-    soft_iron : numpy.ndarray, shape (*B, N, 1, 3, 3)
-        Matrix ``S`` (body frame) applied to the field before the offset.
-    """
-
-    translation_acc_enu: np.ndarray
-    translation_pos_enu: np.ndarray
-    dipole_field_enu: np.ndarray
-    hard_iron_body: np.ndarray
-    soft_iron: np.ndarray
 
 
 def translation_motion(n_samples: int, fs: float, rms_m_s2, band_hz=(0.5, 4.0), *,
@@ -245,18 +215,24 @@ def _random_unit(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
-def draw_disturbance(disturbance: Disturbance, node_pos_enu, fs: float, batch: tuple[int, ...] = (), *,
-                     rng: np.random.Generator) -> DisturbanceSignals:
-    """Draw one realisation of the disturbance per run.
+def disturb(disturbance: Disturbance, truth: ArmKinematics, acc, mag, batch: tuple[int, ...] = (), *,
+            rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Draw one realisation of the disturbance per run and add it to exact body-frame readings.
+
+    The draws, per run (batch shape ``B``, ``N`` nodes, ``T`` samples): the body's
+    translational acceleration and its zero-mean displacement (earth frame, shared by the
+    nodes, :func:`translation_motion`); a constant hard-iron offset per node (µT, body frame);
+    the soft-iron matrix ``S`` per node (body frame); the path and moment of the passing
+    dipole, whose field (µT, earth frame) is evaluated at each node's displaced position.
 
     Parameters
     ----------
     disturbance : Disturbance
-    node_pos_enu : array_like, shape (N, T, 3)
-        Node positions without the translation (m, earth frame), e.g.
-        :attr:`wsnlib.arm_model.ArmKinematics.pos`.
-    fs : float
-        Sampling rate (Hz).
+    truth : wsnlib.arm_model.ArmKinematics
+        True orientations (body → ENU), node positions without the translation (m, earth
+        frame) and sampling rate ``fs`` (Hz).
+    acc, mag : array_like, shape (*B, N, T, 3)
+        Specific force (m/s²) and magnetic field (µT), body frame, before sensor errors.
     batch : tuple of int
         Batch shape ``B`` (``()`` or ``(n_runs,)``).
     rng : numpy.random.Generator
@@ -264,20 +240,19 @@ def draw_disturbance(disturbance: Disturbance, node_pos_enu, fs: float, batch: t
 
     Returns
     -------
-    DisturbanceSignals
+    acc, mag : numpy.ndarray, shape (*B, N, T, 3)
+        ``acc + q* ⊗ a_translation ⊗ q`` and ``S · (mag + q* ⊗ B_dipole ⊗ q) + h``.
     """
     check_type(disturbance, Disturbance, "disturbance")
     check_rng(rng)
-    pos = np.asarray(node_pos_enu, dtype=float)
-    if pos.ndim != 3 or pos.shape[-1] != 3:
-        raise ValueError(f"node_pos_enu must have shape (N, T, 3), got {pos.shape}")
+    pos, fs = truth.pos, truth.fs
     n_nodes, n_samples = pos.shape[:2]
     d = disturbance
 
     # Translation: one log-normal level per run, shared by the nodes.
     level = d.translation_acc_rms_m_s2 * np.exp(d.translation_acc_log_sd * rng.standard_normal(batch))
-    acc, disp = translation_motion(n_samples, fs, level, d.translation_band_hz, rng=rng)
-    acc, disp = acc[..., None, :, :], disp[..., None, :, :]
+    translation, disp = translation_motion(n_samples, fs, level, d.translation_band_hz, rng=rng)
+    translation, disp = translation[..., None, :, :], disp[..., None, :, :]
 
     # Hard iron: random direction, log-normal magnitude per run and node.
     direction = _random_unit(rng, batch + (n_nodes, 1))
@@ -305,30 +280,8 @@ def draw_disturbance(disturbance: Disturbance, node_pos_enu, fs: float, batch: t
         d.dipole_speed_m_s * (time_s - t_closest)[..., :, None] * along[..., None, :])       # (*B, T, 3)
     relative = pos + disp - path[..., None, :, :]                                            # (*B, N, T, 3)
     field = dipole_field_ut(moment[..., None, None, :], relative)
-    return DisturbanceSignals(acc, disp, field, hard_iron, soft_iron)
-
-
-def apply_disturbance(quat, acc, mag, signals: DisturbanceSignals) -> tuple[np.ndarray, np.ndarray]:
-    """Add a drawn disturbance to exact body-frame readings.
-
-    Parameters
-    ----------
-    quat : array_like, shape (N, T, 4)
-        True orientations (body → ENU).
-    acc, mag : array_like, shape (*B, N, T, 3)
-        Specific force (m/s²) and magnetic field (µT), body frame, before sensor errors.
-    signals : DisturbanceSignals
-
-    Returns
-    -------
-    acc, mag : numpy.ndarray, shape (*B, N, T, 3)
-        ``acc + q* ⊗ a_translation ⊗ q`` and ``S · (mag + q* ⊗ B_dipole ⊗ q) + h``.
-    """
-    q = np.asarray(quat, dtype=float)
-    acc_out = acc + Q.rotate_inverse(q, signals.translation_acc_enu)
-    field = mag + Q.rotate_inverse(q, signals.dipole_field_enu)
-    mag_out = np.einsum("...ij,...j->...i", signals.soft_iron, field) + signals.hard_iron_body
-    return acc_out, mag_out
+    field = mag + Q.rotate_inverse(truth.quat, field)
+    return acc + Q.rotate_inverse(truth.quat, translation), np.einsum("...ij,...j->...i", soft_iron, field) + hard_iron
 
 
 # --------------------------------------------------------------------------------------------

@@ -64,7 +64,7 @@ from wsnlib._validation import as_float_array, check_count, check_nonnegative, c
 from wsnlib.arm_model import ArmGeometry, ArmKinematics
 from wsnlib.io.recording import Recording
 from wsnlib.sim.arm import ArmTrajectory, arm_kinematics
-from wsnlib.sim.disturbance import Disturbance, apply_disturbance, draw_disturbance
+from wsnlib.sim.disturbance import Disturbance, disturb
 
 #: 1 gauss = 100 µT.
 UT_PER_GAUSS = 100.0
@@ -252,11 +252,6 @@ class ImuSpec:
         """Per-sample accelerometer white-noise standard deviation (m/s²) at ``fs``."""
         return self.acc_noise_density_ug * 1e-6 * frames.STANDARD_GRAVITY * np.sqrt(self.noise_bandwidth(fs))
 
-    def mag_noise_std_si(self, fs: float) -> float:
-        """Per-sample magnetometer noise standard deviation (µT); independent of ``fs``."""
-        check_positive(fs, "fs")
-        return self.mag_noise_ut
-
 
 # --------------------------------------------------------------------------------------------
 # Readings
@@ -377,12 +372,11 @@ def simulate_imu(truth: ArmKinematics, spec: ImuSpec | None = None, *, rng: np.r
     acc_noise = spec.acc_noise_std_si(fs) * rng.standard_normal(shape)
 
     mag_bias = spec.mag_bias_ut * rng.standard_normal(per_run)
-    mag_noise = spec.mag_noise_std_si(fs) * rng.standard_normal(shape)
+    mag_noise = spec.mag_noise_ut * rng.standard_normal(shape)  # per sample, whatever fs
 
     acc_exact, mag_exact = ideal.acc, ideal.mag
     if disturbance is not None:
-        signals = draw_disturbance(disturbance, truth.pos, fs, batch, rng=rng)
-        acc_exact, mag_exact = apply_disturbance(truth.quat, acc_exact, mag_exact, signals)
+        acc_exact, mag_exact = disturb(disturbance, truth, acc_exact, mag_exact, batch, rng=rng)
     acc = acc_exact + acc_bias + acc_noise
     mag = mag_exact + mag_bias + mag_noise
 

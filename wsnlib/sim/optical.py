@@ -372,28 +372,12 @@ def _lateral_basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return first, second
 
 
-def _parents(parents, n_joints: int) -> tuple[int, ...]:
-    if parents is None:
-        return tuple(range(-1, n_joints - 1))
-    try:
-        values = tuple(int(p) for p in parents)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"parents must be a sequence of {n_joints} integers, got {parents!r}") from exc
-    if len(values) != n_joints:
-        raise ValueError(f"parents has {len(values)} entries for {n_joints} joints")
-    for joint, parent in enumerate(values):
-        if parent < -1 or parent >= n_joints or parent == joint:
-            raise ValueError(f"parents[{joint}] = {parent} is not −1 (root) or another joint's index")
-    return values
-
-
-def _occlusion_score(truth: np.ndarray, axis: np.ndarray, parents: tuple[int, ...], occluded) -> np.ndarray:
-    """Score in [0, 1]: cos² of the most end-on incident segment, or 1 where ``occluded``."""
+def _occlusion_score(truth: np.ndarray, axis: np.ndarray, occluded) -> np.ndarray:
+    """Score in [0, 1]: cos² of the most end-on incident segment of the joint chain, or 1 where ``occluded``."""
     score = np.zeros(truth.shape[:-1])
     camera_axis = axis[..., None, :]  # broadcast over frames
-    for joint, parent in enumerate(parents):
-        if parent < 0:
-            continue
+    for joint in range(1, truth.shape[-2]):
+        parent = joint - 1
         segment = truth[..., joint, :] - truth[..., parent, :]
         length = np.linalg.norm(segment, axis=-1)
         cosine = np.divide(np.sum(segment * camera_axis, axis=-1), length, out=np.zeros_like(length), where=length > 0)
@@ -455,14 +439,15 @@ def _glitches(rng, score, model: KinectModel):
 
 
 def kinect_errors(true_positions, *, rng: np.random.Generator, fs: float = 30.0, camera_position, camera_axis,
-                  model: KinectModel | None = None, occluded=None, parents=None) -> KinectErrors:
+                  model: KinectModel | None = None, occluded=None) -> KinectErrors:
     """Draw the error components of a Kinect session (module docstring).
 
     Parameters
     ----------
     true_positions : array_like, shape (..., T, J, 3)
-        True joint positions (m), in any right-handed frame (the paper's shoulder frame), sampled
-        at ``fs``.  Leading dimensions are batches (sessions, Monte Carlo runs).
+        True positions (m) of a chain of joints, root first (shoulder → elbow → wrist), in any
+        right-handed frame (the paper's shoulder frame), sampled at ``fs``.  Leading dimensions
+        are batches (sessions, Monte Carlo runs).
     rng : numpy.random.Generator
     fs : float
         Sampling rate of ``true_positions`` (Hz).  Resampled to ``model.frame_rate_hz``.
@@ -475,9 +460,6 @@ def kinect_errors(true_positions, *, rng: np.random.Generator, fs: float = 30.0,
         Error parameters; default :class:`KinectModel()`.
     occluded : array_like of bool, shape (..., T, J), optional
         Input samples in which the caller knows a joint is hidden (score 1).
-    parents : sequence of int, optional
-        Parent joint of each joint (−1 for the root), for the segment-alignment rule.  Default:
-        a chain ``(−1, 0, 1, …)``, i.e. shoulder → elbow → wrist.
 
     Returns
     -------
@@ -494,7 +476,6 @@ def kinect_errors(true_positions, *, rng: np.random.Generator, fs: float = 30.0,
     position = _camera_vector(camera_position, "camera_position", batch_shape)
     axis = _camera_vector(camera_axis, "camera_axis", batch_shape)
     axis = axis / check_nonzero_norm(axis, "camera_axis", "the camera's viewing direction")[..., None]
-    chain = _parents(parents, n_joints)
     mask = None if occluded is None else as_bool_mask(occluded, "occluded", positions.shape[:-1])
 
     frame_rate = model.frame_rate_hz
@@ -521,7 +502,7 @@ def kinect_errors(true_positions, *, rng: np.random.Generator, fs: float = 30.0,
               + unit[..., 1:2] * sigma_lateral * lateral_1[..., None, None, :]
               + unit[..., 2:3] * sigma_lateral * lateral_2[..., None, None, :])
 
-    score = _occlusion_score(truth, axis, chain, mask)
+    score = _occlusion_score(truth, axis, mask)
     glitch, active, started = _glitches(rng, score, model)
 
     return KinectErrors(times=np.arange(n_frames) / frame_rate, truth=truth, bias=bias, jitter=jitter, glitch=glitch,
@@ -529,18 +510,17 @@ def kinect_errors(true_positions, *, rng: np.random.Generator, fs: float = 30.0,
 
 
 def simulate_kinect(true_positions, *, rng: np.random.Generator, fs: float = 30.0, camera_position, camera_axis,
-                    model: KinectModel | None = None, occluded=None, parents=None,
-                    relative_to: str = "tracked_shoulder", shoulder_index: int = 0) -> np.ndarray:
+                    model: KinectModel | None = None, occluded=None,
+                    relative_to: str = "tracked_shoulder") -> np.ndarray:
     """Joint positions as a first-generation Kinect skeletal tracker reports them.
 
     Parameters
     ----------
-    true_positions, rng, fs, camera_position, camera_axis, model, occluded, parents
-        As in :func:`kinect_errors`.
+    true_positions, rng, fs, camera_position, camera_axis, model, occluded
+        As in :func:`kinect_errors`; the shoulder is the first joint (as in
+        :data:`wsnlib.arm_model.JOINT_NAMES`).
     relative_to : {"tracked_shoulder", "session_shoulder", "true_shoulder"}
         Which shoulder estimate is the origin of the reported coordinates (module docstring).
-    shoulder_index : int
-        Index of the shoulder on the joint axis (0 for :data:`wsnlib.arm_model.JOINT_NAMES`).
 
     Returns
     -------
@@ -550,17 +530,10 @@ def simulate_kinect(true_positions, *, rng: np.random.Generator, fs: float = 30.
     """
     if relative_to not in RELATIVE_TO:
         raise ValueError(f"relative_to must be one of {RELATIVE_TO}, got {relative_to!r}")
-    positions = as_float_array(true_positions, "true_positions", last_dim=3, min_ndim=3)
-    n_joints = positions.shape[-2]
-    if isinstance(shoulder_index, bool) or not isinstance(shoulder_index, int | np.integer):
-        raise ValueError(f"shoulder_index must be an integer, got {shoulder_index!r}")
-    if not -n_joints <= shoulder_index < n_joints:
-        raise ValueError(f"shoulder_index = {shoulder_index} is out of range for {n_joints} joints")
-    errors = kinect_errors(positions, rng=rng, fs=fs, camera_position=camera_position, camera_axis=camera_axis,
-                           model=model, occluded=occluded, parents=parents)
+    errors = kinect_errors(true_positions, rng=rng, fs=fs, camera_position=camera_position, camera_axis=camera_axis,
+                           model=model, occluded=occluded)
     error = errors.total
-    shoulder_index = int(shoulder_index) % n_joints
-    shoulder = error[..., shoulder_index : shoulder_index + 1, :]
+    shoulder = error[..., :1, :]
     if relative_to == "tracked_shoulder":
         error = error - shoulder
     elif relative_to == "session_shoulder":

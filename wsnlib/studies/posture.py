@@ -18,7 +18,7 @@ Two checks of how far the Table 2–3 comparison can be trusted:
 * :func:`with_reference_error`: score everything against a reference derived by hand as the
   paper's was (:func:`wsnlib.sim.optical.hand_derived_reference`), not against the truth;
 * :func:`radio_sensitivity`: rerun a small Table 2 with the assumed radio-channel numbers of
-  :class:`wsnlib.sim.radio_channel.RadioChannel` perturbed (:data:`RADIO_ASSUMPTIONS`).
+  :class:`wsnlib.sim.radio.RadioChannel` perturbed (:data:`RADIO_ASSUMPTIONS`).
 """
 
 from __future__ import annotations
@@ -239,7 +239,7 @@ def with_reference_error(inputs: StudyInputs, *, rng: np.random.Generator,
 #: The radio-channel numbers marked *assumed* or *unverified* in :mod:`wsnlib.sim.radio`, with the
 #: half-width of their perturbation: ``(field, half_width, kind)``; ``"relative"`` draws
 #: ``value · (1 + h·u)``, ``"additive"`` draws ``value + h·u``, ``u ~ U[−1, 1]`` times ``spread``.
-#: A dotted field is a field of a :class:`~wsnlib.sim.radio_channel.PathLossModel`.  The ranges are
+#: A dotted field is a field of a :class:`~wsnlib.sim.radio.PathLossModel`.  The ranges are
 #: ours: ±50 % for assumed scales and caps, ±100 % (down to 0, up to double) for assumed rates,
 #: offsets and noise, ±20–30 % for the unverified path-loss fits, a few dB for assumed levels.
 RADIO_ASSUMPTIONS = (
@@ -277,7 +277,7 @@ _FRACTIONS = {"day_decorrelation", "interference_fraction", "link_loss_rate", "t
 
 
 def perturbed_channel(factors: dict, channel=None):
-    """A :class:`~wsnlib.sim.radio_channel.RadioChannel` with :data:`RADIO_ASSUMPTIONS` perturbed.
+    """A :class:`~wsnlib.sim.radio.RadioChannel` with :data:`RADIO_ASSUMPTIONS` perturbed.
 
     Parameters
     ----------
@@ -288,7 +288,7 @@ def perturbed_channel(factors: dict, channel=None):
     channel : RadioChannel, optional
         The nominal channel; default ``RadioChannel()``.
     """
-    from wsnlib.sim.radio_channel import RadioChannel
+    from wsnlib.sim.radio import RadioChannel
 
     channel = RadioChannel() if channel is None else channel
     known = {name: (half, kind) for name, half, kind in RADIO_ASSUMPTIONS}
