@@ -75,6 +75,7 @@ import tempfile
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from unittest import mock
 
 from wsnlib import paths
 from wsnlib._files import WRITTEN_LOG_ENV
@@ -107,21 +108,6 @@ class BatchInterrupted(KeyboardInterrupt):
     def __init__(self, signum: int):
         super().__init__(signal.Signals(signum).name)
         self.signum = signum
-
-
-@contextlib.contextmanager
-def _batch_environment() -> Iterator[None]:
-    """Set :data:`BATCH_ENV` (the kernel inherits it) and restore the previous values after."""
-    saved = {name: os.environ.get(name) for name in BATCH_ENV}
-    os.environ.update(BATCH_ENV)
-    try:
-        yield
-    finally:
-        for name, value in saved.items():
-            if value is None:
-                os.environ.pop(name, None)
-            else:
-                os.environ[name] = value
 
 
 @contextlib.contextmanager
@@ -179,7 +165,8 @@ def run(notebooks: list[Path], parameters: dict, quick: bool, kernel: str = path
     jobs = jobs if len(notebooks) > 1 else 1  # one notebook: nothing runs beside it
     socket_folder = Path(tempfile.mkdtemp(prefix="wsnlib-kernel-"))
     try:
-        with _batch_environment(), _signals_interrupt():
+        # BATCH_ENV for the kernels (they inherit it); the previous environment comes back after.
+        with mock.patch.dict(os.environ, BATCH_ENV), _signals_interrupt():
             return _run(notebooks, parameters, quick, kernel, cell_timeout, socket_folder, jobs)
     finally:
         shutil.rmtree(socket_folder, ignore_errors=True)
