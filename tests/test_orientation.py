@@ -13,7 +13,7 @@ from scipy.spatial.transform import Rotation
 
 from wsnlib import frames
 from wsnlib import quaternion as Q
-from wsnlib.orientation import _kernels, madgwick, madgwick_step, tilt_quaternion, triad
+from wsnlib.orientation import _scalar_kernels, madgwick, madgwick_step, tilt_quaternion, triad
 from wsnlib.orientation.madgwick import Q_ENU_FROM_NWU
 
 G_ENU = frames.gravity_specific_force_enu()
@@ -225,7 +225,7 @@ def test_madgwick_step_matches_report_restatement(rng, form):
 
 def _gradient(q_nwu, acc, mag):
     """The compiled gradient, sample by sample, component axis first (4, N)."""
-    return np.array([_kernels.madgwick_gradient(tuple(q), tuple(a), tuple(m), True)
+    return np.array([_scalar_kernels.madgwick_gradient(tuple(q), tuple(a), tuple(m), True)
                      for q, a, m in zip(q_nwu.T, acc.T, mag.T, strict=True)]).T
 
 

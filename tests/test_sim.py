@@ -183,7 +183,6 @@ def test_minimum_jerk_profile():
         (lambda: arm_extension(start_s=-1.0), "start_s"),
         (lambda: pitch_ramp(pitch_end_deg=120.0), "pitch_end_deg"),
         (lambda: ArmGeometry((0.0, 0.25), (0.0, 0.1)), "segment_lengths_m"),
-        (lambda: ArmGeometry.from_node_points(0.3, 0.25, (0.1, 0.0, 0.0), (0.1, 0.0)), "forearm_node_m"),
         (lambda: ArmGeometry((0.3, 0.25), (0.1, 0.1), ((0.0, 0.0),)), "device_normal_offsets_m"),
         (lambda: arm_kinematics(arm_extension(), ArmGeometry((0.3,), (0.1,))), "2 segments"),
         (lambda: ArmGeometry.from_height(-1.7), "height_m"),

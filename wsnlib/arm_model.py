@@ -183,22 +183,6 @@ class ArmGeometry:
         return cls((upper, fore), (humerus_node_fraction * upper, forearm_node_fraction * fore),
                    ((0.0, float(humerus_node_offset_m)), (0.0, float(forearm_node_offset_m))))
 
-    @classmethod
-    def from_node_points(cls, humerus_length_m: float, forearm_length_m: float, humerus_node_m,
-                         forearm_node_m) -> ArmGeometry:
-        """Geometry from segment lengths and node points ``(x, y, z)`` in each segment frame (m).
-
-        The form of the former ``wsnlib.sim.arm.ArmGeometry`` constructor.
-        """
-        points = []
-        for name, value in (("humerus_node_m", humerus_node_m), ("forearm_node_m", forearm_node_m)):
-            arr = as_float_array(value, name)
-            if arr.shape != (3,):
-                raise ValueError(f"{name} must be 3 numbers (x, y, z, m), got shape {arr.shape}")
-            points.append(arr)
-        return cls((humerus_length_m, forearm_length_m), (points[0][0], points[1][0]),
-                   (tuple(points[0][1:]), tuple(points[1][1:])))
-
     @property
     def n_segments(self) -> int:
         """Number of segments S."""
@@ -317,11 +301,6 @@ class ArmKinematics:
         """Unit segment axes (body x in the earth frame), shape (2, T, 3)."""
         return Q.rotate(self.quat, _X)
 
-    @property
-    def gyr_earth(self) -> np.ndarray:
-        """Angular rate in the earth frame (rad/s), shape (2, T, 3)."""
-        return Q.rotate(self.quat, self.gyr)
-
     def specific_force(self, gravity: float = frames.STANDARD_GRAVITY, mounting=None) -> np.ndarray:
         """Exact accelerometer reading of each device, ``q* ⊗ (a_lin + [0, 0, g]) ⊗ q`` (m/s²).
 
@@ -346,18 +325,6 @@ class ArmKinematics:
                 raise ValueError(f"mounting must have shape (4,) or (2, 4) (one per device), got {mount.shape}")
             q = Q.multiply(q, mount if mount.ndim == 1 else mount[:, None, :])
         return Q.rotate_inverse(q, self.acc_lin + frames.gravity_specific_force_enu(gravity))
-
-    def heading_pitch(self) -> tuple[np.ndarray, np.ndarray]:
-        """Heading and pitch of each segment in :mod:`wsnlib.posture`'s convention, each (T, 2).
-
-        Heading ψ = ``atan2(u_y, u_x)`` in ``[0, 2π)`` (the azimuth of the segment axis ``u``,
-        x right, y forward), pitch θ = ``asin(u_z)``: what :func:`wsnlib.posture.forward_chain`
-        takes (layout ``(T, S)``).
-        """
-        u = np.moveaxis(self.directions, 0, 1)  # (T, 2, 3)
-        heading = np.mod(np.arctan2(u[..., 1], u[..., 0]), 2.0 * np.pi)
-        pitch = np.arcsin(np.clip(u[..., 2], -1.0, 1.0))
-        return heading, pitch
 
 
 __all__ = ["DEFAULT_BODY_HEIGHT_M", "FOREARM_FRACTION", "JOINT_NAMES", "NODE_NAMES", "Q_REFERENCE",

@@ -27,28 +27,22 @@ from wsnlib._validation import as_float_array, check_nonzero_norm
 _SLERP_SMALL_ANGLE = 1e-6
 
 
-def _quat_array(q, name: str) -> np.ndarray:
-    """``q`` as a float array of shape ``(..., 4)``, or ``ValueError`` naming ``name``.
+def _last_axis(value, name: str, size: int, what: str) -> np.ndarray:
+    """``value`` as a float array of shape ``(..., size)`` (``what`` its rows), or ``ValueError`` naming ``name``.
 
     A shape check only (O(1)): these helpers run inside loops, and values are the caller's.
     """
     try:
-        q = np.asarray(q, dtype=float)
+        arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a numeric array of quaternions [w, x, y, z], got {type(q).__name__}") from exc
-    if q.ndim == 0 or q.shape[-1] != 4:
-        raise ValueError(f"{name} must have shape (..., 4), quaternions [w, x, y, z]; got shape {q.shape}")
-    return q
+        raise ValueError(f"{name} must be a numeric array of {what}, got {type(value).__name__}") from exc
+    if arr.ndim == 0 or arr.shape[-1] != size:
+        raise ValueError(f"{name} must have shape (..., {size}), {what}; got shape {arr.shape}")
+    return arr
 
 
-def _vector_array(v, name: str) -> np.ndarray:
-    try:
-        v = np.asarray(v, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a numeric array of 3-vectors, got {type(v).__name__}") from exc
-    if v.ndim == 0 or v.shape[-1] != 3:
-        raise ValueError(f"{name} must have shape (..., 3), got shape {v.shape}")
-    return v
+def _quat_array(q, name: str) -> np.ndarray:
+    return _last_axis(q, name, 4, "quaternions [w, x, y, z]")
 
 
 def _broadcast(names: str, *shapes) -> tuple[int, ...]:
@@ -107,7 +101,7 @@ def rotate(q, v) -> np.ndarray:
     ``ValueError`` naming ``q`` or ``v`` when a shape is wrong or they do not broadcast.
     """
     q = _quat_array(q, "q")
-    v = _vector_array(v, "v")
+    v = _last_axis(v, "v", 3, "3-vectors")
     if q.shape[:-1] != v.shape[:-1]:
         _broadcast("q[..., 1:] and v", q.shape[:-1] + (3,), v.shape)
     w = q[..., :1]

@@ -75,6 +75,7 @@ import tempfile
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from unittest import mock
 
 from wsnlib import paths
 from wsnlib._files import WRITTEN_LOG_ENV
@@ -107,21 +108,6 @@ class BatchInterrupted(KeyboardInterrupt):
     def __init__(self, signum: int):
         super().__init__(signal.Signals(signum).name)
         self.signum = signum
-
-
-@contextlib.contextmanager
-def _batch_environment() -> Iterator[None]:
-    """Set :data:`BATCH_ENV` (the kernel inherits it) and restore the previous values after."""
-    saved = {name: os.environ.get(name) for name in BATCH_ENV}
-    os.environ.update(BATCH_ENV)
-    try:
-        yield
-    finally:
-        for name, value in saved.items():
-            if value is None:
-                os.environ.pop(name, None)
-            else:
-                os.environ[name] = value
 
 
 @contextlib.contextmanager
@@ -176,42 +162,14 @@ def run(notebooks: list[Path], parameters: dict, quick: bool, kernel: str = path
     when SIGINT or SIGTERM stopped the batch.
     """
     check_count(jobs, "jobs")
+    jobs = jobs if len(notebooks) > 1 else 1  # one notebook: nothing runs beside it
     socket_folder = Path(tempfile.mkdtemp(prefix="wsnlib-kernel-"))
     try:
-        with _batch_environment(), _signals_interrupt():
-            if jobs > 1 and len(notebooks) > 1:
-                return _run_parallel(notebooks, parameters, quick, kernel, cell_timeout, socket_folder, jobs)
-            return _run(notebooks, parameters, quick, kernel, cell_timeout, socket_folder)
+        # BATCH_ENV for the kernels (they inherit it); the previous environment comes back after.
+        with mock.patch.dict(os.environ, BATCH_ENV), _signals_interrupt():
+            return _run(notebooks, parameters, quick, kernel, cell_timeout, socket_folder, jobs)
     finally:
         shutil.rmtree(socket_folder, ignore_errors=True)
-
-
-def _run(notebooks, parameters, quick, kernel, cell_timeout, socket_folder) -> int:
-    from tqdm.auto import tqdm
-
-    entries = initial_entries(notebooks, quick)
-    kernel_manager_class = _ipc_kernel_manager(socket_folder)
-    progress = tqdm(notebooks, desc="notebooks", unit="nb", file=sys.stderr)
-    for entry, notebook in zip(entries, progress, strict=True):
-        progress.set_postfix_str(entry["notebook"])
-        params = {"quick": quick, **parameters}
-        executed = paths.executed_notebooks() / notebook_name(notebook)
-        executed.parent.mkdir(parents=True, exist_ok=True)
-        entry["parameters"] = params
-        start_ns = time.time_ns()
-        started = time.perf_counter()
-        status, error, exit_code = _execute(notebook, executed, params, kernel, cell_timeout, kernel_manager_class)
-        entry.update(status=status, seconds=round(time.perf_counter() - started, 1),
-                     outputs=describe_outputs(files_written_since(start_ns)))
-        if error is not None:
-            entry["error"] = error
-        write_manifest(entries, quick)
-        if status != "ok":
-            progress.close()
-            _report_failure(entry, executed)
-            return exit_code
-    progress.close()
-    return 0
 
 
 def _execute(notebook: Path, executed: Path, params: dict, kernel: str, cell_timeout: float,
@@ -247,13 +205,14 @@ def _report_failure(entry: dict, executed: Path) -> None:
           f"Executed copy: {executed}\nManifest: {manifest_path()}", file=sys.stderr)
 
 
-def _run_parallel(notebooks, parameters, quick, kernel, cell_timeout, socket_folder, jobs) -> int:
-    """:func:`_run` with up to ``jobs`` notebooks at a time (each in its own kernel).
+def _run(notebooks, parameters, quick, kernel, cell_timeout, socket_folder, jobs) -> int:
+    """Run the notebooks one after the other, or up to ``jobs`` at a time (each in its own kernel).
 
-    Which files a notebook wrote comes from its write log (every wsnlib writer goes through
-    :func:`wsnlib._files.atomic_path`), not from times, since neighbours write meanwhile.  At
-    the first notebook that does not end ``ok`` no further notebook starts; those running
-    finish.  SIGINT/SIGTERM stops every running kernel and records them ``interrupted``.
+    Which files a notebook wrote is known from the time they were written, or side by side from
+    the notebook's write log (every wsnlib writer goes through :func:`wsnlib._files.atomic_path`),
+    since neighbours write meanwhile.  At the first notebook that does not end ``ok`` no further
+    notebook starts; those running finish.  Side by side, SIGINT/SIGTERM stops every running
+    kernel and records them ``interrupted`` (one at a time, the running notebook records it).
     """
     import threading
     from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
@@ -270,6 +229,7 @@ def _run_parallel(notebooks, parameters, quick, kernel, cell_timeout, socket_fol
         if stop.is_set():
             return 0
         entry = entries[index]
+        progress.set_postfix_str(entry["notebook"])
         executed = paths.executed_notebooks() / notebook_name(notebook)
         executed.parent.mkdir(parents=True, exist_ok=True)
         folder = socket_folder / f"nb{index}"
@@ -280,22 +240,29 @@ def _run_parallel(notebooks, parameters, quick, kernel, cell_timeout, socket_fol
         with lock:
             entry["parameters"] = params
             running.add(index)
+        start_ns = time.time_ns()
         started = time.perf_counter()
         status, error, exit_code = _execute(notebook, executed, params, kernel, cell_timeout, manager_class)
         with lock:
             running.discard(index)
             if entry["status"] == "interrupted":  # the signal handler got here first
                 return entry.get("exit_code", 130)
+            written = files_written_since(start_ns) if jobs == 1 else logged_files(log)
             entry.update(status=status, seconds=round(time.perf_counter() - started, 1),
-                         outputs=describe_outputs(logged_files(log)))
+                         outputs=describe_outputs(written))
             if error is not None:
                 entry["error"] = error
                 stop.set()
+                progress.close()
                 _report_failure(entry, executed)
             write_manifest(entries, quick, jobs)
             progress.update(1)
         return exit_code
 
+    if jobs == 1:  # in this thread: a signal interrupts the running notebook's cell
+        codes = [one(index, notebook) for index, notebook in enumerate(notebooks)]
+        progress.close()
+        return max(codes, default=0)
     pool = ThreadPoolExecutor(max_workers=jobs)
     futures = [pool.submit(one, i, nb) for i, nb in enumerate(notebooks)]
     try:

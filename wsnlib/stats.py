@@ -91,11 +91,6 @@ class BootstrapInterval:
         """Whether ``low <= value <= high`` (broadcast), shape (...)."""
         return (self.low <= value) & (value <= self.high)
 
-    @property
-    def half_width(self) -> np.ndarray:
-        """``(high − low) / 2``, shape (...)."""
-        return 0.5 * (self.high - self.low)
-
 
 def _check_options(level, n_boot, method, statistic) -> tuple[float, int]:
     if isinstance(level, bool) or not isinstance(level, numbers.Real) or not 0.0 < float(level) < 1.0:

@@ -115,14 +115,20 @@ def as_signal(value, name: str) -> np.ndarray:
     return arr
 
 
-def unit_quaternions(value, name: str) -> np.ndarray:
-    """Finite, non-zero quaternions ``(..., 4)`` scaled to unit norm (huge or tiny ones too)."""
-    q = as_float_array(value, name, last_dim=4)
-    scale = np.max(np.abs(q), axis=-1, keepdims=True)
+def nonzero_vectors(value, name: str, last_dim: int, what: str) -> np.ndarray:
+    """Finite float array ``(..., last_dim)`` without a zero vector (``what`` says why it needs one)."""
+    arr = as_float_array(value, name, last_dim=last_dim)
+    scale = np.max(np.abs(arr), axis=-1, keepdims=True)
     if np.any(scale == 0.0):
         bad = tuple(int(i) for i in np.argwhere(scale[..., 0] == 0.0)[0])
-        raise ValueError(f"{name} has a zero-norm vector at index {bad} (a zero quaternion is not a rotation)")
-    q = q / scale
+        raise ValueError(f"{name} has a zero-norm vector at index {bad} ({what})")
+    return arr
+
+
+def unit_quaternions(value, name: str) -> np.ndarray:
+    """Finite, non-zero quaternions ``(..., 4)`` scaled to unit norm (huge or tiny ones too)."""
+    q = nonzero_vectors(value, name, 4, "a zero quaternion is not a rotation")
+    q = q / np.max(np.abs(q), axis=-1, keepdims=True)
     return q / np.linalg.norm(q, axis=-1, keepdims=True)
 
 

@@ -33,31 +33,24 @@ from numba import njit, prange
 from wsnlib import frames
 from wsnlib.orientation import gaps
 
-# Re-exported: the scalar kernels, where the modules built on this one import them from.
+# The scalar kernels this module builds on, and those the smoother imports from here.
 from wsnlib.orientation._scalar_kernels import (  # noqa: F401
     COMPILE,
     PARALLEL_SIN_TOL,
     cross3,
-    enu_from_nwu,
     is_finite4,
-    madgwick_gradient,
     madgwick_update,
-    nwu_from_enu,
     quat_conjugate,
     quat_exp,
-    quat_from_matrix,
     quat_log,
     quat_multiply,
     quat_normalize,
-    quat_rotate,
-    rotation_matrix,
     slerp,
     slerp_weight,
     squared_norm3,
     tilt,
     triad,
     unit3,
-    vec_norm,
 )
 
 # ------------------------------------------------------------------------------------------

@@ -28,7 +28,7 @@ import numpy as np
 from wsnlib._validation import check_settings_fields
 from wsnlib.orientation import _batch as B
 from wsnlib.orientation import _kernels as K
-from wsnlib.orientation.lost_run import DEFAULT_HOLD_WINDOW, SCHEDULE_CODES, SCHEDULES
+from wsnlib.orientation.lost_run import SCHEDULE_CODES, check_weight_options
 
 
 @dataclass(frozen=True)
@@ -244,10 +244,7 @@ def blend_with_single_frame(
         ``schedule``, ρ or τ not finite and > 0, a bad ``hold_window``.  ``acc`` parallel to
         ``mag`` on a blended sample fails in TRIAD.
     """
-    schedule = B.check_choice(schedule, "schedule", SCHEDULES)
-    rho = B.positive_array(rho, "rho")
-    tau = B.positive_array(tau, "tau")
-    window = B.check_hold_window(hold_window, schedule, DEFAULT_HOLD_WINDOW)
+    rho, tau, schedule, window = check_weight_options(rho, tau, schedule, hold_window)
     gate = check_single_frame_gate(single_frame_gate)
     if gate is None and (gyr is not None or fs is not None):
         raise ValueError("gyr and fs are only used with single_frame_gate")

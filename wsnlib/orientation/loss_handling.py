@@ -34,19 +34,12 @@ import numpy as np
 from wsnlib.orientation import _batch as B
 from wsnlib.orientation import _kernels as K
 from wsnlib.orientation.hybrid_blend import check_single_frame_gate
-from wsnlib.orientation.lost_run import (
-    DEFAULT_HOLD_WINDOW,
-    SCHEDULE_CODES,
-    SCHEDULES,
-    effective_lost_run_unchecked,
-)
+from wsnlib.orientation.lost_run import SCHEDULE_CODES, check_weight_options, effective_lost_run_unchecked
 
 #: Madgwick's update after a gap (``method``): the standard one, or one of paper 001's Sec. V.
 METHODS = ("madgwick", "dt_extension", "adaptive_beta")
 #: Default ``beta_max`` of ``method="adaptive_beta"``, as a multiple of β.
 DEFAULT_BETA_MAX_FACTOR = 10.0
-#: Defaults of eq. (3)'s ρ, τ and of the λ schedule (μ = 1/2 at λ_eff = 12 samples).
-DEFAULT_RHO, DEFAULT_TAU, DEFAULT_SCHEDULE = 2.0, 6.0, "decay"
 #: Paper 001's loss-handling options (the labels the notebooks use) as keywords of
 #: :func:`estimate_orientation`; the hybrid's blend and μ are the caller's choice.
 PAPER_OPTIONS = {"hold_last": {}, "dt_extension": {"method": "dt_extension"},
@@ -225,13 +218,10 @@ def estimate_orientation(gyr, acc, mag=None, *, fs: float, beta, received=None, 
     gate = check_single_frame_gate(single_frame_gate)
     if gate is not None and return_weight:
         raise ValueError("return_weight is not available with single_frame_gate (μ then depends on the signals)")
-    schedule = B.check_choice(DEFAULT_SCHEDULE if schedule is None else schedule, "schedule", SCHEDULES)
+    rho, tau, schedule, window = check_weight_options(rho, tau, schedule, hold_window)
     fs = B.check_fs(fs)
     beta = B.check_beta(beta)
     beta_max = DEFAULT_BETA_MAX_FACTOR * beta if beta_max is None else B.check_beta(beta_max, "beta_max")
-    rho = B.positive_array(DEFAULT_RHO if rho is None else rho, "rho")
-    tau = B.positive_array(DEFAULT_TAU if tau is None else tau, "tau")
-    window = B.check_hold_window(hold_window, schedule, DEFAULT_HOLD_WINDOW)
 
     signals, mask, q0, shapes = B.check_inputs(gyr, acc, mag, received, q0)
     n_t = signals["gyr"].shape[-2]

@@ -30,6 +30,17 @@ SCHEDULES = ("decay", "hold", "instant")
 DEFAULT_HOLD_WINDOW = 50
 #: The kernels' code of each schedule.
 SCHEDULE_CODES = dict(zip(SCHEDULES, (K.DECAY, K.HOLD, K.INSTANT), strict=True))
+#: Defaults of eq. (3)'s ρ, τ and of the λ schedule (μ = 1/2 at λ_eff = 12 samples).
+DEFAULT_RHO, DEFAULT_TAU, DEFAULT_SCHEDULE = 2.0, 6.0, "decay"
+
+
+def check_weight_options(rho, tau, schedule, hold_window):
+    """The options of μ every hybrid shares, checked (``None``: the defaults above): ρ and τ as
+    float arrays > 0, the schedule's name and ``hold_window`` as :func:`effective_lost_run` takes it."""
+    schedule = B.check_choice(DEFAULT_SCHEDULE if schedule is None else schedule, "schedule", SCHEDULES)
+    return (B.positive_array(DEFAULT_RHO if rho is None else rho, "rho"),
+            B.positive_array(DEFAULT_TAU if tau is None else tau, "tau"), schedule,
+            B.check_hold_window(hold_window, schedule, DEFAULT_HOLD_WINDOW))
 
 
 def slerp_weight(lost_run, rho, tau) -> np.ndarray:

@@ -52,15 +52,6 @@ from wsnlib.orientation import _kernels as K
 Q_ENU_FROM_NWU = np.array([np.sqrt(0.5), 0.0, 0.0, np.sqrt(0.5)])
 
 
-def _unit_vectors(value, name: str, what: str) -> np.ndarray:
-    arr = as_float_array(value, name, last_dim=3)
-    scale = np.max(np.abs(arr), axis=-1, keepdims=True)
-    if np.any(scale == 0.0):
-        bad = tuple(int(i) for i in np.argwhere(scale[..., 0] == 0.0)[0])
-        raise ValueError(f"{name} has a zero-norm vector at index {bad} ({what})")
-    return arr
-
-
 def madgwick_step(q, gyr, acc, mag, dt, beta) -> np.ndarray:
     """One update of Madgwick's filter (eqs. (11), (25)–(34), (42)–(46)), vectorised.
 
@@ -94,10 +85,10 @@ def madgwick_step(q, gyr, acc, mag, dt, beta) -> np.ndarray:
     """
     q = B.unit_quaternions(q, "q")
     gyr = as_float_array(gyr, "gyr", last_dim=3)
-    acc = _unit_vectors(acc, "acc", "free fall has no gravity direction")
+    acc = B.nonzero_vectors(acc, "acc", 3, "free fall has no gravity direction")
     shapes = {"q": q.shape[:-1], "gyr": gyr.shape[:-1], "acc": acc.shape[:-1]}
     if mag is not None:
-        mag = _unit_vectors(mag, "mag", "a magnetometer reading needs a direction")
+        mag = B.nonzero_vectors(mag, "mag", 3, "a magnetometer reading needs a direction")
         shapes["mag"] = mag.shape[:-1]
     dt = as_float_array(dt, "dt", min_ndim=0)
     if np.any(dt <= 0.0):

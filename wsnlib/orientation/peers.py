@@ -86,7 +86,6 @@ from __future__ import annotations
 import collections
 import gc
 import hashlib
-import math
 
 import imufusion
 import numpy as np
@@ -98,7 +97,7 @@ from wsnlib._validation import check_nonnegative, check_positive
 from wsnlib.orientation import _batch as B
 from wsnlib.orientation import _kernels as K
 from wsnlib.orientation.hybrid_blend import blend_with_single_frame, check_single_frame_gate, trusted_unchecked
-from wsnlib.orientation.lost_run import DEFAULT_HOLD_WINDOW, SCHEDULES, effective_lost_run, slerp_weight
+from wsnlib.orientation.lost_run import check_weight_options, effective_lost_run, slerp_weight
 from wsnlib.orientation.triad import triad
 
 # --------------------------------------------------------------------------------------------
@@ -146,9 +145,16 @@ def _feedback_inputs(signals, mask, rho, tau, schedule, window, gate=None, fs=No
     return blend_at, q_s, slerp_weight(lam, rho, tau)
 
 
-def _slerp(q_s, q_d, mu: float) -> np.ndarray:
-    """Eq. (4) for one sample (4-sequences), in ``q_d``'s hemisphere (:func:`wsnlib.orientation._kernels.slerp`)."""
-    return np.array(K.slerp(tuple(map(float, q_s)), tuple(map(float, q_d)), float(mu)))
+def _slerp(q_s, q_d, mu: float, normalise_d: bool = False) -> np.ndarray:
+    """Eq. (4) for one sample (4-sequences), in ``q_d``'s hemisphere (:func:`wsnlib.orientation._kernels.slerp`);
+    ``normalise_d``: ``q_d`` scaled to unit norm first."""
+    q_d = _floats(q_d)
+    return np.array(K.slerp(_floats(q_s), K.quat_normalize(q_d) if normalise_d else q_d, float(mu)))
+
+
+def _floats(q) -> tuple:
+    """A 4-sequence as a tuple of Python floats, what the scalar kernels take one sample at a time."""
+    return tuple(float(v) for v in q)
 
 
 def _hold(out: np.ndarray, mask: np.ndarray) -> np.ndarray:
@@ -186,12 +192,10 @@ class _Options:
             B.refuse_unused(filter_name, "without blend", rho=rho, tau=tau, schedule=schedule,
                             hold_window=hold_window, single_frame_gate=single_frame_gate)
         self.gate = check_single_frame_gate(single_frame_gate)
-        self.rho = check_positive(2.0 if rho is None else rho, "rho")
-        self.tau = check_positive(6.0 if tau is None else tau, "tau")
-        self.schedule = B.check_choice("decay" if schedule is None else schedule, "schedule", SCHEDULES)
-        self.window = B.check_hold_window(hold_window, self.schedule, DEFAULT_HOLD_WINDOW)
-        if self.window is not None and self.window.ndim:
-            raise ValueError(f"hold_window must be one positive integer here, got {hold_window!r}")
+        self.rho, self.tau, self.schedule, self.window = check_weight_options(rho, tau, schedule, hold_window)
+        for name, value in (("rho", self.rho), ("tau", self.tau), ("hold_window", self.window)):
+            if value is not None and value.ndim:
+                raise ValueError(f"{name} must be one number here, got {value!r}")
         self.fs = fs
 
     def feedback(self, signals, mask):
@@ -310,7 +314,7 @@ def _fusion_one(settings, dt=None, gap_factor=None):
                 ahrs.update(gyr_deg[t], acc_g[t], mag[t])
             out[t] = ahrs.get_quaternion()
             if feedback is not None and blend_at[t]:
-                out[t] = _slerp(q_s[t], _unit(out[t]), mu[t])
+                out[t] = _slerp(q_s[t], out[t], mu[t], normalise_d=True)
                 ahrs.set_quaternion(out[t])
         if gap_factor is not None and 0 <= prev < n_t - 1:  # a gap at the end
             normalise(prev)
@@ -462,27 +466,11 @@ def _vqf_set_quat9d(filt, q_f: np.ndarray, use_mag: bool = True) -> None:
     """
     state = filt.state
     half = -0.5 * state["delta"] if use_mag else 0.0
-    undo_delta = (np.cos(half), 0.0, 0.0, np.sin(half))
-    acc_w, acc_x, acc_y, acc_z = (float(v) for v in state["accQuat"])
-    state["gyrQuat"] = np.array(_unit(_hamilton((acc_w, -acc_x, -acc_y, -acc_z), _hamilton(undo_delta, q_f))))
+    undo_delta = (float(np.cos(half)), 0.0, 0.0, float(np.sin(half)))
+    acc_inverse = K.quat_conjugate(_floats(state["accQuat"]))
+    q_i = K.quat_multiply(acc_inverse, K.quat_multiply(undo_delta, _floats(q_f)))
+    state["gyrQuat"] = np.array(K.quat_normalize(q_i))
     filt.state = state
-
-
-def _unit(q) -> tuple:
-    """``q / ‖q‖`` of a 4-sequence in Python floats: :func:`wsnlib.fixed_order.norm`'s sum order
-    (the same bits), without its array overhead (called per sample)."""
-    w, x, y, z = (float(v) for v in q)
-    norm = math.sqrt(w * w + x * x + y * y + z * z)
-    return w / norm, x / norm, y / norm, z / norm
-
-
-def _hamilton(p, q) -> tuple:
-    """``p ⊗ q`` of two 4-sequences in Python floats: :func:`wsnlib.quaternion.multiply`'s
-    arithmetic, term for term (the same bits), without its array overhead (called per sample)."""
-    pw, px, py, pz = (float(v) for v in p)
-    qw, qx, qy, qz = (float(v) for v in q)
-    return (pw * qw - px * qx - py * qy - pz * qz, pw * qx + px * qw + py * qz - pz * qy,
-            pw * qy - px * qz + py * qw + pz * qx, pw * qz + px * qy - py * qx + pz * qw)
 
 
 def _vqf_one(fs: float, params: dict, gap_factor=None):
