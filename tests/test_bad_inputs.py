@@ -332,3 +332,37 @@ def test_rss_vectors_of_a_target_without_packets_is_refused():
     with pytest.raises(ValueError, match=r"target 't1' has no packets.*\['T1'\]"):
         RSS.rss_vectors(table, target="t1", anchors=("A1",))
 
+
+
+# --------------------------------------------------------------------------------------------
+# Issue 23: recordings implausible as a whole, and complex input, through the public filters
+# --------------------------------------------------------------------------------------------
+
+
+def _still_recording(n=200):
+    """A sensor lying still at 50 Hz in the documented units (rad/s, m/s², µT)."""
+    t = np.arange(n) / 50.0
+    gyr = np.stack([0.3 * np.sin(t), 0.2 * np.cos(t), np.full_like(t, 0.1)], axis=-1)
+    return gyr, np.tile([0.0, 0.0, 9.81], (n, 1)), np.tile([0.0, 25.0, -38.0], (n, 1))
+
+
+def _filters():
+    from wsnlib.orientation import estimate_orientation, kalman_orientation, madgwick, smooth_orientation
+
+    return {"madgwick": lambda g, a, m: madgwick(g, a, m, fs=50.0, beta=0.1),
+            "estimate_orientation": lambda g, a, m: estimate_orientation(g, a, m, fs=50.0, beta=0.1),
+            "kalman_orientation": lambda g, a, m: kalman_orientation(g, a, m, fs=50.0),
+            "smooth_orientation": lambda g, a, m: smooth_orientation(g, a, m, fs=50.0)}
+
+
+@pytest.mark.parametrize("name", ["madgwick", "estimate_orientation", "kalman_orientation", "smooth_orientation"])
+def test_filters_refuse_a_recording_in_the_wrong_units(name):
+    run = _filters()[name]
+    gyr, acc, mag = _still_recording()
+    run(gyr, acc, mag)  # the documented units pass
+    with pytest.raises(ValueError, match="gyr looks like deg/s"):
+        run(np.degrees(gyr) * 100, acc, mag)
+    with pytest.raises(ValueError, match="acc and mag look swapped"):
+        run(gyr, mag, acc)
+    with pytest.raises(ValueError, match="acc must be real"):
+        run(gyr, acc.astype(complex) + 1j, mag)

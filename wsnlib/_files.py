@@ -67,6 +67,14 @@ def atomic_path(path) -> Iterator[Path]:
             raise OSError(f"{path}: nothing was written to the temporary file {tmp.name}")
         os.replace(tmp, path)
         _note_written(path)
+    except OSError as exc:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        if str(path) in str(exc):
+            raise
+        # "[Errno 27] File too large", "[Errno 28] No space left on device" name no file: name it
+        message = f"writing {path}: {exc.strerror or exc}"
+        raise (OSError(exc.errno, message) if exc.errno is not None else OSError(message)) from exc
     except BaseException:
         with contextlib.suppress(OSError):
             tmp.unlink()

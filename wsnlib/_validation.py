@@ -22,6 +22,8 @@ def as_float_array(value, name: str, last_dim: int | None = None, min_ndim: int 
     min_ndim : int
         Minimum number of dimensions.
     """
+    if np.iscomplexobj(value):  # numpy would drop the imaginary part with only a ComplexWarning
+        raise ValueError(f"{name} must be real, got complex values")
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as exc:

@@ -40,7 +40,9 @@ def notebook_name(notebook: Path) -> str:
 def _numbered(folder: Path, pattern: str | None) -> list[Path]:
     found = sorted(folder.glob("[0-9][0-9]_*.ipynb"))
     if pattern:
-        found = [nb for nb in found if fnmatch.fnmatch(notebook_name(nb)[: -len(".ipynb")], f"*{pattern}*")]
+        # the manifest's own names (``02_x.ipynb``, ``solutions/02_y.ipynb``) match too
+        stem = pattern[: -len(".ipynb")] if pattern.endswith(".ipynb") else pattern
+        found = [nb for nb in found if fnmatch.fnmatch(notebook_name(nb)[: -len(".ipynb")], f"*{stem}*")]
     return found
 
 

@@ -33,14 +33,22 @@ SWAPPED_MAG_RANGE = (4.0, 15.0)
 ACC_SCALE_FACTOR_MAX = 2.0
 
 
+#: At most this many samples (spread evenly in time) enter a median: cheap on a large batch.
+MEDIAN_SAMPLES = 1 << 16
+
+
 def _median_norm(vectors: np.ndarray, received: np.ndarray | None) -> float:
-    norms = np.linalg.norm(vectors, axis=-1)
+    """Median ‖v‖ over the samples of ``vectors`` (..., T, 3) received in some batch element (NaN if none)."""
+    step = max(1, vectors.size // 3 // MEDIAN_SAMPLES)
+    with np.errstate(over="ignore"):  # a norm beyond 1e308 is inf, left out below like a lost sample
+        norms = np.linalg.norm(vectors[..., ::step, :], axis=-1)
     if received is not None:
-        norms = norms[np.broadcast_to(received, norms.shape)]
+        norms = norms[..., np.asarray(received)[..., ::step].reshape(-1, norms.shape[-1]).any(axis=0)]
+    norms = norms[np.isfinite(norms)]  # lost samples may hold anything; a single huge sample is no unit mistake
     return float(np.median(norms)) if norms.size else float("nan")
 
 
-def check_imu_plausible(gyr: np.ndarray, acc: np.ndarray, mag: np.ndarray | None = None,
+def check_imu_plausible(gyr: np.ndarray | None, acc: np.ndarray, mag: np.ndarray | None = None,
                         received: np.ndarray | None = None, *, gravity: float | None = None,
                         where: str = "") -> None:
     """Raise ``ValueError`` naming the likely cause if a recording is implausible as a whole.
@@ -48,11 +56,11 @@ def check_imu_plausible(gyr: np.ndarray, acc: np.ndarray, mag: np.ndarray | None
     Parameters
     ----------
     gyr, acc : numpy.ndarray, shape (..., T, 3)
-        Angular rate (rad/s) and specific force (m/s²), body frame; already checked finite.
+        Angular rate (rad/s; None: not checked) and specific force (m/s²), body frame.
     mag : numpy.ndarray, shape (..., T, 3), optional
         Magnetic field (µT), body frame; None for an IMU without magnetometer.
-    received : numpy.ndarray of bool, broadcastable to (..., T), optional
-        Only received samples count (lost ones may hold anything).
+    received : numpy.ndarray of bool, shape (..., T), optional
+        Only samples received in some batch element count (lost ones may hold anything).
     gravity : float, optional
         The magnitude of gravity (m/s²) the caller's filter expects the accelerometer to read at
         rest; None skips the scale check.
@@ -63,7 +71,7 @@ def check_imu_plausible(gyr: np.ndarray, acc: np.ndarray, mag: np.ndarray | None
     is received.
     """
     prefix = f"{where}: " if where else ""
-    gyr_median = _median_norm(gyr, received)
+    gyr_median = float("nan") if gyr is None else _median_norm(gyr, received)
     if gyr_median > GYRO_MEDIAN_MAX_RAD_S:
         raise ValueError(f"{prefix}gyr looks like deg/s, not rad/s: its median norm is {gyr_median:.3g} "
                          f"(human motion: below ~3 rad/s); convert it with np.radians")

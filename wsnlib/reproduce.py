@@ -314,7 +314,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"--cell-timeout must be a positive number of seconds, got {args.cell_timeout!r}")
     notebooks = list_batch(args.only)
     if not notebooks:
-        parser.error(f"no notebook matches {args.only!r} in {paths.NOTEBOOKS}")
+        names = ", ".join(notebook_name(nb) for nb in list_batch())
+        parser.error(f"no notebook matches {args.only!r} in {paths.NOTEBOOKS}; the notebooks are: {names}")
     parameters = {name: parse_value(value) for name, value in args.parameter}
     if "quick" in parameters:
         parser.error("use --quick rather than -p quick ...")

@@ -15,6 +15,7 @@ import numpy as np
 
 from wsnlib._validation import as_float_array
 from wsnlib.orientation import _kernels as K
+from wsnlib.plausibility import check_imu_plausible
 
 #: Largest sampling rate (Hz) and smallest one accepted: outside, Δt·|ω| or β·Δt overflow.
 FS_RANGE = (1e-6, 1e9)
@@ -106,6 +107,8 @@ def broadcast_batch(shapes: dict[str, tuple[int, ...]]) -> tuple[int, ...]:
 
 def as_signal(value, name: str) -> np.ndarray:
     """Float array of shape ``(..., T, 3)``; finiteness is checked later, on received samples."""
+    if np.iscomplexobj(value):  # numpy would drop the imaginary part with only a ComplexWarning
+        raise ValueError(f"{name} must be real, got complex values")
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as exc:
@@ -301,8 +304,10 @@ def new_output(batch: tuple[int, ...], n_t: int, n_components: int = 4) -> np.nd
     return np.empty(batch + (n_t, n_components))
 
 
-def check_usable(signals: dict[str, np.ndarray], received: np.ndarray | None) -> None:
-    """Raise if a received sample is not finite (or, for ``acc``/``mag``, a zero vector).
+def check_usable(signals: dict[str, np.ndarray], received: np.ndarray | None, gravity: float | None = None) -> None:
+    """Raise if a received sample is not finite (or, for ``acc``/``mag``, a zero vector), or if
+    the recording is implausible as a whole (:func:`wsnlib.plausibility.check_imu_plausible`:
+    gyro in deg/s, acc and mag swapped, and, given the filter's ``gravity``, acc in g).
 
     Reported at the first such sample in (batch..., t) order of the broadcast of the signal
     and the mask, ``gyr`` then ``acc`` then ``mag``.  Lost samples are never checked.
@@ -321,6 +326,7 @@ def check_usable(signals: dict[str, np.ndarray], received: np.ndarray | None) ->
             index = np.unravel_index(b, batch) + (int(result[b, 0]),)
             what = "is not finite" if result[b, 1] == 1 else "is a zero vector"
             raise ValueError(f"{name} {what} at received sample (batch..., t) = {tuple(int(i) for i in index)}")
+    check_imu_plausible(signals.get("gyr"), signals["acc"], signals.get("mag"), received, gravity=gravity)
 
 
 def raise_on_overflow(status: np.ndarray, batch: tuple[int, ...], **params) -> None:
