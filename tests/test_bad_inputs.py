@@ -366,3 +366,22 @@ def test_filters_refuse_a_recording_in_the_wrong_units(name):
         run(gyr, mag, acc)
     with pytest.raises(ValueError, match="acc must be real"):
         run(gyr, acc.astype(complex) + 1j, mag)
+
+
+@pytest.mark.parametrize("blend", ["output", "feedback"])
+def test_hybrid_refuses_acc_parallel_to_mag_where_it_needs_triad(blend):
+    from wsnlib.orientation import estimate_orientation, madgwick
+    from wsnlib.orientation.hybrid_blend import blend_with_single_frame
+
+    gyr, acc, mag = _still_recording(60)
+    received = np.ones(60, dtype=bool)
+    received[20:26] = False
+    mag = mag.copy()
+    mag[26] = 40.0 * acc[26] / np.linalg.norm(acc[26])  # the first sample after the gap: no heading
+    with pytest.raises(ValueError, match="acc and mag are parallel .* the hybrid's single frame after a gap"):
+        estimate_orientation(gyr, acc, mag, fs=50.0, beta=0.1, received=received, blend=blend)
+    quat_d = madgwick(gyr, acc, mag, fs=50.0, beta=0.1, received=received)
+    with pytest.raises(ValueError, match="acc and mag are parallel"):
+        blend_with_single_frame(quat_d, acc, mag, received=received)
+    received[26] = False  # not received: never read
+    estimate_orientation(gyr, acc, mag, fs=50.0, beta=0.1, received=received, blend=blend)

@@ -329,11 +329,15 @@ def check_usable(signals: dict[str, np.ndarray], received: np.ndarray | None, gr
     check_imu_plausible(signals.get("gyr"), signals["acc"], signals.get("mag"), received, gravity=gravity)
 
 
-def raise_on_overflow(status: np.ndarray, batch: tuple[int, ...], **params) -> None:
-    """Turn a kernel's OVERFLOW status into a ``ValueError`` naming the parameters."""
+def raise_on_status(status: np.ndarray, batch: tuple[int, ...], **params) -> None:
+    """Turn a kernel's status into a ``ValueError``: PARALLEL names the batch element, OVERFLOW also the parameters."""
     bad = np.flatnonzero(status != K.OK)
     if bad.size:
         index = tuple(int(i) for i in np.unravel_index(int(bad[0]), batch))
+        if status[bad[0]] == K.PARALLEL:
+            raise ValueError(f"acc and mag are parallel on a received sample of batch element {index} where TRIAD is "
+                             f"needed (the start without q0, or the hybrid's single frame after a gap): the heading "
+                             f"is undefined there")
         listed = ", ".join(f"{k}={v!r}" for k, v in params.items())
         raise ValueError(
             f"the filter overflowed (a non-finite estimate) in batch element {index}: the parameters are "
@@ -386,5 +390,5 @@ def run_filter(signals, received, q0, batch, *, fs, method=K.STANDARD, replay=Fa
                                                         mask.shape[:-1], () if q0 is None else q0.shape[:-1])]
         K.run_filter(gyr, acc, mag, use_mag, masks, starts, q0 is not None, *index, method, replay, blend, 1.0 / fs,
                      *params, schedule, windows, predict, factor, gated, gate, flat_out, status)
-    raise_on_overflow(status, batch, fs=fs, beta=beta)
+    raise_on_status(status, batch, fs=fs, beta=beta)
     return out

@@ -63,8 +63,15 @@ STANDARD, DT_EXTENSION, ADAPTIVE_BETA = range(3)
 DECAY, HOLD, INSTANT = range(3)
 #: Hybrid blends: none, output stage, feedback into the state.
 NO_BLEND, OUTPUT_BLEND, FEEDBACK_BLEND = range(3)
-#: Status of a batch element after a run.
-OK, OVERFLOW = 0, 1
+#: Status of a batch element after a run: fine, a non-finite estimate, acc ∥ mag where TRIAD was needed.
+OK, OVERFLOW, PARALLEL = 0, 1, 2
+
+
+@njit(**COMPILE)
+def parallel3(a, m):
+    """Whether unit ``a`` and ``m`` are parallel (``|a × m|`` below TRIAD's tolerance): no heading."""
+    c = cross3(a, m)
+    return squared_norm3(c[0], c[1], c[2]) < PARALLEL_SIN_TOL * PARALLEL_SIN_TOL
 
 
 # ------------------------------------------------------------------------------------------
@@ -192,7 +199,10 @@ def filter_stream(gyr, acc, mag, use_mag, received, q0, has_q0, method, replay, 
             if received[first]:
                 a = _unit_at(acc, first)
                 if use_mag:
-                    q = triad(a, _unit_at(mag, first))
+                    m = _unit_at(mag, first)
+                    if parallel3(a, m):
+                        return PARALLEL
+                    q = triad(a, m)
                 else:
                     q = tilt(a)
                 break
@@ -251,6 +261,8 @@ def filter_stream(gyr, acc, mag, use_mag, received, q0, has_q0, method, replay, 
         q = madgwick_update(q, g, a, m, use_mag, dt_gyro, beta_dt)
         shown = q
         if blend != NO_BLEND and lam > 0.0 and trusted:  # eq. (4): q_f = SLERP(q_s, q_d, μ)
+            if parallel3(a, m):
+                return PARALLEL
             q_f = slerp(triad(a, m), q, slerp_weight(lam, rho, tau))
             shown = q_f
             if blend == FEEDBACK_BLEND:
@@ -303,15 +315,17 @@ def run_lost_run(received, i_rx, schedule, window, leading_gap, out):
 
 @njit(parallel=True, **COMPILE)
 def run_output_blend(quat_d, acc, mag, received, trusted, i_q, i_acc, i_mag, i_rx, i_tr, rho, tau, schedule,
-                     window, leading_gap, out):
+                     window, leading_gap, out, status):
     """Eq. (4) as an output stage on any filter's output ``quat_d`` (unit), ``out`` ``(B, T, 4)``.
 
     On a received sample with λ_eff > 0: ``SLERP(TRIAD, q_d, μ)``; elsewhere on received samples
     ``q_d``; on a lost sample eq. (4) with that sample's ``q_d`` and the TRIAD and μ of the last
     received sample (the previous output when ``q_d`` is held there).  Received samples where
     ``trusted[i_tr[b], t]`` is False are not blended (the gated hybrid; all True otherwise).
+    ``status[b]``: :data:`PARALLEL` where acc ∥ mag on a sample to blend (the rest of ``out[b]`` unset).
     """
     for b in prange(out.shape[0]):
+        status[b] = OK
         q_d, a_b, m_b, rx = quat_d[i_q[b]], acc[i_acc[b]], mag[i_mag[b]], received[i_rx[b]]
         tr = trusted[i_tr[b]]
         lam, prev_lost, since, seen = 0.0, False, 0, leading_gap
@@ -324,7 +338,11 @@ def run_output_blend(quat_d, acc, mag, received, trusted, i_q, i_acc, i_mag, i_r
             if rx[t]:
                 blended = lam > 0.0 and tr[t]
                 if blended:
-                    q_s = triad(_unit_at(a_b, t), _unit_at(m_b, t))
+                    a, m = _unit_at(a_b, t), _unit_at(m_b, t)
+                    if parallel3(a, m):
+                        status[b] = PARALLEL
+                        break
+                    q_s = triad(a, m)
                     mu = slerp_weight(lam, rho[b], tau[b])
             _store(out[b], t, slerp(q_s, q_t, mu) if blended else q_t)
 

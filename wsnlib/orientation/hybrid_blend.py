@@ -285,11 +285,13 @@ def blend_with_single_frame(
                                           | {"received": mask.shape[:-1]})
             trusted = trusted_unchecked(signals, mask, sig_batch, gate.vector(fs)).reshape(-1, n_t)
             i_tr = B.index_into(sig_batch, batch)
+        status = np.empty(int(np.prod(batch, dtype=np.int64)), dtype=np.int64)
         K.run_output_blend(B.flat(quat_d, 2), B.flat(signals["acc"], 2), B.flat(signals["mag"], 2),
                            B.flat(mask, 1), trusted, B.index_into(quat_d.shape[:-2], batch),
                            B.index_into(signals["acc"].shape[:-2], batch),
                            B.index_into(signals["mag"].shape[:-2], batch), B.index_into(mask.shape[:-1], batch), i_tr,
                            B.per_element(rho, batch), B.per_element(tau, batch), SCHEDULE_CODES[schedule],
                            B.per_element(1 if window is None else window, batch, np.int64), leading_gap,
-                           out.reshape(-1, n_t, 4))
+                           out.reshape(-1, n_t, 4), status)
+        B.raise_on_status(status, batch)
     return out

@@ -106,7 +106,7 @@ def madgwick_step(q, gyr, acc, mag, dt, beta) -> np.ndarray:
     K.run_step(rows(q, 4), rows(gyr, 3), rows(acc, 3), rows(mag, 3) if use_mag else np.zeros((1, 3)), use_mag,
                B.per_element(dt, batch), B.per_element(beta * dt, batch), out.reshape(-1, 4))
     if not np.all(np.isfinite(out)):
-        B.raise_on_overflow(~np.isfinite(out).all(axis=-1).reshape(-1), batch, dt=dt, beta=beta)
+        B.raise_on_status(~np.isfinite(out).all(axis=-1).reshape(-1), batch, dt=dt, beta=beta)
     return out
 
 
