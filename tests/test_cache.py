@@ -1,5 +1,8 @@
 """The on-disk memo: same key, same result; any change of arguments or source, a new computation."""
 
+import os
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -51,3 +54,45 @@ def test_dynamic_campaign_is_the_seeded_simulation():
         np.testing.assert_array_equal(memo.acc.to_numpy(), direct.acc.to_numpy())
     with pytest.raises(ValueError, match="seed"):
         dynamic_campaign(1, seed=np.random.default_rng(7), hold_s=2.0)
+
+
+@pytest.mark.parametrize("damage", ["empty", "truncated", "garbage"])
+def test_an_unreadable_file_is_named_and_computed_again(output_dir, damage):
+    """Issue 23: a raw UnpicklingError/EOFError told the user nothing."""
+    first = cache.cached("draws", {"seed": 3}, lambda seed: np.arange(seed, seed + 100.0))
+    (path,) = (output_dir / "build" / "cache").glob("draws-*.pkl")
+    data = path.read_bytes()
+    path.write_bytes({"empty": b"", "truncated": data[: len(data) // 2], "garbage": b"not a pickle"}[damage])
+    with pytest.warns(UserWarning, match=rf"{path.name}: unreadable cache file.*computing draws again"):
+        again = cache.cached("draws", {"seed": 3}, lambda seed: np.arange(seed, seed + 100.0))
+    np.testing.assert_array_equal(again, first)
+    assert path.read_bytes() == data  # stored anew
+
+
+def test_the_key_is_the_source_this_process_imported(tmp_path):
+    """Issue 23: a kernel left open across an edit must not file its (old code's) result under
+    the edited source's key, which a fresh process would then read."""
+    import shutil
+    import subprocess
+    import sys
+
+    import wsnlib
+
+    copy = tmp_path / "wsnlib"
+    shutil.copytree(Path(wsnlib.__file__).parent, copy, ignore=shutil.ignore_patterns("__pycache__", "*.nb[ic]"))
+    script = (
+        "import sys, pathlib; import wsnlib.cache as c\n"
+        "if sys.argv[1] == 'edit':\n"
+        "    p = pathlib.Path(c.__file__).with_name('paths.py'); p.write_text(p.read_text() + '# edited\\n')\n"
+        "print(c.cache_key('x', {}))\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(tmp_path)}
+
+    def key(mode):
+        return subprocess.run([sys.executable, "-c", script, mode], env=env, capture_output=True, text=True,
+                              check=True).stdout.strip()
+
+    old = key("none")
+    kept_open = key("edit")  # imported, then the source changes under it
+    fresh = key("none")  # a process that imports the edited source
+    assert kept_open == old and fresh != old

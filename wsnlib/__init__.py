@@ -16,3 +16,12 @@ Conventions, stated once for the whole package
 """
 
 __version__ = "0.1.0"
+
+from pathlib import Path as _Path
+
+from wsnlib._files import sources_digest as _sources_digest
+
+#: SHA-256 of wsnlib's ``.py`` sources when this process imported the package: :mod:`wsnlib.cache`
+#: keys results by it, so a kernel still running old code never files a result under an edited
+#: source's key (it is read once, here, not when the first result is stored).
+SOURCE_DIGEST = _sources_digest(_Path(__file__).parent)

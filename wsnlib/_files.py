@@ -35,6 +35,15 @@ def sha256_of(path: Path) -> str:
 WRITTEN_LOG_ENV = "WSNLIB_WRITTEN_LOG"
 
 
+def sources_digest(folder: Path, pattern: str = "*.py") -> str:
+    """SHA-256 over the relative names and bytes of the files ``folder.rglob(pattern)``, in name order."""
+    folder = Path(folder)
+    digest = hashlib.sha256()
+    for path in sorted(folder.rglob(pattern)):
+        digest.update(path.relative_to(folder).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
+    return digest.hexdigest()
+
+
 def _note_written(path: Path) -> None:
     log = os.environ.get(WRITTEN_LOG_ENV)
     if log:

@@ -9,7 +9,8 @@ file instead of computing again; since the computation is deterministic (every r
 from a seeded generator), the result is the same object either way, bit for bit.
 
 Files are written atomically (a kill leaves no half file) and are plain pickles of wsnlib's
-own results: read only what this function wrote.  Delete ``build/cache/`` to start afresh.
+own results: read only what this function wrote.  A file that cannot be read (truncated, empty,
+garbage) is named in a warning and computed again.  Delete ``build/cache/`` to start afresh.
 """
 
 from __future__ import annotations
@@ -17,11 +18,12 @@ from __future__ import annotations
 import hashlib
 import json
 import pickle
+import warnings
 from collections.abc import Callable
-from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
+import wsnlib
 from wsnlib import paths
 from wsnlib._files import atomic_write_bytes
 
@@ -29,15 +31,10 @@ from wsnlib._files import atomic_write_bytes
 CACHE_VERSION = 1
 
 
-@lru_cache(maxsize=1)
 def source_hash() -> str:
-    """SHA-256 over wsnlib's ``.py`` files (names and bytes), in sorted order."""
-    digest = hashlib.sha256()
-    package = Path(__file__).resolve().parent
-    for path in sorted(package.rglob("*.py")):
-        digest.update(path.relative_to(package).as_posix().encode())
-        digest.update(path.read_bytes())
-    return digest.hexdigest()
+    """SHA-256 over wsnlib's ``.py`` files (names and bytes) as this process imported them
+    (:data:`wsnlib.SOURCE_DIGEST`, read when the package was imported, not from the files now)."""
+    return wsnlib.SOURCE_DIGEST
 
 
 def cache_dir() -> Path:
@@ -74,8 +71,12 @@ def cached(name: str, arguments: dict, compute: Callable[..., Any]) -> Any:
     """
     path = cache_dir() / f"{name}-{cache_key(name, arguments)}.pkl"
     if path.exists():
-        with open(path, "rb") as handle:
-            return pickle.load(handle)
+        try:
+            with open(path, "rb") as handle:
+                return pickle.load(handle)
+        except Exception as exc:  # truncated, empty or garbage: any unpickling error
+            warnings.warn(f"{path}: unreadable cache file ({type(exc).__name__}: {exc}); computing {name} again",
+                          UserWarning, stacklevel=2)
     result = compute(**arguments)
     atomic_write_bytes(path, pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL))
     return result

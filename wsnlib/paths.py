@@ -50,3 +50,4 @@ def executed_notebooks() -> Path:
 def _ensure(path: Path) -> Path:
     path.mkdir(parents=True, exist_ok=True)
     return path
+# edited
