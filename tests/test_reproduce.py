@@ -266,3 +266,55 @@ def test_jobs_must_be_positive(output_dir, capsys):
     assert "--jobs" in capsys.readouterr().err
     with pytest.raises(ValueError, match="jobs"):
         reproduce.run([], {}, quick=True, jobs=0)
+
+
+# ------------------------------------------------------------------ issue 23: concurrent and killed batches
+
+
+def test_a_second_batch_on_the_same_output_folder_exits_at_once(output_dir, tmp_path, monkeypatch, capsys):
+    from wsnlib import batch_manifest
+
+    nb_dir = tmp_path / "nbs"
+    _write_notebook(nb_dir / "01_first.ipynb", "pass")
+    monkeypatch.setattr(paths, "NOTEBOOKS", nb_dir)
+    with batch_manifest.output_lock():  # the running batch
+        started = time.perf_counter()
+        assert reproduce.main(["--quick"]) == reproduce.EXIT_BATCH_RUNNING
+        assert time.perf_counter() - started < 5.0
+        err = capsys.readouterr().err
+        assert "another batch is running" in err and f"pid {os.getpid()}" in err
+        assert not (output_dir / "data" / "processed" / "manifest.json").exists()  # it touched nothing
+    assert reproduce.main(["--quick"]) == 0  # free again
+
+
+def test_files_of_a_killed_batch_are_moved_aside_from_its_journal(output_dir, tmp_path, monkeypatch):
+    """A SIGKILLed batch wrote files that no manifest lists: its notebook's journal does."""
+    import pandas as pd
+
+    from wsnlib import _files, batch_manifest
+    from wsnlib.outputs import save_table
+
+    nb_dir = tmp_path / "nbs"
+    _write_notebook(nb_dir / "01_first.ipynb", "pass")
+    monkeypatch.setattr(paths, "NOTEBOOKS", nb_dir)
+    journal = batch_manifest.journal_path("01_first.ipynb")
+    journal.parent.mkdir(parents=True)
+    monkeypatch.setenv(_files.WRITTEN_LOG_ENV, str(journal))  # as the killed kernel had it
+    written = save_table(pd.DataFrame({"a": [1]}), "a01_killed")
+    monkeypatch.delenv(_files.WRITTEN_LOG_ENV)
+    assert written.is_file() and not batch_manifest.manifest_path().exists()
+
+    assert reproduce.main(["--quick"]) == 0
+    (entry,) = _manifest(output_dir)["notebooks"]
+    assert entry["moved_aside"] == [written.relative_to(output_dir).as_posix()]
+    assert not written.exists() and not journal.exists()
+
+
+def test_an_unreadable_manifest_is_said(output_dir):
+    from wsnlib import batch_manifest
+
+    path = batch_manifest.manifest_path()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text('{"quick": true, "notebooks": [{"notebook": "01')  # cut short
+    with pytest.warns(UserWarning, match="manifest.json is unreadable"):
+        assert batch_manifest.previous_outputs() == {}

@@ -6,8 +6,13 @@ notebook runs again, and locating the failing cell in an executed copy.
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import json
 import os
+import sys
+import warnings
+from collections.abc import Iterator
 from pathlib import Path
 
 from wsnlib import paths
@@ -18,6 +23,46 @@ MANIFEST_NAME = "manifest.json"
 
 #: Folder (below the output root) that receives the previous outputs of a notebook about to run.
 STALE_FOLDER = Path("build") / "stale"
+#: Folder (below the output root) of the running notebooks' journals: the files each has written so far.
+JOURNAL_FOLDER = Path("build") / "journal"
+#: File (below the output root) that one batch at a time holds locked.
+LOCK_NAME = Path("build") / "batch.lock"
+
+
+class BatchRunning(RuntimeError):
+    """Another batch runs on the same output folder."""
+
+
+@contextlib.contextmanager
+def output_lock() -> Iterator[None]:
+    """Hold the output folder for this batch; a second batch on it raises :class:`BatchRunning` at once.
+
+    The lock (``build/batch.lock``, ``flock``) is released by the kernel when the process ends, even
+    by SIGKILL; the file keeps the last holder's process id and command line, for the message.
+    """
+    path = paths.output_root() / LOCK_NAME
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "a+", encoding="utf-8") as handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            handle.seek(0)
+            holder = handle.read().strip() or "another process"
+            raise BatchRunning(f"another batch is running on {paths.output_root()} ({holder}); wait for it to end "
+                               f"(or stop it) and run again") from None
+        handle.seek(0)
+        handle.truncate()
+        handle.write(f"pid {os.getpid()}: {' '.join(sys.argv)}\n")
+        handle.flush()
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def journal_path(notebook: str) -> Path:
+    """The journal of the notebook named ``notebook`` (manifest name): one written file per line."""
+    return paths.output_root() / JOURNAL_FOLDER / f"{notebook.replace('/', '__')}.txt"
 
 
 def output_folders() -> list[Path]:
@@ -48,12 +93,23 @@ def write_manifest(entries: list[dict], quick: bool, jobs: int = 1) -> Path:
 
 
 def previous_outputs() -> dict[str, list[str]]:
-    """Output paths (relative to the output root) per notebook in the existing manifest, if any."""
-    try:
-        manifest = json.loads(manifest_path().read_text(encoding="utf-8"))
-        return {e["notebook"]: [o["path"] for o in e.get("outputs", [])] for e in manifest["notebooks"]}
-    except (OSError, ValueError, KeyError, TypeError):
-        return {}
+    """Output paths (relative to the output root) per notebook in the existing manifest, if any, and
+    in the journals a killed batch left (files it wrote that no manifest lists)."""
+    previous: dict[str, list[str]] = {}
+    path = manifest_path()
+    if path.exists():
+        try:
+            manifest = json.loads(path.read_text(encoding="utf-8"))
+            previous = {e["notebook"]: [o["path"] for o in e.get("outputs", [])] for e in manifest["notebooks"]}
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            warnings.warn(f"{path} is unreadable ({type(exc).__name__}: {exc}); the outputs it listed cannot be "
+                          f"moved aside before their notebooks run again", UserWarning, stacklevel=2)
+    root = paths.output_root().resolve()
+    for journal in sorted((paths.output_root() / JOURNAL_FOLDER).glob("*.txt")):
+        notebook = journal.stem.replace("__", "/")
+        listed = [str(p.relative_to(root)) for p in logged_files(journal) if p.is_relative_to(root)]
+        previous[notebook] = previous.get(notebook, []) + listed
+    return previous
 
 
 def move_aside(relative_paths: list[str]) -> list[str]:
@@ -114,6 +170,7 @@ def initial_entries(notebooks: list[Path], quick: bool, jobs: int = 1) -> list[d
         moved = move_aside(previous.get(entry["notebook"], []))
         if moved:
             entry["moved_aside"] = moved
+        journal_path(entry["notebook"]).unlink(missing_ok=True)
     write_manifest(entries, quick, jobs)
     return entries
 

@@ -39,7 +39,14 @@ writer goes through :func:`wsnlib._files.atomic_path`.
 
 Before the batch runs, the files that the previous manifest listed for each selected
 notebook are moved aside to ``build/stale/`` (the entry's ``moved_aside`` lists them), so a
-figure or table left by an earlier run is never mistaken for a fresh one.  ``-p`` names must
+figure or table left by an earlier run is never mistaken for a fresh one; so are the files in
+the journal (``build/journal/``) of a notebook whose batch was killed before the manifest
+could list them (each notebook's journal records every file as it is written and is deleted
+once the manifest lists them).  An unreadable manifest is said in a warning.
+
+One batch at a time per output folder: a second one exits at once with status
+:data:`EXIT_BATCH_RUNNING` (75) and a message naming the running one (its process id and
+command line, from ``build/batch.lock``).  ``-p`` names must
 be parameters of every selected notebook (assigned in its cell tagged ``parameters``);
 anything else is refused before a notebook runs.
 
@@ -81,13 +88,16 @@ from wsnlib import paths
 from wsnlib._files import WRITTEN_LOG_ENV
 from wsnlib._validation import check_count
 from wsnlib.batch_manifest import (
+    BatchRunning,
     describe_outputs,
     failing_cell,
     files_written_since,
     initial_entries,
+    journal_path,
     last_started_cell,
     logged_files,
     manifest_path,
+    output_lock,
     write_manifest,
 )
 from wsnlib.batch_selection import check_parameters, list_batch, notebook_name, parse_value
@@ -100,6 +110,8 @@ DEFAULT_CELL_TIMEOUT_S = 3600.0
 BATCH_ENV = {"MPLBACKEND": "module://matplotlib_inline.backend_inline", "WSNLIB_BATCH": "1"}
 
 _EXIT_FAILED = 1
+#: Exit status when another batch holds the output folder (EX_TEMPFAIL: try again later).
+EXIT_BATCH_RUNNING = 75
 
 
 class BatchInterrupted(KeyboardInterrupt):
@@ -166,7 +178,7 @@ def run(notebooks: list[Path], parameters: dict, quick: bool, kernel: str = path
     socket_folder = Path(tempfile.mkdtemp(prefix="wsnlib-kernel-"))
     try:
         # BATCH_ENV for the kernels (they inherit it); the previous environment comes back after.
-        with mock.patch.dict(os.environ, BATCH_ENV), _signals_interrupt():
+        with output_lock(), mock.patch.dict(os.environ, BATCH_ENV), _signals_interrupt():
             return _run(notebooks, parameters, quick, kernel, cell_timeout, socket_folder, jobs)
     finally:
         shutil.rmtree(socket_folder, ignore_errors=True)
@@ -234,7 +246,8 @@ def _run(notebooks, parameters, quick, kernel, cell_timeout, socket_folder, jobs
         executed.parent.mkdir(parents=True, exist_ok=True)
         folder = socket_folder / f"nb{index}"
         folder.mkdir()
-        log = folder / "written.txt"
+        log = journal_path(entry["notebook"])  # outlives a SIGKILL: the next run moves these files aside
+        log.parent.mkdir(parents=True, exist_ok=True)
         manager_class = _ipc_kernel_manager(folder, {WRITTEN_LOG_ENV: str(log)}, managers)
         params = {"quick": quick, **parameters}
         with lock:
@@ -256,6 +269,7 @@ def _run(notebooks, parameters, quick, kernel, cell_timeout, socket_folder, jobs
                 progress.close()
                 _report_failure(entry, executed)
             write_manifest(entries, quick, jobs)
+            log.unlink(missing_ok=True)  # the manifest lists its files now
             progress.update(1)
         return exit_code
 
@@ -276,9 +290,10 @@ def _run(notebooks, parameters, quick, kernel, cell_timeout, socket_folder, jobs
                 entries[index].update(status="interrupted", exit_code=128 + exc.signum, error={
                     "ename": "BatchInterrupted", "evalue": f"stopped by {signal.Signals(exc.signum).name}",
                     **last_started_cell(paths.executed_notebooks() / notebook_name(notebooks[index]))})
-                log = socket_folder / f"nb{index}" / "written.txt"
-                entries[index]["outputs"] = describe_outputs(logged_files(log))
+                entries[index]["outputs"] = describe_outputs(logged_files(journal_path(entries[index]["notebook"])))
             write_manifest(entries, quick, jobs)
+            for index in running:
+                journal_path(entries[index]["notebook"]).unlink(missing_ok=True)
         for manager in list(managers):  # the running kernels end; their threads then return
             with contextlib.suppress(Exception):
                 manager.provisioner.process.kill()
@@ -323,8 +338,12 @@ def main(argv: list[str] | None = None) -> int:
         check_parameters(notebooks, parameters)
     except ValueError as exc:
         parser.error(str(exc))
-    status = run(notebooks, parameters, quick=args.quick, kernel=args.kernel, cell_timeout=args.cell_timeout,
-                 jobs=args.jobs)
+    try:
+        status = run(notebooks, parameters, quick=args.quick, kernel=args.kernel, cell_timeout=args.cell_timeout,
+                     jobs=args.jobs)
+    except BatchRunning as exc:
+        print(f"python -m wsnlib.reproduce: {exc}", file=sys.stderr)
+        return EXIT_BATCH_RUNNING
     if status == 0:
         print(f"Ran {len(notebooks)} notebook(s); manifest: {manifest_path()}", file=sys.stderr)
     return status
