@@ -94,7 +94,7 @@ def _score_rows(name, method, rows, setting, rec, masks, quat):
     moving = np.where(rec.movement, total, np.nan)
     phases = metrics.error_by_phase(moving, masks, FS, after_s=AFTER_GAP_S)
     steps = metrics.quat_gap_end_steps_deg(quat, masks)
-    jitter = metrics.angular_jitter_rms_deg(quat, FS, masks)
+    jitter = metrics.angular_jerk_rms_deg(quat, FS, masks)
     out = []
     for k, (profile, draw) in enumerate(rows):
         longest_gap = int(loss.lost_run_length(masks[k]).max(initial=0))
@@ -197,7 +197,7 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
         gaps without loss); gap_end_step_deg (mean rotation between the last output before
         and the first after a gap, :func:`wsnlib.metrics.quat_gap_end_steps_deg`; NaN without
         gaps) and jitter_deg_s3 (RMS angular jerk away from gap ends,
-        :func:`wsnlib.metrics.angular_jitter_rms_deg`); latency_s and latency_rule (package
+        :func:`wsnlib.metrics.angular_jerk_rms_deg` given the mask); latency_s and latency_rule (package
         docstring).
     """
     if not isinstance(rng, np.random.Generator):
