@@ -11,8 +11,10 @@ from collections.abc import Mapping
 
 import numpy as np
 import pandas as pd
+from tqdm.auto import tqdm
 
 from wsnlib import loss, loto, metrics, parallel
+from wsnlib._validation import check_count, check_rng
 from wsnlib.orientation import SingleFrameGate, single_frame_trusted
 from wsnlib.studies.loss_tolerance.registry import FS, HEADLINE, PROFILES, Method, default_methods
 
@@ -61,14 +63,6 @@ class LossToleranceResult:
     seconds: pd.Series
     methods: dict
     profiles: tuple
-
-
-def _progress(iterable, desc, enabled):
-    if not enabled:
-        return iterable
-    from tqdm.auto import tqdm
-
-    return tqdm(iterable, desc=desc)
 
 
 def _gap_response(error, lossless, received, window_s):
@@ -200,10 +194,8 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
         :func:`wsnlib.metrics.angular_jerk_rms_deg` given the mask); latency_s and latency_rule (package
         docstring).
     """
-    if not isinstance(rng, np.random.Generator):
-        raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
-    if isinstance(draws, bool) or not isinstance(draws, int | np.integer) or draws < 1:
-        raise ValueError(f"draws must be a positive integer, got {draws!r}")
+    check_rng(rng)
+    check_count(draws, "draws")
     methods = default_methods() if methods is None else dict(methods)
     profiles = tuple(profiles)
     names = list(recordings)
@@ -300,4 +292,4 @@ def load_recordings(names, *, fs: float = FS, download: bool = False, progress: 
     from wsnlib.io.resample import resample_broad
 
     return {name: resample_broad(load_broad(name, download=download), fs)
-            for name in _progress(list(names), "load + resample", progress)}
+            for name in tqdm(list(names), desc="load + resample", disable=not progress)}

@@ -280,7 +280,6 @@ def summary_bullets(per_trial: pd.DataFrame, *, ranking_sentence: str, targets: 
     comparisons : mapping question → table
         :func:`~wsnlib.studies.loss_tolerance.summary.paired_comparisons`; the total-RMSE rows are told.
     """
-
     return ([f"* **Ranking at {HEADLINE}.** {ranking_sentence}",
              "* **Targets.** " + "; ".join(f"{name}: {row['verdict']}" for name, row in targets.iterrows()) + ".",
              f"* **Where the best causal estimator ({best['causal']}) loses.** "
