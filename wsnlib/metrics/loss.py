@@ -14,6 +14,8 @@ batch dimensions ``(..., T)``.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from wsnlib._validation import as_bool_mask, as_float_array, check_nonnegative, check_positive
@@ -290,16 +292,10 @@ def summary_table(results: dict[str, dict[str, np.ndarray]], quantiles=(0.1, 0.9
     """
     import pandas as pd
 
-    low, high = quantiles
-    rows = {}
-    for name, figures in results.items():
-        row = {}
-        for figure, values in figures.items():
-            values = np.ravel(np.asarray(values, dtype=float))
-            row[(figure, "median")] = float(np.median(values))
-            row[(figure, f"q{round(100 * low)}")] = float(np.quantile(values, low))
-            row[(figure, f"q{round(100 * high)}")] = float(np.quantile(values, high))
-        rows[name] = row
+    statistics = {"median": np.median, **{f"q{round(100 * q)}": functools.partial(np.quantile, q=q) for q in quantiles}}
+    rows = {name: {(figure, statistic): float(function(np.ravel(np.asarray(values, dtype=float))))
+                   for figure, values in figures.items() for statistic, function in statistics.items()}
+            for name, figures in results.items()}
     table = pd.DataFrame.from_dict(rows, orient="index")
     table.columns = pd.MultiIndex.from_tuples(table.columns, names=["figure", "statistic"])
     return table
