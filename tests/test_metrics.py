@@ -32,9 +32,9 @@ def test_elbow_angle_methods_agree_in_a_vertical_plane():
 def test_orientation_error_is_the_relative_rotation_angle():
     q_true = Q.from_scipy(Rotation.random(20, random_state=3))
     delta = Q.from_axis_angle([0.0, 0.0, 1.0], np.radians(7.0))
-    assert metrics.orientation_error_deg(Q.multiply(q_true, delta), q_true) == pytest.approx(np.full(20, 7.0))
+    assert metrics.broad_errors_deg(Q.multiply(q_true, delta), q_true)["total"] == pytest.approx(np.full(20, 7.0))
     # q and -q are the same orientation
-    assert metrics.orientation_error_deg(-q_true, q_true) == pytest.approx(np.zeros(20), abs=1e-6)
+    assert metrics.broad_errors_deg(-q_true, q_true)["total"] == pytest.approx(np.zeros(20), abs=1e-6)
 
 
 def test_time_above_and_recovery():

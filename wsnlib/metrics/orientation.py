@@ -52,13 +52,6 @@ def elbow_angle_deg(quat_humerus, quat_forearm, method: str = "pitch_difference"
     raise ValueError(f"method must be 'pitch_difference' or 'axis_angle', got {method!r}")
 
 
-def orientation_error_deg(quat_est, quat_true) -> np.ndarray:
-    """Total orientation error (°): rotation angle between estimate and truth, ``(..., T)``."""
-    quat_est = as_float_array(quat_est, "quat_est", last_dim=4)
-    quat_true = as_float_array(quat_true, "quat_true", last_dim=4)
-    return np.degrees(quat_ops.angle_between(quat_est, quat_true))
-
-
 # --- BROAD's error metrics ------------------------------------------------------------------
 # Laidig, Caruso, Cereatti, Seel, "BROAD—A Benchmark for Robust Inertial Orientation
 # Estimation", Data 6(7):72, 2021, doi:10.3390/data6070072, and its example code
