@@ -494,7 +494,7 @@ def test_headline_tables_from_the_study(small_study):
     _, result = small_study
     per_trial = result.per_trial
     methods = list(result.methods)
-    values = ltt.headline_values(per_trial, methods)
+    values = lts.trial_table(per_trial, lt.HEADLINE, "rmse_total")[methods]
     assert list(values.columns) == methods and len(values) == 3
     kalman_rows = per_trial[(per_trial["profile"] == lt.HEADLINE) & (per_trial["method"] == "Kalman")]
     assert values["Kalman"].mean() == pytest.approx(kalman_rows["rmse_total"].mean())

@@ -32,9 +32,9 @@ def test_elbow_angle_methods_agree_in_a_vertical_plane():
 def test_orientation_error_is_the_relative_rotation_angle():
     q_true = Q.from_scipy(Rotation.random(20, random_state=3))
     delta = Q.from_axis_angle([0.0, 0.0, 1.0], np.radians(7.0))
-    assert metrics.orientation_error_deg(Q.multiply(q_true, delta), q_true) == pytest.approx(np.full(20, 7.0))
+    assert metrics.broad_errors_deg(Q.multiply(q_true, delta), q_true)["total"] == pytest.approx(np.full(20, 7.0))
     # q and -q are the same orientation
-    assert metrics.orientation_error_deg(-q_true, q_true) == pytest.approx(np.zeros(20), abs=1e-6)
+    assert metrics.broad_errors_deg(-q_true, q_true)["total"] == pytest.approx(np.zeros(20), abs=1e-6)
 
 
 def test_time_above_and_recovery():
@@ -350,29 +350,29 @@ def test_jitter_excludes_the_gap_end_step_but_jerk_does_not():
     assert steps["step_deg"][steps["gap_end"]] == pytest.approx([10.0, 10.0])
     smooth = metrics.angle_jerk_rms_deg(truth, fs)
     jerk = metrics.angle_jerk_rms_deg(drifting, fs)
-    jitter = metrics.angle_jitter_rms_deg(drifting, fs, received)
+    jitter = metrics.angle_jerk_rms_deg(drifting, fs, received)
     assert jerk > 100 * smooth            # the two steps dominate the whole-record jerk
     assert jitter < 3 * smooth            # without them the trace is about as smooth as the truth
     # Without loss, jitter is the jerk.
-    assert metrics.angle_jitter_rms_deg(truth, fs, np.ones(300, bool)) == pytest.approx(smooth)
+    assert metrics.angle_jerk_rms_deg(truth, fs, np.ones(300, bool)) == pytest.approx(smooth)
     # A noisy record stays noisy: the jitter is not blind.
     noisy = drifting + np.random.default_rng(0).normal(scale=0.5, size=300)
-    assert metrics.angle_jitter_rms_deg(noisy, fs, received) > 30 * jitter
+    assert metrics.angle_jerk_rms_deg(noisy, fs, received) > 30 * jitter
 
 
 def test_quaternion_jitter_matches_the_angle_version_for_one_axis():
     fs, truth, held, received = _gappy_trace()
     quat = Q.from_axis_angle([0.0, 1.0, 0.0], np.radians(held))
-    assert metrics.angular_jitter_rms_deg(quat, fs, received) == pytest.approx(
-        metrics.angle_jitter_rms_deg(held, fs, received), rel=1e-6)
-    assert metrics.angular_jitter_rms_deg(quat, fs, np.ones(300, bool)) == pytest.approx(
+    assert metrics.angular_jerk_rms_deg(quat, fs, received) == pytest.approx(
+        metrics.angle_jerk_rms_deg(held, fs, received), rel=1e-6)
+    assert metrics.angular_jerk_rms_deg(quat, fs, np.ones(300, bool)) == pytest.approx(
         metrics.angular_jerk_rms_deg(quat, fs), rel=1e-9)
 
 
 def test_jitter_raises_when_no_window_is_free():
     received = np.array([True, False, True, False, True, False, True])
     with pytest.raises(ValueError, match="no jerk window"):
-        metrics.angle_jitter_rms_deg(np.arange(7.0), 50.0, received)
+        metrics.angle_jerk_rms_deg(np.arange(7.0), 50.0, received)
 
 
 def test_quantile_error_is_stable_where_the_maximum_shrinks():

@@ -159,7 +159,8 @@ def test_radio_sensitivity_quick_zero_spread_and_determinism():
 def test_selected_errors_chain_target2_from_the_elbow_of_target1(campaign):
     """Per user, target 2's errors are evaluate_chain's: the forearm starts at target 1's estimated elbow."""
     from wsnlib import optimize
-    from wsnlib.studies.posture import evaluate_chain, selected_errors
+    from wsnlib.optimize import evaluate_chain
+    from wsnlib.studies.posture import selected_errors
 
     inputs = study_inputs(campaign)
     grid = optimize.SearchGrid(metrics=("euclidean",), knn_neighbors=(1, 3), powers=(1,), pknn_neighbors=(1,))

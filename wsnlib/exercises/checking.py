@@ -1,9 +1,10 @@
 """The checkers' shared machinery: the report of a passed check, argument checks, comparison.
 
 A checker draws random cases from the ``rng`` passed in (:class:`_Case`: inputs, the
-library's answer, a description of the inputs for the message) and :func:`_run_cases`
-compares the student's function with the library on each; the first disagreement raises
-``AssertionError`` saying what was expected and what came back.
+library's answer, a description of the inputs for the message) and compares the student's
+function with the library on each; the first disagreement raises ``AssertionError`` saying
+what was expected and what came back.  :func:`_checker` makes a checker of the function that
+draws one case.
 """
 
 from __future__ import annotations
@@ -88,25 +89,54 @@ class _Case:
     arguments: tuple
 
 
-def _run_cases(exercise: str, student_function, draw, *, rng, n_cases: int, atol: float, hint: str,
-               rotation: bool = False) -> ExerciseReport:
-    """Call ``student_function(*case.arguments)`` on ``draw(0)`` … ``draw(n_cases - 1)`` and compare.
+#: The end of every checker's docstring: the parameters and outcome all checkers share.
+_SHARED_DOC = """rng : numpy.random.Generator
+        Draws the random cases.
+    n_cases : int
+        Number of random cases compared.
 
-    The arguments are checked first (``rng`` is the generator ``draw`` uses).  ``rotation``: the
-    outputs are quaternions, compared after choosing the sign nearer the library's (q and −q
-    are the same rotation).
+    Returns
+    -------
+    ExerciseReport
+
+    Raises
+    ------
+    AssertionError
+        On the first case where the student's function disagrees with the library.
     """
-    if not callable(student_function):
-        raise ValueError(f"student_function must be callable, got {type(student_function).__name__}")
-    check_rng(rng)
-    check_count(n_cases, "n_cases")
-    check_positive(atol, "atol")
-    worst = 0.0
-    for index in range(n_cases):
-        case = draw(index)
-        expected = np.asarray(case.expected, dtype=float)
-        got = _as_output(student_function(*case.arguments), expected.shape, exercise, case.inputs)
-        if rotation:
-            got = _same_rotation(got, expected)
-        worst = max(worst, _compare(got, expected, atol, exercise, case.inputs, hint=hint))
-    return ExerciseReport(exercise, n_cases, worst)
+
+
+def _checker(exercise: str, *, n_cases: int, atol: float, hint: str, rotation: bool = False):
+    """Turn ``draw(rng, case) -> _Case`` into the checker ``check(student_function, *, rng, n_cases, atol)``.
+
+    The checker checks its arguments, calls ``student_function(*case.arguments)`` on
+    ``draw(rng, 0)`` … ``draw(rng, n_cases - 1)`` and compares each output with the library's
+    (``hint`` ends the message of a disagreement).  ``rotation``: the outputs are quaternions,
+    compared after choosing the sign nearer the library's (q and −q are the same rotation).
+    ``n_cases`` and ``atol`` are the checker's defaults.  The checker takes ``draw``'s name, and
+    its docstring (what is checked, ``student_function``, ``atol``) followed by :data:`_SHARED_DOC`.
+    """
+    def decorate(draw):
+        def check(student_function, *, rng: np.random.Generator, n_cases: int = n_cases,
+                  atol: float = atol) -> ExerciseReport:
+            if not callable(student_function):
+                raise ValueError(f"student_function must be callable, got {type(student_function).__name__}")
+            check_rng(rng)
+            check_count(n_cases, "n_cases")
+            check_positive(atol, "atol")
+            worst = 0.0
+            for index in range(n_cases):
+                case = draw(rng, index)
+                expected = np.asarray(case.expected, dtype=float)
+                got = _as_output(student_function(*case.arguments), expected.shape, exercise, case.inputs)
+                if rotation:
+                    got = _same_rotation(got, expected)
+                worst = max(worst, _compare(got, expected, atol, exercise, case.inputs, hint=hint))
+            return ExerciseReport(exercise, n_cases, worst)
+
+        check.__name__ = check.__qualname__ = draw.__name__
+        check.__module__ = draw.__module__
+        check.__doc__ = draw.__doc__ + _SHARED_DOC
+        return check
+
+    return decorate

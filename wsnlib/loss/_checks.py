@@ -6,10 +6,6 @@ import numpy as np
 
 from wsnlib._validation import check_count
 
-# --------------------------------------------------------------------------------------------
-# Validation helpers
-# --------------------------------------------------------------------------------------------
-
 
 def _check_shape(shape, name: str = "shape") -> tuple[int, ...]:
     if isinstance(shape, (int, np.integer)) and not isinstance(shape, bool):

@@ -1,7 +1,7 @@
 """Angles, error figures and accuracy measures of both papers, one module per concern.
 
-* :mod:`wsnlib.metrics.orientation` — segment pitch, elbow angle, orientation error and the
-  BROAD benchmark's total/heading/inclination errors (paper 001, Sections II, IV).
+* :mod:`wsnlib.metrics.orientation` — segment pitch, elbow angle and the orientation errors of
+  the BROAD benchmark: total, heading, inclination (paper 001, Sections II, IV).
 * :mod:`wsnlib.metrics.smoothness` — RMS jerk, the step at each gap's end and the jitter
   without those steps (ours: the paper calls single-frame estimates "jerky" without a number).
 * :mod:`wsnlib.metrics.loss` — figures of merit under loss: maximum, time above a threshold,
@@ -40,15 +40,12 @@ from wsnlib.metrics.orientation import (
     broad_errors_deg,
     broad_rmse_deg,
     elbow_angle_deg,
-    orientation_error_deg,
     segment_pitch_deg,
 )
 from wsnlib.metrics.position import position_error, precision_at_accuracy
 from wsnlib.metrics.smoothness import (
     angle_jerk_rms_deg,
-    angle_jitter_rms_deg,
     angular_jerk_rms_deg,
-    angular_jitter_rms_deg,
     gap_end_mask,
     gap_end_steps_deg,
     quat_gap_end_steps_deg,
@@ -56,8 +53,7 @@ from wsnlib.metrics.smoothness import (
 
 __all__ = ["BROAD_ERROR_KEYS", "GAP_STEP_MAX", "GAP_STEP_MEAN", "JERK", "JITTER", "MAX_ERROR", "MEAN_ERROR",
            "P95_ERROR", "PHASES", "RECOVERY", "SEGMENT_AXIS", "TIME_ABOVE", "angle_jerk_rms_deg",
-           "angle_jitter_rms_deg", "angular_jerk_rms_deg", "angular_jitter_rms_deg", "broad_errors_deg",
-           "broad_rmse_deg", "burst_response", "elbow_angle_deg", "error_by_phase", "gap_end_mask", "gap_end_steps_deg",
-           "loss_figures_of_merit", "max_abs_error", "orientation_error_deg", "position_error", "precision_at_accuracy",
-           "quantile_error", "quat_gap_end_steps_deg", "recovery_time_s", "segment_pitch_deg", "summary_table",
-           "time_above_s"]
+           "angular_jerk_rms_deg", "broad_errors_deg", "broad_rmse_deg", "burst_response", "elbow_angle_deg",
+           "error_by_phase", "gap_end_mask", "gap_end_steps_deg", "loss_figures_of_merit", "max_abs_error",
+           "position_error", "precision_at_accuracy", "quantile_error", "quat_gap_end_steps_deg", "recovery_time_s",
+           "segment_pitch_deg", "summary_table", "time_above_s"]

@@ -14,10 +14,12 @@ batch dimensions ``(..., T)``.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from wsnlib._validation import as_bool_mask, as_float_array, check_nonnegative, check_positive
-from wsnlib.metrics.smoothness import angle_jerk_rms_deg, angle_jitter_rms_deg, gap_end_mask, gap_end_steps_deg
+from wsnlib.metrics.smoothness import angle_jerk_rms_deg, gap_end_mask, gap_end_steps_deg
 
 
 def max_abs_error(error, start: int = 0, where=None) -> np.ndarray:
@@ -251,7 +253,7 @@ def loss_figures_of_merit(error_deg, *, fs, received, threshold_deg=5.0, start: 
         (°/s³, RMS third derivative of the error trace over the whole record), each of shape
         ``(...)``.  With ``extended``: :data:`GAP_STEP_MAX` and :data:`GAP_STEP_MEAN` (°, the
         step of the error at the gap ends of the whole record, :func:`gap_end_steps_deg`; 0
-        without a closed gap), :data:`JITTER` (°/s³, :func:`angle_jitter_rms_deg`) and
+        without a closed gap), :data:`JITTER` (°/s³, :func:`angle_jerk_rms_deg` given ``received``) and
         :data:`P95_ERROR` (°, 95th percentile of ``|error|`` over received samples from
         ``start``, :func:`quantile_error`).
     """
@@ -267,7 +269,7 @@ def loss_figures_of_merit(error_deg, *, fs, received, threshold_deg=5.0, start: 
         steps = gap_end_steps_deg(error_deg, received)
         result[GAP_STEP_MAX] = steps["max_deg"]
         result[GAP_STEP_MEAN] = steps["mean_deg"]
-        result[JITTER] = angle_jitter_rms_deg(error_deg, fs, received)
+        result[JITTER] = angle_jerk_rms_deg(error_deg, fs, received)
         result[P95_ERROR] = quantile_error(error_deg[..., start:], 0.95, where=received[..., start:])
     return result
 
@@ -290,16 +292,10 @@ def summary_table(results: dict[str, dict[str, np.ndarray]], quantiles=(0.1, 0.9
     """
     import pandas as pd
 
-    low, high = quantiles
-    rows = {}
-    for name, figures in results.items():
-        row = {}
-        for figure, values in figures.items():
-            values = np.ravel(np.asarray(values, dtype=float))
-            row[(figure, "median")] = float(np.median(values))
-            row[(figure, f"q{round(100 * low)}")] = float(np.quantile(values, low))
-            row[(figure, f"q{round(100 * high)}")] = float(np.quantile(values, high))
-        rows[name] = row
+    statistics = {"median": np.median, **{f"q{round(100 * q)}": functools.partial(np.quantile, q=q) for q in quantiles}}
+    rows = {name: {(figure, statistic): float(function(np.ravel(np.asarray(values, dtype=float))))
+                   for figure, values in figures.items() for statistic, function in statistics.items()}
+            for name, figures in results.items()}
     table = pd.DataFrame.from_dict(rows, orient="index")
     table.columns = pd.MultiIndex.from_tuples(table.columns, names=["figure", "statistic"])
     return table

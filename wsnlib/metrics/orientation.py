@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from wsnlib import quaternion as quat_ops
-from wsnlib._validation import as_float_array, check_nonzero_norm
+from wsnlib._validation import as_bool_mask, as_float_array, check_nonzero_norm
 
 #: Body-frame axis along the segment (pointing distally), shared with :mod:`wsnlib.sim.arm`.
 SEGMENT_AXIS = np.array([1.0, 0.0, 0.0])
@@ -50,13 +50,6 @@ def elbow_angle_deg(quat_humerus, quat_forearm, method: str = "pitch_difference"
         cross = np.linalg.norm(np.cross(a, b), axis=-1)
         return np.degrees(np.arctan2(cross, np.sum(a * b, axis=-1)))
     raise ValueError(f"method must be 'pitch_difference' or 'axis_angle', got {method!r}")
-
-
-def orientation_error_deg(quat_est, quat_true) -> np.ndarray:
-    """Total orientation error (°): rotation angle between estimate and truth, ``(..., T)``."""
-    quat_est = as_float_array(quat_est, "quat_est", last_dim=4)
-    quat_true = as_float_array(quat_true, "quat_true", last_dim=4)
-    return np.degrees(quat_ops.angle_between(quat_est, quat_true))
 
 
 # --- BROAD's error metrics ------------------------------------------------------------------
@@ -151,14 +144,7 @@ def broad_rmse_deg(quat_est, quat_ref, movement) -> dict[str, np.ndarray]:
         :func:`broad_errors_deg`.
     """
     errors = broad_errors_deg(quat_est, quat_ref)
-    shape = errors["total"].shape
-    movement = np.asarray(movement)
-    if movement.dtype != np.bool_:
-        raise ValueError(f"movement must be a boolean mask, got dtype {movement.dtype}")
-    try:
-        movement = np.broadcast_to(movement, shape)
-    except ValueError as exc:
-        raise ValueError(f"movement has shape {movement.shape}, which does not fit the errors' {shape}") from exc
+    movement = as_bool_mask(movement, "movement", errors["total"].shape)
     valid = movement & ~np.isnan(errors["total"])
     count = np.count_nonzero(valid, axis=-1)
     if np.any(count == 0):

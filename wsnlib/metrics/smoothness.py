@@ -5,7 +5,7 @@ rotation angle, from finite differences of the body angular velocity), in °/s³
 calls single-frame estimates "jerky" without a number; this is ours.  Over a record with
 losses it is dominated by the single step an estimator makes when data return, so it is split
 into the step at each gap's end (:func:`gap_end_steps_deg`) and the continuous jitter without
-those steps (:func:`angle_jitter_rms_deg`).
+those steps (:func:`angle_jerk_rms_deg` given the ``received`` mask).
 
 Every function broadcasts over leading batch dimensions ``(..., T)``.
 """
@@ -18,19 +18,24 @@ from wsnlib import quaternion as quat_ops
 from wsnlib._validation import as_bool_mask, as_float_array, check_positive
 
 
-def angular_jerk_rms_deg(quat, fs) -> np.ndarray:
-    """RMS angular jerk (°/s³) of an orientation sequence ``(..., T, 4) → (...)``.
+def angular_jerk_rms_deg(quat, fs, received=None) -> np.ndarray:
+    """RMS angular jerk (°/s³) of an orientation sequence ``(..., T, 4) → (...)``; with ``received``, its jitter.
 
     Body angular velocity from consecutive quaternions, ``ω_t = rotvec(q_t* ⊗ q_{t+1})·fs``,
     then jerk as the second finite difference of ω times ``fs²``.  Needs ``T >= 4``.
     A smooth estimate scores low; a noisy single-frame estimate scores high.
+
+    With ``received`` (..., T), the continuous jitter: the jerk window ``j`` spans quaternions
+    ``j … j + 3`` (angular velocity from consecutive pairs, then its second difference), and the
+    windows with ``j ∈ [e − 3, e − 1]`` for a gap end ``e`` (they hold the gap-end step) are left
+    out, as in :func:`angle_jerk_rms_deg`.
     """
     quat = as_float_array(quat, "quat", last_dim=4, min_ndim=2)
     fs = check_positive(fs, "fs")
     if quat.shape[-2] < 4:
         raise ValueError(f"quat needs at least 4 samples along time, got {quat.shape[-2]}")
-    jerk = _angular_jerk(quat, fs)
-    return np.degrees(np.sqrt(np.mean(np.sum(jerk**2, axis=-1), axis=-1)))
+    return np.degrees(_rms_without_gap_ends(np.sum(_angular_jerk(quat, fs) ** 2, axis=-1), received,
+                                            quat.shape[:-1]))
 
 
 def _angular_jerk(quat: np.ndarray, fs: float) -> np.ndarray:
@@ -43,22 +48,46 @@ def _angular_jerk(quat: np.ndarray, fs: float) -> np.ndarray:
     return np.diff(omega, n=2, axis=-2) * fs**2
 
 
-def angle_jerk_rms_deg(angle_deg, fs) -> np.ndarray:
-    """RMS jerk (°/s³) of a scalar angle trace in degrees, ``(..., T) → (...)``; third difference."""
+def angle_jerk_rms_deg(angle_deg, fs, received=None) -> np.ndarray:
+    """RMS jerk (°/s³) of a scalar angle trace in degrees, ``(..., T) → (...)``; third difference.
+
+    With ``received`` (..., T), the continuous jitter: the third-difference windows that contain
+    a gap-end step (the three windows ``x[i..i+3]`` with ``i ∈ [e − 3, e − 1]`` for each gap end
+    ``e``) are left out, so it measures how jittery the output is between those steps — during
+    gaps, during the return to the data and with data.  With ``received`` all True it equals the
+    jerk.
+
+    Parameters
+    ----------
+    angle_deg : array_like, shape (..., T)
+        Angle or angle error (°), ``T >= 4``.
+    fs : float
+        Sampling rate (Hz).
+    received : array_like of bool, shape (..., T), optional
+
+    Returns
+    -------
+    numpy.ndarray, shape (...)
+
+    Raises
+    ------
+    ValueError
+        If, with ``received``, some record has no window left (gaps end on every few samples).
+    """
     angle_deg = as_float_array(angle_deg, "angle_deg")
     fs = check_positive(fs, "fs")
     if angle_deg.shape[-1] < 4:
         raise ValueError(f"angle_deg needs at least 4 samples, got {angle_deg.shape[-1]}")
     jerk = np.diff(angle_deg, n=3, axis=-1) * fs**3
-    return np.sqrt(np.mean(jerk**2, axis=-1))
+    return _rms_without_gap_ends(jerk**2, received, angle_deg.shape)
 
 
 # --- Smoothness split: the step at a gap's end vs continuous jitter (issue 12) -------------
 # The RMS third difference over a whole record (``angle_jerk_rms_deg``) is dominated by the one
 # step an estimator makes when data return after a gap: a single jump of s degrees enters three
 # third-difference windows with weights 1, 3, 3 (…), i.e. adds about ``s·fs³·√(19/N)`` to the RMS
-# of N windows, whatever the estimate does elsewhere.  The two figures below separate that step
-# from the jitter of the rest of the record.
+# of N windows, whatever the estimate does elsewhere.  The step (``gap_end_steps_deg``) and the
+# jitter (the jerk functions given ``received``: ``_rms_without_gap_ends``) separate the two.
 
 
 def gap_end_mask(received) -> np.ndarray:
@@ -74,6 +103,23 @@ def gap_end_mask(received) -> np.ndarray:
     ends = np.zeros(received.shape, dtype=bool)
     ends[..., 1:] = received[..., 1:] & ~received[..., :-1]
     return ends
+
+
+def _rms_without_gap_ends(squares: np.ndarray, received, shape: tuple) -> np.ndarray:
+    """RMS over the jerk windows ``i … i + 3`` (last axis of ``squares``), those holding a gap-end
+    step of ``received`` (shape ``shape``) left out: the step between samples ``e − 1`` and ``e`` is
+    inside window ``i`` when ``i + 1 <= e <= i + 3``.  Every window without ``received``."""
+    if received is None:
+        return np.sqrt(np.mean(squares, axis=-1))
+    ends = gap_end_mask(as_bool_mask(received, "received", shape))
+    n_windows = squares.shape[-1]
+    keep = ~np.any([ends[..., shift:shift + n_windows] for shift in (1, 2, 3)], axis=0)
+    count = np.count_nonzero(keep, axis=-1)
+    if np.any(count == 0):
+        bad = tuple(int(i) for i in np.argwhere(count == 0)[0])
+        raise ValueError(f"no jerk window is free of a gap-end step{f' (batch index {bad})' if bad else ''}; "
+                         "the jitter is undefined")
+    return np.sqrt(np.sum(np.where(keep, squares, 0.0), axis=-1) / count)
 
 
 def gap_end_steps_deg(angle_deg, received) -> dict[str, np.ndarray]:
@@ -104,10 +150,7 @@ def gap_end_steps_deg(angle_deg, received) -> dict[str, np.ndarray]:
     ends = gap_end_mask(as_bool_mask(received, "received", angle.shape))
     step = np.zeros(angle.shape)
     step[..., 1:] = np.abs(np.diff(angle, axis=-1))
-    step = np.where(ends, step, 0.0)
-    n_gaps = np.count_nonzero(ends, axis=-1)
-    return {"step_deg": step, "gap_end": ends, "max_deg": step.max(axis=-1),
-            "mean_deg": step.sum(axis=-1) / np.maximum(n_gaps, 1), "n_gaps": n_gaps}
+    return _steps_at(ends, step)
 
 
 def quat_gap_end_steps_deg(quat, received) -> dict[str, np.ndarray]:
@@ -121,81 +164,12 @@ def quat_gap_end_steps_deg(quat, received) -> dict[str, np.ndarray]:
     ends = gap_end_mask(as_bool_mask(received, "received", quat.shape[:-1]))
     step = np.zeros(quat.shape[:-1])
     step[..., 1:] = np.degrees(quat_ops.angle_between(quat[..., 1:, :], quat[..., :-1, :]))
+    return _steps_at(ends, step)
+
+
+def _steps_at(ends: np.ndarray, step: np.ndarray) -> dict[str, np.ndarray]:
+    """The dictionary of :func:`gap_end_steps_deg` from the gap ends and every sample's step."""
     step = np.where(ends, step, 0.0)
     n_gaps = np.count_nonzero(ends, axis=-1)
     return {"step_deg": step, "gap_end": ends, "max_deg": step.max(axis=-1),
             "mean_deg": step.sum(axis=-1) / np.maximum(n_gaps, 1), "n_gaps": n_gaps}
-
-
-def _windows_without_gap_ends(ends: np.ndarray, n_windows: int, width: int) -> np.ndarray:
-    """Windows of samples ``i … i + width`` that do not hold a gap-end step, ``(..., n_windows)``.
-
-    The step lives between samples ``e − 1`` and ``e``, so it is inside window ``i`` when
-    ``i + 1 <= e <= i + width``.
-    """
-    touched = np.zeros(ends.shape[:-1] + (n_windows,), dtype=bool)
-    for shift in range(1, width + 1):
-        touched |= ends[..., shift:shift + n_windows]
-    return ~touched
-
-
-def angle_jitter_rms_deg(angle_deg, fs, received) -> np.ndarray:
-    """Continuous jitter (°/s³): RMS third difference of an angle trace, gap-end steps excluded.
-
-    :func:`angle_jerk_rms_deg` without the third-difference windows that contain a gap-end
-    step (the three windows ``x[i..i+3]`` with ``i ∈ [e − 3, e − 1]`` for each gap end ``e``),
-    so it measures how jittery the output is between those steps — during gaps, during the
-    return to the data and with data.  With ``received`` all True it equals
-    :func:`angle_jerk_rms_deg`.
-
-    Parameters
-    ----------
-    angle_deg : array_like, shape (..., T)
-        Angle or angle error (°), ``T >= 4``.
-    fs : float
-        Sampling rate (Hz).
-    received : array_like of bool, shape (..., T)
-
-    Returns
-    -------
-    numpy.ndarray, shape (...)
-
-    Raises
-    ------
-    ValueError
-        If some record has no window left (gaps end on every few samples).
-    """
-    angle = as_float_array(angle_deg, "angle_deg")
-    fs = check_positive(fs, "fs")
-    if angle.shape[-1] < 4:
-        raise ValueError(f"angle_deg needs at least 4 samples, got {angle.shape[-1]}")
-    ends = gap_end_mask(as_bool_mask(received, "received", angle.shape))
-    jerk = np.diff(angle, n=3, axis=-1) * fs**3
-    keep = _windows_without_gap_ends(ends, jerk.shape[-1], 3)
-    return _masked_rms(jerk**2, keep)
-
-
-def angular_jitter_rms_deg(quat, fs, received) -> np.ndarray:
-    """:func:`angular_jerk_rms_deg` without the windows that hold a gap-end step (°/s³).
-
-    The jerk window ``j`` spans quaternions ``j … j + 3`` (angular velocity from consecutive
-    pairs, then its second difference); windows with ``j ∈ [e − 3, e − 1]`` for a gap end ``e``
-    are left out.  ``quat`` (..., T, 4) with ``T >= 4``; ``received`` (..., T).
-    """
-    quat = as_float_array(quat, "quat", last_dim=4, min_ndim=2)
-    fs = check_positive(fs, "fs")
-    if quat.shape[-2] < 4:
-        raise ValueError(f"quat needs at least 4 samples along time, got {quat.shape[-2]}")
-    ends = gap_end_mask(as_bool_mask(received, "received", quat.shape[:-1]))
-    jerk = _angular_jerk(quat, fs)
-    keep = _windows_without_gap_ends(ends, jerk.shape[-2], 3)
-    return np.degrees(_masked_rms(np.sum(jerk**2, axis=-1), keep))
-
-
-def _masked_rms(squares: np.ndarray, keep: np.ndarray) -> np.ndarray:
-    count = np.count_nonzero(keep, axis=-1)
-    if np.any(count == 0):
-        bad = tuple(int(i) for i in np.argwhere(count == 0)[0])
-        raise ValueError(f"no jerk window is free of a gap-end step{f' (batch index {bad})' if bad else ''}; "
-                         "the jitter is undefined")
-    return np.sqrt(np.sum(np.where(keep, squares, 0.0), axis=-1) / count)

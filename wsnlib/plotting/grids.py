@@ -26,19 +26,8 @@ def plot_heatmap(values, row_values, col_values, *, ax=None, xlabel="", ylabel="
     values = np.asarray(values, dtype=float)
     if values.shape != (len(row_values), len(col_values)):
         raise ValueError(f"values has shape {values.shape}, expected ({len(row_values)}, {len(col_values)})")
-    image = ax.imshow(values, origin="lower", aspect="auto", cmap=cmap)
-    ax.set_xticks(range(len(col_values)), [_tick_label(v) for v in col_values], rotation=xrotation,
-                  ha="right" if xrotation else "center")
-    ax.set_yticks(range(len(row_values)), [_tick_label(v) for v in row_values])
-    ax.set_xlabel(xlabel)
-    ax.set_ylabel(ylabel)
-    ax.grid(False)
-    if title:
-        ax.set_title(title)
-    middle = np.nanmean(values)
-    for (i, j), value in np.ndenumerate(values):
-        ax.text(j, i, fmt.format(value), ha="center", va="center", fontsize=ANNOTATION_FONT_PT,
-                color="white" if value < middle else "black")
+    image = _annotated_image(ax, values, row_values, col_values, xlabel=xlabel, ylabel=ylabel, title=title, fmt=fmt,
+                             middle=np.nanmean(values), blank_nan=False, xrotation=xrotation, cmap=cmap)
     ax.figure.colorbar(image, ax=ax, fraction=0.046, pad=0.04)
     return ax
 
@@ -76,23 +65,34 @@ def plot_heatmap_panels(panels, row_values, col_values, *, axes, xlabel="", ylab
     if not np.isfinite(stacked).any():
         raise ValueError("panels hold no finite value")
     vmin, vmax = float(np.nanmin(stacked)), float(np.nanmax(stacked))
-    middle = 0.5 * (vmin + vmax)
     image = None
     for ax, (title, values) in zip(flat_axes[:len(grids)], grids.items(), strict=True):
-        image = ax.imshow(values, origin="lower", aspect="auto", cmap=cmap, vmin=vmin, vmax=vmax)
-        ax.set_xticks(range(len(col_values)), [_tick_label(v) for v in col_values])
-        ax.set_yticks(range(len(row_values)), [_tick_label(v) for v in row_values])
-        ax.set_xlabel(xlabel)
-        ax.set_ylabel(ylabel)
-        ax.set_title(title)
-        ax.grid(False)
-        for (i, j), value in np.ndenumerate(values):
-            if np.isfinite(value):
-                ax.text(j, i, fmt.format(value), ha="center", va="center", fontsize=ANNOTATION_FONT_PT,
-                        color="white" if value < middle else "black")
+        image = _annotated_image(ax, values, row_values, col_values, xlabel=xlabel, ylabel=ylabel, title=title,
+                                 fmt=fmt, middle=0.5 * (vmin + vmax), blank_nan=True, cmap=cmap, vmin=vmin, vmax=vmax)
     for ax in flat_axes[len(grids):]:
         ax.set_visible(False)
     return flat_axes[0].figure.colorbar(image, ax=list(flat_axes[:len(grids)]), label=colorbar_label)
+
+
+def _annotated_image(ax, values, row_values, col_values, *, xlabel, ylabel, title, fmt, middle, blank_nan,
+                     xrotation=0, **imshow):
+    """``values`` as an image on ``ax`` (``imshow`` keywords: colour map and scale), ticks labelled
+    with the row and column values, every cell annotated (NaN cells left blank with ``blank_nan``)
+    in white below ``middle`` and in black above; returns the image."""
+    image = ax.imshow(values, origin="lower", aspect="auto", **imshow)
+    ax.set_xticks(range(len(col_values)), [_tick_label(v) for v in col_values], rotation=xrotation,
+                  ha="right" if xrotation else "center")
+    ax.set_yticks(range(len(row_values)), [_tick_label(v) for v in row_values])
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.grid(False)
+    if title:
+        ax.set_title(title)
+    for (i, j), value in np.ndenumerate(values):
+        if np.isfinite(value) or not blank_nan:
+            ax.text(j, i, fmt.format(value), ha="center", va="center", fontsize=ANNOTATION_FONT_PT,
+                    color="white" if value < middle else "black")
+    return image
 
 
 def _tick_label(value) -> str:

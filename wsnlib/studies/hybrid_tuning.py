@@ -59,29 +59,26 @@ def hybrid_sweep(trials, rho_grid, tau_grid, *, beta: float, hold_window: int, t
         ``"data fusion"`` (Madgwick, hold last) and ``"single frame"`` (TRIAD, hold last) →
         figures of merit, each ``(R,)``.
     """
-
     rho = np.asarray(rho_grid, dtype=float)[:, None, None, None]
     tau = np.asarray(tau_grid, dtype=float)[None, :, None, None]
     fs = trials.fs
     elbow_true = metrics.elbow_angle_deg(trials.quat_true[:, 0], trials.quat_true[:, 1])      # (R, T)
     both_received = trials.received.all(axis=1)                                              # (R, T)
+
+    def figures(quat):
+        """Figures of merit of the elbow angle's error, from quaternions ``(..., R, 2, T, 4)``."""
+        error = metrics.elbow_angle_deg(quat[..., 0, :, :], quat[..., 1, :, :]) - elbow_true
+        return metrics.loss_figures_of_merit(error, fs=fs, received=both_received, threshold_deg=threshold_deg,
+                                             extended=True)
+
     foms = {}
     for schedule, blend in tqdm(configurations, desc="(schedule, blend)", disable=not progress):
-        quat = estimate_orientation(trials.gyr, trials.acc, trials.mag, fs=fs, beta=beta, received=trials.received,
-                                    rho=rho, tau=tau, schedule=schedule, blend=blend,
-                                    hold_window=hold_window if schedule == "hold" else None)
-        err = metrics.elbow_angle_deg(quat[..., 0, :, :], quat[..., 1, :, :]) - elbow_true
-        foms[schedule, blend] = metrics.loss_figures_of_merit(err, fs=fs, received=both_received,
-                                                              threshold_deg=threshold_deg, extended=True)
-        del quat, err
+        foms[schedule, blend] = figures(estimate_orientation(
+            trials.gyr, trials.acc, trials.mag, fs=fs, beta=beta, received=trials.received, rho=rho, tau=tau,
+            schedule=schedule, blend=blend, hold_window=hold_window if schedule == "hold" else None))
     quat_df = estimate_orientation(trials.gyr, trials.acc, trials.mag, fs=fs, beta=beta, received=trials.received)
     quat_sf = loss.hold_last(triad(trials.acc, trials.mag), trials.received)
-    references = {
-        name: metrics.loss_figures_of_merit(metrics.elbow_angle_deg(q[:, 0], q[:, 1]) - elbow_true, fs=fs,
-                                            received=both_received, threshold_deg=threshold_deg, extended=True)
-        for name, q in (("data fusion", quat_df), ("single frame", quat_sf))
-    }
-    return foms, references
+    return foms, {"data fusion": figures(quat_df), "single frame": figures(quat_sf)}
 
 
 #: Columns of :func:`candidate_table` → figure of merit of :func:`wsnlib.metrics.loss_figures_of_merit`.
@@ -108,7 +105,6 @@ def candidate_table(foms: dict, rho_grid, tau_grid, configurations=HYBRID_CONFIG
     costs : dict[str, numpy.ndarray]
         Column name → per-trial costs ``(n_candidates, R)``, rows in the table's order.
     """
-
     candidates = pd.DataFrame([{"schedule": s, "blend": b, "rho": r, "tau": t}
                                for s, b in configurations for r in rho_grid for t in tau_grid])
     costs = {}
@@ -184,13 +180,10 @@ RECOMMENDATION_FILE = "a03_recommended_hybrid.csv"
 
 def write_recommendation(setting: dict) -> None:
     """Store the recommended hybrid setting (one row: schedule, blend, rho, tau, …) for later notebooks."""
-
-
     required = {"schedule", "blend", "rho", "tau"}
     missing = required - set(setting)
     if missing:
         raise ValueError(f"setting lacks {sorted(missing)}")
-
     write_csv(pd.DataFrame([setting]), paths.data_processed() / RECOMMENDATION_FILE, index=False)
 
 
@@ -202,8 +195,6 @@ def read_recommendation() -> dict:
     FileNotFoundError
         If notebook 03 has not run yet in this output folder.
     """
-
-
     path = paths.data_processed() / RECOMMENDATION_FILE
     if not path.exists():
         raise FileNotFoundError(f"{path} does not exist: run notebook 03_slerp_tuning first "
@@ -253,7 +244,6 @@ def knee_settings(candidates, criteria=SMOOTHNESS_CRITERIA):
         One row per criterion (index: its label): ``schedule``, ``blend``, ``rho``, ``tau``,
         ``rho_tau`` of the knee.
     """
-
     rows = {}
     for column, (label, *_) in criteria.items():
         if column not in candidates:
@@ -301,7 +291,6 @@ def configuration_comparison(candidates, reference_foms: dict, configurations=HY
         max error (°), time above the threshold (s), RMS jerk (°/s³), gap-end step (°) and
         jitter (°/s³); the hybrids at the knee of max error vs jerk.
     """
-
     figures = ("mean max error (°)", "mean time above (s)", "mean jerk (°/s³)", "mean gap-end step (°)",
                "mean jitter (°/s³)")
     rows = []
@@ -333,7 +322,6 @@ def recommendation_comparison(runs: dict):
         2.5–97.5 % bootstrap interval, the share of resamples on the same (schedule, blend), and
         the mean max error (°) of the knee, data fusion and single frame, the knee's mean jerk (°/s³).
     """
-
     return pd.DataFrame({
         f"{name} simulator": {
             "schedule": rec["schedule"], "blend": rec["blend"], "ρτ (samples)": rec["rho_tau"],

@@ -1,9 +1,8 @@
 """Paper 002's posture study: from a simulated dynamic campaign to the errors of Sections 4.2 and 5.
 
 The recursive estimate of target 2 (forearm) starts from the elbow estimated with target 1
-(upper arm) — eq. (10), wired once in :func:`evaluate_chain` (defined in
-:mod:`wsnlib.optimize.selection`, re-exported here) — so the two targets' rows must be paired
-in time.  Each target node sends its own
+(upper arm) — eq. (10), wired once in :func:`wsnlib.optimize.evaluate_chain` — so the two
+targets' rows must be paired in time.  Each target node sends its own
 packets (~30/s, not simultaneously), so for every target-2 vector of a movement we take the
 latest target-1 vector of the same movement at or before it (causal: the base station has
 that one when the target-2 packet arrives); target-2 vectors with no target-1 vector before
@@ -27,16 +26,19 @@ import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
+import pandas as pd
 
 from wsnlib._validation import check_count, check_rng, check_type
 from wsnlib.io.rss import rss_vectors
-from wsnlib.optimize import SearchData, evaluate_chain
+from wsnlib.optimize import SearchData, SearchGrid, evaluate_chain, paper_tables
 from wsnlib.posture import pitch_from_acc
+from wsnlib.sim.campaign import simulate_dynamic_campaign
 from wsnlib.sim.optical import REFERENCE_ROTATION_STD_DEG, REFERENCE_TIMING_STD_S, hand_derived_reference
+from wsnlib.sim.radio import RadioChannel
 
-__all__ = ["RADIO_ASSUMPTIONS", "RadioSensitivity", "StudyInputs", "evaluate_chain", "kinect_errors",
-           "perturbed_channel", "pitch_errors_deg", "radio_sensitivity", "selected_errors", "sensitivity_grid",
-           "study_inputs", "true_joints_straight_arm", "with_reference_error"]
+__all__ = ["RADIO_ASSUMPTIONS", "RadioSensitivity", "StudyInputs", "kinect_errors", "perturbed_channel",
+           "pitch_errors_deg", "radio_sensitivity", "selected_errors", "sensitivity_grid", "study_inputs",
+           "true_joints_straight_arm", "with_reference_error"]
 
 
 @dataclass(frozen=True)
@@ -116,7 +118,7 @@ def selected_errors(inputs: StudyInputs, tables, *, approach: str, per_movement:
     """Per-sample position errors (cm) of the selected settings (Table 2 or 3), users pooled.
 
     Target 2 is evaluated from the elbow of target 1 under the same selection
-    (:func:`evaluate_chain`), as in :func:`wsnlib.optimize.paper_tables`.
+    (:func:`wsnlib.optimize.evaluate_chain`), as in :func:`wsnlib.optimize.paper_tables`.
 
     Parameters
     ----------
@@ -135,14 +137,9 @@ def selected_errors(inputs: StudyInputs, tables, *, approach: str, per_movement:
     selection = tables.selection2 if per_movement else tables.selection3
     selection = selection[selection["approach"] == approach]
     pick = {t: selection[selection["target"] == n].drop(columns="target") for n, t in ((1, "T1"), (2, "T2"))}
-    errors = {"T1": [], "T2": [], "movement": [], "user": []}
-    for user, data1 in inputs.target1.items():
-        chain = evaluate_chain(data1, inputs.target2[user], pick["T1"], pick["T2"])
-        errors["T1"].append(100 * chain["T1"]["pe_m"])
-        errors["T2"].append(100 * chain["T2"]["pe_m"])
-        errors["movement"].append(data1.movement)
-        errors["user"].append(np.full(data1.movement.size, user, dtype=object))
-    return {key: np.concatenate(values) for key, values in errors.items()}
+    chains = {user: evaluate_chain(data1, inputs.target2[user], pick["T1"], pick["T2"])
+              for user, data1 in inputs.target1.items()}
+    return _pooled(inputs, {user: [100 * chain[t]["pe_m"] for t in ("T1", "T2")] for user, chain in chains.items()})
 
 
 def kinect_errors(inputs: StudyInputs) -> dict[str, np.ndarray]:
@@ -152,14 +149,19 @@ def kinect_errors(inputs: StudyInputs) -> dict[str, np.ndarray]:
     are measured against ``true_positions`` of ``inputs`` (the hand-derived reference after
     :func:`with_reference_error`).
     """
-    errors = {"T1": [], "T2": [], "movement": [], "user": []}
-    for user, positions in inputs.kinect.items():
-        for index, target in enumerate(("T1", "T2")):
-            truth = (inputs.target1 if index == 0 else inputs.target2)[user].true_positions
-            errors[target].append(100 * np.linalg.norm(positions[:, index] - truth, axis=-1))
-        errors["movement"].append(inputs.target1[user].movement)
-        errors["user"].append(np.full(inputs.target1[user].movement.size, user, dtype=object))
-    return {key: np.concatenate(values) for key, values in errors.items()}
+    return _pooled(inputs, {user: [100 * np.linalg.norm(positions[:, index] - data[user].true_positions, axis=-1)
+                                   for index, data in enumerate((inputs.target1, inputs.target2))]
+                            for user, positions in inputs.kinect.items()})
+
+
+def _pooled(inputs: StudyInputs, errors: dict) -> dict[str, np.ndarray]:
+    """``errors`` (user → errors of T1 and T2 at the paired rows) pooled over users, with each row's
+    movement and user: the dictionary of :func:`selected_errors`."""
+    target1, target2 = zip(*errors.values(), strict=True)
+    movement = [inputs.target1[user].movement for user in errors]
+    users = [np.full(m.size, user, dtype=object) for user, m in zip(errors, movement, strict=True)]
+    return {"T1": np.concatenate(target1), "T2": np.concatenate(target2), "movement": np.concatenate(movement),
+            "user": np.concatenate(users)}
 
 
 def pitch_errors_deg(data, *, method: str, fs: float = 30.0, **options):
@@ -173,8 +175,6 @@ def pitch_errors_deg(data, *, method: str, fs: float = 30.0, **options):
         Columns ``user``, ``target``, ``movement`` (0 outside movements), ``label``,
         ``error_deg``.
     """
-    import pandas as pd
-
     frames = []
     for user in dict.fromkeys(data.user):
         for target in ("T1", "T2"):
@@ -288,8 +288,6 @@ def perturbed_channel(factors: dict, channel=None):
     channel : RadioChannel, optional
         The nominal channel; default ``RadioChannel()``.
     """
-    from wsnlib.sim.radio import RadioChannel
-
     channel = RadioChannel() if channel is None else channel
     known = {name: (half, kind) for name, half, kind in RADIO_ASSUMPTIONS}
     unknown = sorted(set(factors) - set(known))
@@ -343,8 +341,6 @@ class RadioSensitivity:
 
 def sensitivity_grid():
     """The small search grid of :func:`radio_sensitivity`: every subset, both distances, k ∈ {1, 3}, p_s = 2."""
-    from wsnlib.optimize import SearchGrid
-
     return SearchGrid(knn_neighbors=(1, 3), powers=(2,), pknn_neighbors=(1, 3))
 
 
@@ -387,11 +383,6 @@ def radio_sensitivity(*, rng: np.random.Generator, n_draws: int = 8, spread: flo
     -------
     RadioSensitivity
     """
-    import pandas as pd
-
-    from wsnlib.optimize import paper_tables
-    from wsnlib.sim.campaign import simulate_dynamic_campaign
-
     check_rng(rng)
     if quick:
         n_draws, n_users, hold_s = 2, 1, 4.0
@@ -422,8 +413,6 @@ def radio_sensitivity(*, rng: np.random.Generator, n_draws: int = 8, spread: flo
     perturbed = wide.drop(columns=0, errors="ignore")
     summary = pd.DataFrame({"nominal_cm": wide[0] if include_nominal else np.nan}, index=wide.index)
     if n_draws:
-        summary["min_cm"] = perturbed.min(axis=1)
-        summary["median_cm"] = perturbed.median(axis=1)
-        summary["max_cm"] = perturbed.max(axis=1)
+        summary = summary.join(perturbed.agg(["min", "median", "max"], axis=1).add_suffix("_cm"))
         summary["range_cm"] = summary["max_cm"] - summary["min_cm"]
     return RadioSensitivity(factors=factors, pe=pe, summary=summary)

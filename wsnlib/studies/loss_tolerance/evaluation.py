@@ -11,8 +11,12 @@ from collections.abc import Mapping
 
 import numpy as np
 import pandas as pd
+from tqdm.auto import tqdm
 
 from wsnlib import loss, loto, metrics, parallel
+from wsnlib._validation import check_count, check_rng
+from wsnlib.io.broad import load_broad
+from wsnlib.io.resample import resample_broad
 from wsnlib.orientation import SingleFrameGate, single_frame_trusted
 from wsnlib.studies.loss_tolerance.registry import FS, HEADLINE, PROFILES, Method, default_methods
 
@@ -63,28 +67,20 @@ class LossToleranceResult:
     profiles: tuple
 
 
-def _progress(iterable, desc, enabled):
-    if not enabled:
-        return iterable
-    from tqdm.auto import tqdm
-
-    return tqdm(iterable, desc=desc)
-
-
-def _gap_response(error, lossless, received, window_s):
-    """Medians over the gaps of the peak and mean error increase (°), of the recovery (s, censored at
-    the window), the recovered share and the number of gaps scored."""
+def _gap_response(error, lossless, received, window_s) -> dict:
+    """Result columns: medians over the gaps of the peak and mean error increase (°), of the recovery
+    (s, censored at the window), the recovered share and the number of gaps scored (NaN and 0 without
+    a gap scored)."""
     ends = np.flatnonzero(metrics.gap_end_mask(received))
-    if ends.size == 0:
-        return np.nan, np.nan, np.nan, np.nan, 0
     response = metrics.burst_response(error, lossless, ends, FS, window_s=window_s,
                                       threshold_deg=RECOVERY_THRESHOLD_DEG)
-    if response["kept"].size == 0:
-        return np.nan, np.nan, np.nan, np.nan, 0
     recovery = response["recovery_s"]
-    return (float(np.median(response["peak_increase_deg"])), float(np.median(response["mean_increase_deg"])),
-            float(np.median(np.minimum(recovery, window_s))), float(np.mean(np.isfinite(recovery))),
-            int(response["kept"].size))
+    values = (np.nan, np.nan, np.nan, np.nan, 0) if response["kept"].size == 0 else (
+        float(np.median(response["peak_increase_deg"])), float(np.median(response["mean_increase_deg"])),
+        float(np.median(np.minimum(recovery, window_s))), float(np.mean(np.isfinite(recovery))),
+        int(response["kept"].size))
+    return dict(zip(("peak_increase_deg", "mean_increase_deg", "recovery_s", "recovered_share", "n_gaps_scored"),
+                    values, strict=True))
 
 
 def _score_rows(name, method, rows, setting, rec, masks, quat):
@@ -94,20 +90,17 @@ def _score_rows(name, method, rows, setting, rec, masks, quat):
     moving = np.where(rec.movement, total, np.nan)
     phases = metrics.error_by_phase(moving, masks, FS, after_s=AFTER_GAP_S)
     steps = metrics.quat_gap_end_steps_deg(quat, masks)
-    jitter = metrics.angular_jitter_rms_deg(quat, FS, masks)
+    jitter = metrics.angular_jerk_rms_deg(quat, FS, masks)
     out = []
     for k, (profile, draw) in enumerate(rows):
         longest_gap = int(loss.lost_run_length(masks[k]).max(initial=0))
         latency = {"none": 0.0, "gap": longest_gap / FS, "offline": rec.n_samples / FS}[method.latency]
-        peak, mean_increase, recovery, recovered, n_gaps = _gap_response(moving[k], moving[0], masks[k],
-                                                                         response_window_s(profile))
         out.append({"trial": name, "method": method.name, "kind": method.kind, "profile": profile.name,
                     "draw": draw, "setting": str(setting), "lost_share": float(1.0 - masks[k].mean()),
                     **{f"rmse_{key}": float(v[k]) for key, v in rmse.items()},
                     **{f"rms_{ph}": float(phases[ph][k]) for ph in metrics.PHASES},
                     **{f"n_{ph}": int(phases[f"n_{ph}"][k]) for ph in metrics.PHASES},
-                    "peak_increase_deg": peak, "mean_increase_deg": mean_increase, "recovery_s": recovery,
-                    "recovered_share": recovered, "n_gaps_scored": n_gaps,
+                    **_gap_response(moving[k], moving[0], masks[k], response_window_s(profile)),
                     "gap_end_step_deg": float(steps["mean_deg"][k]) if steps["n_gaps"][k] else np.nan,
                     "jitter_deg_s3": float(jitter[k]),
                     "latency_s": latency, "latency_rule": method.latency})
@@ -197,13 +190,11 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
         gaps without loss); gap_end_step_deg (mean rotation between the last output before
         and the first after a gap, :func:`wsnlib.metrics.quat_gap_end_steps_deg`; NaN without
         gaps) and jitter_deg_s3 (RMS angular jerk away from gap ends,
-        :func:`wsnlib.metrics.angular_jitter_rms_deg`); latency_s and latency_rule (package
+        :func:`wsnlib.metrics.angular_jerk_rms_deg` given the mask); latency_s and latency_rule (package
         docstring).
     """
-    if not isinstance(rng, np.random.Generator):
-        raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
-    if isinstance(draws, bool) or not isinstance(draws, int | np.integer) or draws < 1:
-        raise ValueError(f"draws must be a positive integer, got {draws!r}")
+    check_rng(rng)
+    check_count(draws, "draws")
     methods = default_methods() if methods is None else dict(methods)
     profiles = tuple(profiles)
     names = list(recordings)
@@ -296,8 +287,5 @@ def single_frame_trust(recordings: Mapping) -> pd.DataFrame:
 def load_recordings(names, *, fs: float = FS, download: bool = False, progress: bool = True) -> dict:
     """BROAD trials by name, loaded (:func:`wsnlib.io.broad.load_broad`; from ``$WSNLIB_BROAD_DIR``,
     downloaded and hash-checked only with ``download``) and resampled to ``fs`` (Hz)."""
-    from wsnlib.io.broad import load_broad
-    from wsnlib.io.resample import resample_broad
-
     return {name: resample_broad(load_broad(name, download=download), fs)
-            for name in _progress(list(names), "load + resample", progress)}
+            for name in tqdm(list(names), desc="load + resample", disable=not progress)}

@@ -24,6 +24,7 @@ from wsnlib.orientation import fusion_orientation
 from wsnlib.sim import arm_extension, arm_kinematics
 from wsnlib.studies.loss_tolerance.registry import FS
 from wsnlib.studies.loss_tolerance.summary import trial_table
+from wsnlib.studies.loss_tolerance.tables import median_rate_deg_s
 
 #: The filters whose gain is tuned, the method standing for each (the Madgwick options share
 #: Madgwick's β, so hold_last's choice is Madgwick's) and the name of the tuned setting.
@@ -134,8 +135,7 @@ def findings(per_trial: pd.DataFrame, recordings: Mapping, loto_rmse: Mapping, *
     lossless = trial_table(per_trial, "lossless", "rmse_total").T
     hold = increase.loc["hold_last"]
     groups = trial_groups(increase.columns)
-    rate = pd.Series({t: float(np.degrees(np.median(np.linalg.norm(r.gyr[r.movement], axis=-1))))
-                      for t, r in recordings.items()})
+    rate = median_rate_deg_s(recordings)
     paper_rate = _paper_rate_deg_s()
     out = {
         "holding adds error": [t for t in hold.index if hold[t] > 0],

@@ -19,6 +19,7 @@ from collections.abc import Callable, Mapping
 import numpy as np
 from scipy.stats import qmc
 
+from wsnlib._validation import check_count
 from wsnlib.loss import LossProfile, hold_last
 from wsnlib.orientation import (
     KalmanSettings,
@@ -140,15 +141,20 @@ def _hybrid(rec, setting, received, *, gated=False):
                                 single_frame_gate=SingleFrameGate() if gated else None)
 
 
-def _peer(rec, setting, received, *, library, hybrid, gated=False, gap="hold"):
+def _peer(rec, setting, received, *, library, hybrid=False, gated=False, **options):
+    """Fusion (``setting["gain"]``) or VQF (``setting``'s ``tauAcc`` and, if given, ``tauMag``; its
+    authors' values otherwise).  ``hybrid``: wrapped in our hybrid, feedback blend, ρ = 1 and
+    τ = ``setting["rho_tau"]`` (``gated``: behind :class:`~wsnlib.orientation.SingleFrameGate`);
+    ``options``: more keywords of the peer's function (``gap``, or a fixed blend and μ)."""
     signals = [np.broadcast_to(x, received.shape + (3,)) for x in (rec.gyr, rec.acc, rec.mag)]
-    extra = {"blend": "feedback", "rho": 1.0, "tau": setting["rho_tau"]} if hybrid else {}
+    if hybrid:
+        options.update(blend="feedback", rho=1.0, tau=setting["rho_tau"])
     if gated:
-        extra["single_frame_gate"] = SingleFrameGate()
+        options["single_frame_gate"] = SingleFrameGate()
     if library == "Fusion":
-        return fusion_orientation(*signals, fs=FS, received=received, gain=setting["gain"], gap=gap, **extra)
-    params = {"tauAcc": setting["tauAcc"], "tauMag": setting["tauMag"]}
-    return vqf_orientation(*signals, fs=FS, received=received, params=params, gap=gap, **extra)
+        return fusion_orientation(*signals, fs=FS, received=received, gain=setting["gain"], **options)
+    params = {key: setting[key] for key in ("tauAcc", "tauMag") if key in setting}
+    return vqf_orientation(*signals, fs=FS, received=received, params=params, **options)
 
 
 def _kalman(rec, setting, received, *, offline):
@@ -237,19 +243,17 @@ def default_methods(grids: Mapping[str, tuple] | None = None) -> dict[str, Metho
         Method("Kalman", "causal", KALMAN_GRID, functools.partial(_kalman, offline=False), space=KALMAN_SPACE),
         Method("smoother", "offline", KALMAN_GRID, functools.partial(_kalman, offline=True), latency="offline",
                space=KALMAN_SPACE),
-        Method("Fusion", "peer", FUSION_GRID, functools.partial(_peer, library="Fusion", hybrid=False),
-               space=FUSION_SPACE),
+        Method("Fusion", "peer", FUSION_GRID, functools.partial(_peer, library="Fusion"), space=FUSION_SPACE),
         Method("Fusion, constant rate", "peer", FUSION_GRID,
-               functools.partial(_peer, library="Fusion", hybrid=False, gap="constant_rate"), space=FUSION_SPACE),
+               functools.partial(_peer, library="Fusion", gap="constant_rate"), space=FUSION_SPACE),
         Method("Fusion + hybrid (feedback)", "peer", FUSION_HYBRID_GRID,
                functools.partial(_peer, library="Fusion", hybrid=True), space=FUSION_HYBRID_SPACE),
         Method("Fusion + gated hybrid (feedback)", "peer", FUSION_HYBRID_GRID,
                functools.partial(_peer, library="Fusion", hybrid=True, gated=True), space=FUSION_HYBRID_SPACE),
-        Method("VQF", "peer", VQF_GRID, functools.partial(_peer, library="VQF", hybrid=False), space=VQF_SPACE),
+        Method("VQF", "peer", VQF_GRID, functools.partial(_peer, library="VQF"), space=VQF_SPACE),
         Method("VQF, constant rate", "peer", VQF_GRID,
-               functools.partial(_peer, library="VQF", hybrid=False, gap="constant_rate"), space=VQF_SPACE),
-        Method("VQF (defaults)", "peer", ({"tauAcc": 3.0, "tauMag": 9.0},),
-               functools.partial(_peer, library="VQF", hybrid=False)),
+               functools.partial(_peer, library="VQF", gap="constant_rate"), space=VQF_SPACE),
+        Method("VQF (defaults)", "peer", ({"tauAcc": 3.0, "tauMag": 9.0},), functools.partial(_peer, library="VQF")),
         Method("VQF + hybrid (feedback)", "peer", VQF_HYBRID_GRID,
                functools.partial(_peer, library="VQF", hybrid=True), space=VQF_HYBRID_SPACE),
     ]
@@ -296,9 +300,7 @@ def with_budget(methods: Mapping[str, Method], budget: int, *, rng: np.random.Ge
     ValueError
         ``budget`` not a positive integer, or draws needed without ``rng``.
     """
-    if isinstance(budget, bool) or not isinstance(budget, int | np.integer) or budget < 1:
-        raise ValueError(f"budget must be a positive integer, got {budget!r}")
-    budget = int(budget)
+    budget = check_count(budget, "budget")
     short = [name for name, m in methods.items() if m.space and len(m.grid) < budget]
     if short and not isinstance(rng, np.random.Generator):
         raise ValueError(f"a budget of {budget} draws settings for {', '.join(short)}: pass rng, a "
@@ -340,20 +342,8 @@ PROFILES = (
 # ------------------------------------------------------------------------------------------
 
 
-def _paper_option(rec, setting, received, *, options):
-    return estimate_orientation(rec.gyr, rec.acc, rec.mag, fs=FS, beta=setting["beta"], received=received,
-                                **options)
-
-
 def _single_frame(rec, setting, received):
     return hold_last(triad(rec.acc, rec.mag), received)
-
-
-def _peer_with_blend(rec, setting, received, *, library, blend_options):
-    signals = [np.broadcast_to(x, received.shape + (3,)) for x in (rec.gyr, rec.acc, rec.mag)]
-    if library == "Fusion":
-        return fusion_orientation(*signals, fs=FS, received=received, gain=setting["gain"], **blend_options)
-    return vqf_orientation(*signals, fs=FS, received=received, params={"tauAcc": setting["tauAcc"]}, **blend_options)
 
 
 def paper001_methods(hybrid: Mapping, beta_grid, fusion_gain_grid, vqf_tau_acc_grid) -> dict[str, Method]:
@@ -379,16 +369,14 @@ def paper001_methods(hybrid: Mapping, beta_grid, fusion_gain_grid, vqf_tau_acc_g
                           settings_grid(tauAcc=vqf_tau_acc_grid))
     options = {"hold_last": {}, "dt_extension": {"method": "dt_extension"}, "gyro_interpolation": {"replay": True},
                "adaptive_beta": {"method": "adaptive_beta", **mu_options(hybrid)}, "hybrid": hybrid_options(hybrid)}
-    entries = [Method(name, "causal", betas, functools.partial(_paper_option, options=option),
+    entries = [Method(name, "causal", betas, functools.partial(_madgwick, **option),
                       latency="gap" if name == "gyro_interpolation" else "none") for name, option in options.items()]
     entries.append(Method("single frame", "causal", ({},), _single_frame))
     for library, grid in (("Fusion", gains), ("VQF", taus)):
-        entries.append(Method(library, "peer", grid, functools.partial(_peer_with_blend, library=library,
-                                                                       blend_options={})))
+        entries.append(Method(library, "peer", grid, functools.partial(_peer, library=library)))
         for blend in ("output", "feedback"):
             entries.append(Method(f"{library} + hybrid ({blend})", "peer", grid,
-                                  functools.partial(_peer_with_blend, library=library,
-                                                    blend_options={"blend": blend, **mu_options(hybrid)})))
+                                  functools.partial(_peer, library=library, blend=blend, **mu_options(hybrid))))
     return {m.name: m for m in entries}
 
 

@@ -183,12 +183,9 @@ def diagnosis_sentence(per_trial: pd.DataFrame, method: str, profile: str = HEAD
 
 def format_targets(targets: pd.DataFrame) -> str:
     """Plain-text lines for the CLI: one per target with PASS/MISS and margin."""
-    lines = []
-    for name, row in targets.iterrows():
-        lines.append(f"  {name:44s} {row['measured']:7.3f}  [{row['ci_low']:7.3f}, {row['ci_high']:7.3f}]  "
+    return "\n".join(f"  {name:44s} {row['measured']:7.3f}  [{row['ci_low']:7.3f}, {row['ci_high']:7.3f}]  "
                      f"target <= {row['target']:.2f}: {row['verdict']}  (margin {row['margin']:+.3f})  "
-                     f"[{row['compares']}]")
-    return "\n".join(lines)
+                     f"[{row['compares']}]" for name, row in targets.iterrows())
 
 
 #: Columns of :func:`paired_comparisons`.

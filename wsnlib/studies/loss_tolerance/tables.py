@@ -18,7 +18,7 @@ from wsnlib import paper_values
 from wsnlib.orientation import KalmanSettings, slerp_weight
 from wsnlib.studies.loss_tolerance.evaluation import AFTER_GAP_S
 from wsnlib.studies.loss_tolerance.registry import FS, HEADLINE, LATENCY_RULES, PROFILES
-from wsnlib.studies.loss_tolerance.summary import comparison_sentences, diagnosis_sentence, error_budget, trial_table
+from wsnlib.studies.loss_tolerance.summary import comparison_sentences, diagnosis_sentence, error_budget
 
 #: Column of :func:`weight_vs_gap` holding the Kalman filter's 1 − K.
 KALMAN_WEIGHT_COLUMN = "Kalman: 1 − K (heading)"
@@ -168,13 +168,6 @@ def burst_window(trace: Mapping, end: int, *, before_s: float, after_s: float, f
     return slice(max(start - int(before_s * fs), 0), min(end + int(after_s * fs), len(trace["time_s"])))
 
 
-def headline_values(per_trial: pd.DataFrame, methods, metric: str = "rmse_total",
-                    profile: str = HEADLINE) -> pd.DataFrame:
-    """Trials × methods of ``metric`` at ``profile`` (mean over the loss draws; columns in the order of
-    ``methods``)."""
-    return trial_table(per_trial, profile, metric)[list(methods)]
-
-
 #: Columns of :func:`phase_table`: per_trial column → label.
 PHASE_COLUMNS = {"rmse_total": "total RMSE (°)", "rms_lost": "lost samples (°)", "rms_after_gap": "2 s after a gap (°)",
                  "rms_steady": "rest (°)", "peak_increase_deg": "peak increase after a gap (°)",
@@ -254,7 +247,8 @@ def paper_vs_ours_sentence(table: pd.DataFrame) -> str:
 def why_missed_sentence(per_trial: pd.DataFrame, best: Mapping[str, str], values: pd.DataFrame) -> str:
     """Why a target is missed: where the best causal and offline methods lose, and the worst trial.
 
-    ``values`` is :func:`headline_values` (trials × methods, °).
+    ``values``: trials × methods of the total RMSE (°) at the headline profile
+    (:func:`~wsnlib.studies.loss_tolerance.summary.trial_table`).
     """
     causal = best["causal"]
     worst = values[causal].idxmax()
@@ -280,7 +274,6 @@ def summary_bullets(per_trial: pd.DataFrame, *, ranking_sentence: str, targets: 
     comparisons : mapping question → table
         :func:`~wsnlib.studies.loss_tolerance.summary.paired_comparisons`; the total-RMSE rows are told.
     """
-
     return ([f"* **Ranking at {HEADLINE}.** {ranking_sentence}",
              "* **Targets.** " + "; ".join(f"{name}: {row['verdict']}" for name, row in targets.iterrows()) + ".",
              f"* **Where the best causal estimator ({best['causal']}) loses.** "
