@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
-from wsnlib import interactive
+from wsnlib import interactive, paths
 
 
 class Recorder:
@@ -27,22 +27,26 @@ class Recorder:
 
 @pytest.fixture
 def batch(monkeypatch):
-    monkeypatch.setenv(interactive.BATCH_ENV_VAR, "1")
+    monkeypatch.setenv(paths.BATCH_ENV_VAR, "1")
 
 
 @pytest.fixture
 def live(monkeypatch):
-    monkeypatch.delenv(interactive.BATCH_ENV_VAR, raising=False)
+    monkeypatch.delenv(paths.BATCH_ENV_VAR, raising=False)
 
 
 def test_in_batch_reads_the_environment(monkeypatch):
-    monkeypatch.setenv("WSNLIB_BATCH", "1")
-    assert interactive.in_batch()
-    for value in ("0", "", "yes"):
+    for value in ("1", "true", "yes", "on", "TRUE", " Yes "):  # issue 23: "true"/"yes" were read as false
         monkeypatch.setenv("WSNLIB_BATCH", value)
-        assert not interactive.in_batch()
+        assert paths.in_batch()
+    for value in ("0", "", "false", "no", "off", "No"):
+        monkeypatch.setenv("WSNLIB_BATCH", value)
+        assert not paths.in_batch()
+    monkeypatch.setenv("WSNLIB_BATCH", "ja")
+    with pytest.raises(ValueError, match=r"\$WSNLIB_BATCH must be one of .*got 'ja'"):
+        paths.in_batch()
     monkeypatch.delenv("WSNLIB_BATCH")
-    assert not interactive.in_batch()
+    assert not paths.in_batch()
 
 
 def test_batch_draws_one_axes_per_static_setting(batch):
@@ -142,7 +146,7 @@ def test_live_shows_the_message_of_a_setting_the_study_refuses(live, monkeypatch
         "not-a-value-widget"])
 @pytest.mark.parametrize("mode", ["batch", "live"])
 def test_bad_knobs_raise_value_error(knobs, mode, monkeypatch):
-    monkeypatch.setenv(interactive.BATCH_ENV_VAR, "1" if mode == "batch" else "0")
+    monkeypatch.setenv(paths.BATCH_ENV_VAR, "1" if mode == "batch" else "0")
     draw = Recorder()
     with pytest.raises(ValueError):
         interactive.explore(draw, knobs)

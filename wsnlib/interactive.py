@@ -10,7 +10,7 @@ are shown:
   knob — whose output area is redrawn (``draw`` called again) whenever a knob moves; knob
   values the study refuses with ``ValueError`` (e.g. no anchor chosen) show its message in
   place of the panel;
-* in the batch (environment variable ``WSNLIB_BATCH=1``, set by :mod:`wsnlib.reproduce`
+* in the batch (:func:`wsnlib.paths.in_batch`: ``WSNLIB_BATCH=1``, set by :mod:`wsnlib.reproduce`
   for the kernel), a static small-multiples figure over a few knob settings, returned so the
   notebook can save it with :func:`wsnlib.plotting.savefig`.
 
@@ -18,7 +18,7 @@ A notebook cell therefore reads::
 
     view = interactive.explore(plotting.plot_burst_recovery, {"beta": [...], ...},
                                compute=functools.partial(burst_loss.burst_recovery, recording=...))
-    if interactive.in_batch():
+    if paths.in_batch():
         plotting.savefig(view, "a01_explore_beta")
     view
 
@@ -29,7 +29,6 @@ they are shown once (as the cell's value) and never left open behind the noteboo
 from __future__ import annotations
 
 import numbers
-import os
 import textwrap
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
@@ -37,10 +36,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 from matplotlib.figure import Figure
 
+from wsnlib import paths
 from wsnlib._validation import check_count
-
-#: Environment variable that marks an unattended (batch) run; "1" means batch.
-BATCH_ENV_VAR = "WSNLIB_BATCH"
 
 #: Size (inches) of one panel of the static figure (narrower when ``ncols`` panels would be wider
 #: than a notebook shows a figure, :data:`wsnlib.plotting.DISPLAY_WIDTH_IN`), and of the live figure.
@@ -49,11 +46,6 @@ LIVE_SIZE = (7.0, 3.6)
 
 _TITLE_WIDTH = 48  # characters per title line before wrapping
 _SMALL_PT = 8.0  # panel titles and legends (wsnlib.plotting.MIN_FONT_PT)
-
-
-def in_batch() -> bool:
-    """True when running unattended (``WSNLIB_BATCH=1``): draw static figures, show no widgets."""
-    return os.environ.get(BATCH_ENV_VAR) == "1"
 
 
 @dataclass(frozen=True)
@@ -118,7 +110,7 @@ def explore(draw: Callable, knobs: Mapping, *, compute: Callable | None = None, 
     Returns
     -------
     matplotlib.figure.Figure or ipywidgets.interactive
-        In the batch (:func:`in_batch`): the static figure, one Axes per setting, with the
+        In the batch (:func:`wsnlib.paths.in_batch`): the static figure, one Axes per setting, with the
         legend of the first panel only (every panel draws the same series).  Otherwise the
         widget panel, not displayed (make it the cell's value to show it).
 
@@ -140,7 +132,7 @@ def explore(draw: Callable, knobs: Mapping, *, compute: Callable | None = None, 
     parsed = _with_start(_parse_knobs(knobs), start)
     check_count(ncols, "ncols")
     settings = _static_settings(parsed, static)
-    if in_batch():
+    if paths.in_batch():
         return _static_figure(draw, parsed, settings, int(ncols), sharey)
     return _live_panel(draw, parsed)
 

@@ -20,6 +20,23 @@ KERNEL_NAME = "wsn-motion"
 
 OUTPUT_ENV_VAR = "WSNLIB_OUTPUT_DIR"
 
+#: Environment variable that marks an unattended (batch) run, set by :mod:`wsnlib.reproduce`.
+BATCH_ENV_VAR = "WSNLIB_BATCH"
+_TRUE, _FALSE = ("1", "true", "yes", "on"), ("", "0", "false", "no", "off")
+
+
+def in_batch() -> bool:
+    """True when running unattended (``WSNLIB_BATCH`` = 1, true, yes or on, any case): static figures,
+    no widgets, too-small text an error.  Unset, empty, 0, false, no or off: interactive.
+
+    Raises ``ValueError`` naming the variable for any other value (a typo must not pass as "no").
+    """
+    value = os.environ.get(BATCH_ENV_VAR, "").strip().lower()
+    if value not in _TRUE + _FALSE:
+        raise ValueError(f"${BATCH_ENV_VAR} must be one of {', '.join(_TRUE + _FALSE[1:])} (or unset), "
+                         f"got {os.environ[BATCH_ENV_VAR]!r}")
+    return value in _TRUE
+
 
 def output_root() -> Path:
     """Folder below which generated content is written (``ROOT`` or ``$WSNLIB_OUTPUT_DIR``)."""

@@ -107,7 +107,7 @@ from wsnlib.batch_selection import check_parameters, list_batch, notebook_name, 
 DEFAULT_CELL_TIMEOUT_S = 3600.0
 
 #: Environment of the kernel during the batch (see the module docstring).
-BATCH_ENV = {"MPLBACKEND": "module://matplotlib_inline.backend_inline", "WSNLIB_BATCH": "1"}
+BATCH_ENV = {"MPLBACKEND": "module://matplotlib_inline.backend_inline", paths.BATCH_ENV_VAR: "1"}
 
 _EXIT_FAILED = 1
 #: Exit status when another batch holds the output folder (EX_TEMPFAIL: try again later).

@@ -15,7 +15,6 @@ width (:func:`effective_font_sizes`).  :func:`savefig` checks it: in the batch
 
 from __future__ import annotations
 
-import os
 import unittest.mock
 import warnings
 from pathlib import Path
@@ -185,8 +184,6 @@ MIN_FONT_PT = 8.0
 #: Font size (points) of in-plot notes: numbers in heatmap cells, labels next to points.
 ANNOTATION_FONT_PT = 8.0
 
-#: Environment variable that marks an unattended (batch) run (the same as wsnlib.interactive's).
-_BATCH_ENV_VAR = "WSNLIB_BATCH"
 
 
 def use_style() -> None:
@@ -288,6 +285,6 @@ def _check_legibility(fig: mpl.figure.Figure, name: str) -> None:
     message = (f"figure {name!r}: {len(small)} text(s) smaller than {MIN_FONT_PT:g} pt at a notebook width of "
                f"{DISPLAY_WIDTH_IN:g} in ({shown}{', …' if len(small) > 5 else ''}); use larger fonts or a "
                "narrower figure")
-    if os.environ.get(_BATCH_ENV_VAR) == "1":
+    if paths.in_batch():
         raise ValueError(message)
     warnings.warn(message, stacklevel=3)
