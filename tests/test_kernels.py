@@ -8,6 +8,7 @@ compiled form adds.
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -225,23 +226,33 @@ def test_the_parallel_and_serial_checks_report_the_same_sample(data, monkeypatch
         estimate_orientation(gyr, bad, mag, fs=FS, beta=0.1, received=masks)
 
 
-def test_cached_code_is_dropped_when_a_source_of_the_package_changes(tmp_path):
-    """numba alone only notices a change in a kernel's own file; the package stamp catches the rest."""
-    from wsnlib.orientation import _numba_cache
+def test_each_version_of_the_sources_caches_apart(tmp_path):
+    """Issue 23: a process that imported the old sources and compiles after an edit must not store
+    its machine code where the edited sources look for theirs; other versions' files are dropped."""
+    import shutil
 
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
-    compile_one = "from wsnlib.orientation import _scalar_kernels as s; s.squared_norm3(1.0, 2.0, 3.0)"
+    import wsnlib
 
-    def run(code):
-        subprocess.run([sys.executable, "-c", code], env=env, check=True, timeout=600)
+    copy = tmp_path / "wsnlib"
+    shutil.copytree(Path(wsnlib.__file__).parent, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    env = {key: value for key, value in os.environ.items() if key != "NUMBA_CACHE_DIR"} | {"PYTHONPATH": str(tmp_path)}
+    script = (
+        "import sys, pathlib\n"
+        "from wsnlib.orientation import _numba_cache as c, _scalar_kernels as s\n"
+        "if sys.argv[1] == 'edit':  # the sources change under a running process\n"
+        "    p = pathlib.Path(s.__file__).with_name('gaps.py'); p.write_text(p.read_text() + '# edited\\n')\n"
+        "s.squared_norm3(1.0, 2.0, 3.0)\n"
+        "print(c.cache_dir(s.squared_norm3))\n"
+    )
 
-    run(compile_one)
-    cached = list(tmp_path.rglob("_scalar_kernels.squared_norm3-*.nbi"))
-    (stamp,) = tmp_path.rglob(_numba_cache.STAMP_NAME)
-    assert cached and stamp.read_text().strip() == _numba_cache.sources_digest()
-    run("import wsnlib.orientation")  # same sources: the cache stays
-    assert all(path.exists() for path in cached)
-    stamp.write_text("0" * 64)  # as if a source had changed since the cache was written
-    run("import wsnlib.orientation")
-    assert list(tmp_path.rglob("*.nb[ic]")) == []
-    assert stamp.read_text().strip() == _numba_cache.sources_digest()
+    def cache_of(mode):
+        done = subprocess.run([sys.executable, "-c", script, mode], env=env, check=True, timeout=600,
+                              capture_output=True, text=True)
+        return Path(done.stdout.strip())
+
+    old = cache_of("none")
+    kept_open = cache_of("edit")  # imported the old sources, compiled after the edit
+    assert kept_open == old and list(old.glob("_scalar_kernels.squared_norm3-*.nbi"))
+    fresh = cache_of("none")  # imports the edited sources: its own folder, the old one's files dropped
+    assert fresh != old and fresh.parent.parent == old.parent.parent
+    assert list(fresh.glob("_scalar_kernels.squared_norm3-*.nbi")) and not list(old.rglob("*.nb[ic]"))

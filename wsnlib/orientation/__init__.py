@@ -60,22 +60,28 @@ run batch elements in parallel, :mod:`._kalman_kernels` the Kalman filter's.  :m
 holds the argument checks (the vocabulary's among them) the public functions share.
 """
 
-from wsnlib.orientation.hybrid_blend import SingleFrameGate, single_frame_trusted
-from wsnlib.orientation.kalman import (
-    KalmanReference,
-    KalmanSettings,
-    KalmanState,
-    kalman_initial_state,
-    kalman_orientation,
-    kalman_step,
-)
-from wsnlib.orientation.loss_handling import estimate_orientation
-from wsnlib.orientation.lost_run import effective_lost_run, slerp_weight
-from wsnlib.orientation.madgwick import madgwick, madgwick_step
-from wsnlib.orientation.peers import fusion_orientation, vqf_orientation
-from wsnlib.orientation.single_frame import davenport, quest, svd_single_frame
-from wsnlib.orientation.smoothing import smooth_orientation
-from wsnlib.orientation.triad import tilt_quaternion, triad
+# Every kernel caches its machine code in the folder of the sources this process imported
+# (numba alone would only notice a change of the kernel's own file; see _numba_cache).
+from wsnlib.orientation import _numba_cache
+
+with _numba_cache.caching_into_this_version():
+    from wsnlib.orientation.hybrid_blend import SingleFrameGate, single_frame_trusted
+    from wsnlib.orientation.kalman import (
+        KalmanReference,
+        KalmanSettings,
+        KalmanState,
+        kalman_initial_state,
+        kalman_orientation,
+        kalman_step,
+    )
+    from wsnlib.orientation.loss_handling import estimate_orientation
+    from wsnlib.orientation.lost_run import effective_lost_run, slerp_weight
+    from wsnlib.orientation.madgwick import madgwick, madgwick_step
+    from wsnlib.orientation.peers import fusion_orientation, vqf_orientation
+    from wsnlib.orientation.single_frame import davenport, quest, svd_single_frame
+    from wsnlib.orientation.smoothing import smooth_orientation
+    from wsnlib.orientation.triad import tilt_quaternion, triad
+_numba_cache.drop_other_versions()
 
 __all__ = [
     "KalmanReference",
@@ -100,9 +106,3 @@ __all__ = [
     "triad",
     "vqf_orientation",
 ]
-
-# Before any kernel runs: drop numba's cached machine code if a source of this package changed
-# (numba alone would only notice a change in the kernel's own file; see _numba_cache).
-from wsnlib.orientation import _numba_cache, _scalar_kernels  # noqa: E402
-
-_numba_cache.drop_stale_cache(_numba_cache.cache_dir(_scalar_kernels.squared_norm3), _numba_cache.sources_digest())

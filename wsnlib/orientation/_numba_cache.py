@@ -1,55 +1,82 @@
-"""Numba's on-disk cache of the orientation kernels, dropped whenever any of their sources changes.
+"""Numba's on-disk cache of the orientation kernels: one folder per version of their sources.
 
 numba keys a cached function by the timestamp of *its own* file only.  A kernel that calls a
 jitted function of another file (``filter_stream`` calls ``_scalar_kernels.madgwick_update``;
-the smoother runs the Kalman loop) holds its own compiled copy of it, so after that other
-file changes the cache would silently keep running the old machine code.  Here the SHA-256 of
-every source file of :mod:`wsnlib.orientation` is written beside the cache; when it differs
-(any source edited), the package's cache files are deleted before any kernel is called, and
-the first call recompiles (about 10–20 s once).
+the smoother runs the Kalman loop) holds its own compiled copy of it, so after that other file
+changes the cache would silently keep running the old machine code.  And a process that
+imported the old sources (a Jupyter kernel left open across an edit or a ``git pull``) but
+compiles after the edit would store old machine code where the new sources look for theirs.
+
+So every kernel of this package caches below a folder named by the SHA-256 of the package's
+sources *as this process imported them* (:data:`SOURCES_DIGEST`, read once, when the package is
+imported): ``__pycache__/numba-<digest[:16]>/`` beside the sources, or
+``$NUMBA_CACHE_DIR/wsnlib-orientation/numba-<digest[:16]>/`` when that variable is set.  A process
+running old code reads and writes only the old version's folder; the first process of new
+sources compiles once (about 10–20 s per kernel family) into the new one.  At import, the cache
+files of the other versions are deleted (their folders stay, so that a process still running old
+code can keep saving into its own without an error).
 """
 
 from __future__ import annotations
 
-import hashlib
+import contextlib
+from collections.abc import Iterator
 from pathlib import Path
 
-STAMP_NAME = "wsnlib-orientation-sources.sha256"
+import numba
+
+from wsnlib._files import sources_digest
+
 PACKAGE_DIR = Path(__file__).parent
+#: SHA-256 of the package's ``*.py`` files (names and bytes) when this process imported it.
+SOURCES_DIGEST = sources_digest(PACKAGE_DIR)
+FOLDER_PREFIX = "numba-"
 
 
-def sources_digest(package_dir: Path = PACKAGE_DIR) -> str:
-    """SHA-256 over the names and bytes of every ``*.py`` file of the package, in name order."""
-    digest = hashlib.sha256()
-    for path in sorted(package_dir.glob("*.py")):
-        digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
-    return digest.hexdigest()
+def versions_folder() -> Path:
+    """The folder of every version's cache: ``__pycache__`` here, or below ``$NUMBA_CACHE_DIR``."""
+    user = numba.config.CACHE_DIR
+    return Path(user) / "wsnlib-orientation" if user else PACKAGE_DIR / "__pycache__"
+
+
+def version_folder(digest: str = SOURCES_DIGEST) -> Path:
+    """The cache folder of the sources with SHA-256 ``digest`` (default: those this process imported)."""
+    return versions_folder() / f"{FOLDER_PREFIX}{digest[:16]}"
+
+
+@contextlib.contextmanager
+def caching_into_this_version() -> Iterator[None]:
+    """numba's ``CACHE_DIR`` is :func:`version_folder` while the kernel modules are imported.
+
+    A jitted function picks its cache folder when it is defined; the user's setting is restored
+    afterwards, so numba code outside this package is not affected.
+    """
+    folder = version_folder()
+    saved = numba.config.CACHE_DIR
+    numba.config.CACHE_DIR = str(folder)
+    try:
+        yield
+    finally:
+        numba.config.CACHE_DIR = saved
+
+
+def drop_other_versions() -> int:
+    """Delete the ``*.nbi``/``*.nbc`` files of the other versions' folders; return how many.
+
+    Errors (a read-only folder, a file another process just removed) are ignored.
+    """
+    current = version_folder()
+    dropped = 0
+    for folder in versions_folder().glob(f"{FOLDER_PREFIX}*"):
+        if folder == current:
+            continue
+        for path in folder.rglob("*.nb[ic]"):
+            with contextlib.suppress(OSError):
+                path.unlink()
+                dropped += 1
+    return dropped
 
 
 def cache_dir(kernel) -> Path:
-    """Folder where numba keeps ``kernel``'s cache (``__pycache__`` here, or under ``NUMBA_CACHE_DIR``)."""
+    """Folder where numba keeps ``kernel``'s cache (below :func:`version_folder`)."""
     return Path(kernel._cache._cache_path)
-
-
-def drop_stale_cache(folder: Path, digest: str) -> bool:
-    """Delete the package's ``*.nbi``/``*.nbc`` files in ``folder`` unless its stamp says ``digest``.
-
-    Returns True when files were dropped (the stamp was missing or different).  Errors from a
-    read-only folder are ignored: numba then falls back to compiling in memory.
-    """
-    stamp = folder / STAMP_NAME
-    try:
-        if stamp.read_text(encoding="ascii").strip() == digest:
-            return False
-    except OSError:
-        pass
-    modules = {path.stem for path in PACKAGE_DIR.glob("*.py")}
-    try:
-        for path in folder.glob("*.nb[ic]"):
-            if path.name.split(".", 1)[0] in modules:
-                path.unlink(missing_ok=True)
-        folder.mkdir(parents=True, exist_ok=True)
-        stamp.write_text(digest + "\n", encoding="ascii")
-    except OSError:
-        pass
-    return True
