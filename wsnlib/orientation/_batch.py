@@ -118,6 +118,16 @@ def as_signal(value, name: str) -> np.ndarray:
     return arr
 
 
+def unbroadcast(value):
+    """``value`` with each leading axis that numpy broadcast (stride 0, e.g. ``np.broadcast_to``) cut to
+    length 1, so that it is never materialised: the kernels' batch index (:func:`index_into`) repeats
+    it.  Anything but an array of ndim ≥ 3 is returned as it is."""
+    if not isinstance(value, np.ndarray) or value.ndim < 3:
+        return value
+    lead = value.ndim - 2
+    return value[tuple(slice(0, 1) if value.strides[i] == 0 else slice(None) for i in range(lead))]
+
+
 def nonzero_vectors(value, name: str, last_dim: int, what: str) -> np.ndarray:
     """Finite float array ``(..., last_dim)`` without a zero vector (``what`` says why it needs one)."""
     arr = as_float_array(value, name, last_dim=last_dim)
@@ -139,18 +149,17 @@ def check_inputs(gyr, acc, mag, received, q0=None):
     """Shared argument checks of the whole-recording filters (madgwick, loss handling, peers).
 
     Returns the signals ``{"gyr", "acc"[, "mag"]}`` as float arrays ``(..., T, 3)`` (finiteness
-    is checked later, on received samples only: :func:`check_usable`), ``received`` as a
-    boolean array or None, ``q0`` normalised or None, and the leading (batch) shape of each
-    argument, by name.
+    is checked later, on received samples only: :func:`check_usable`; leading axes the caller
+    broadcast are length 1 here, :func:`unbroadcast`), ``received`` as a boolean array or None,
+    ``q0`` normalised or None, and the leading (batch) shape of each argument as given, by name.
     """
-    signals = {"gyr": as_signal(gyr, "gyr"), "acc": as_signal(acc, "acc")}
-    if mag is not None:
-        signals["mag"] = as_signal(mag, "mag")
+    given = {"gyr": gyr, "acc": acc} | ({} if mag is None else {"mag": mag})
+    signals = {name: as_signal(unbroadcast(value), name) for name, value in given.items()}
     n_t = signals["gyr"].shape[-2]
     for name, arr in signals.items():
         if arr.shape[-2] != n_t:
             raise ValueError(f"{name} has {arr.shape[-2]} samples (axis -2), gyr has {n_t}")
-    shapes = {name: arr.shape[:-2] for name, arr in signals.items()}
+    shapes = {name: np.shape(given[name])[:-2] for name in signals}  # the batch the caller asked for
     if received is not None:
         received = np.asarray(received)
         if received.dtype != np.bool_:
