@@ -49,10 +49,14 @@ STATE_DTYPE = np.dtype([
     ("hi_prev_ok", "?"), ("hard_iron", "f8", (3,)), ("lin_var", "f8"),
 ])
 
+#: Entries of a covariance's upper triangle (row by row): how the smoother stores P.
+NP = NX * (NX + 1) // 2
+
 #: Scratch of one stream, and the prediction of the last sample (``q_pred``, ``bias_pred``,
-#: ``vel_pred``, ``P_pred``, transition ``F``) kept for the smoother.
+#: ``vel_pred``, ``P_pred``; ``R`` = R(q⁻) and ``a_e`` = a_E, which define the transition F)
+#: kept for the smoother.
 WORK_DTYPE = np.dtype([
-    ("R", "f8", (3, 3)), ("F", "f8", (NX, NX)), ("dx", "f8", (NX,)), ("K", "f8", (NX,)),
+    ("R", "f8", (3, 3)), ("a_e", "f8", (3,)), ("dx", "f8", (NX,)), ("K", "f8", (NX,)),
     ("row", "f8", (NX,)), ("ar_A", "f8", (gaps.MAX_ORDER, gaps.MAX_ORDER)), ("ar_r", "f8", (gaps.MAX_ORDER + 1,)),
     ("predicted", "f8", (3,)),
     ("q_pred", "f8", (4,)), ("bias_pred", "f8", (3,)), ("vel_pred", "f8", (3,)), ("P_pred", "f8", (NX, NX)),
@@ -96,8 +100,29 @@ def initial_state(st, c, q0):
 
 
 @njit(**COMPILE)
+def pack_upper(P, out):
+    """The upper triangle of the symmetric ``P`` (9 × 9), row by row, into ``out`` (:data:`NP`,)."""
+    k = 0
+    for a in range(NX):
+        for b in range(a, NX):
+            out[k] = P[a, b]
+            k += 1
+
+
+@njit(**COMPILE)
+def unpack_upper(packed, P):
+    """The symmetric ``P`` (9 × 9) from its upper triangle ``packed`` (:func:`pack_upper`)."""
+    k = 0
+    for a in range(NX):
+        for b in range(a, NX):
+            P[a, b] = P[b, a] = packed[k]
+            k += 1
+
+
+@njit(**COMPILE)
 def transition_matrix(R, a_e, decay, dt, F):
-    """``F = [[I, −R Δt, 0], [0, I, 0], [−[a_E]× Δt, [a_E]× R Δt², c I]]`` into ``F`` (9 × 9)."""
+    """``F = [[I, −R Δt, 0], [0, I, 0], [−[a_E]× Δt, [a_E]× R Δt², c I]]`` into ``F`` (9 × 9), from
+    ``R`` = R(q⁻) and ``a_e`` = a_E (0 when lost), as :func:`predict` leaves them in the work record."""
     for a in range(NX):
         for b in range(NX):
             F[a, b] = 1.0 if a == b else 0.0
@@ -117,7 +142,7 @@ def transition_matrix(R, a_e, decay, dt, F):
 def predict(st, work, c, omega, acc, received, lost_run):
     """Prediction of one sample by the bias-corrected rate ``omega`` (3-tuple; over a gap the gap
     module's); ``lost_run``: samples lost in a row (0 when received).  Leaves R(q⁻) in ``work.R``
-    and, with ``c.record``, the transition matrix in ``work.F``."""
+    and a_E in ``work.a_e`` (what defines the transition matrix, :func:`transition_matrix`)."""
     dt = c.dt
     for a in range(3):
         st.rate[a] = omega[a]
@@ -135,6 +160,9 @@ def predict(st, work, c, omega, acc, received, lost_run):
     a_e = (0.0, 0.0, 0.0)
     if received:
         a_e = quat_rotate(q, (acc[0], acc[1], acc[2]))
+    for a in range(3):
+        work.a_e[a] = a_e[a]
+    if received:
         v[0] = decay * v[0] + a_e[0] * dt
         v[1] = decay * v[1] + a_e[1] * dt
         v[2] = decay * v[2] + (a_e[2] - c.gravity) * dt
@@ -181,8 +209,6 @@ def predict(st, work, c, omega, acc, received, lost_run):
             P[6 + a, 6 + b] = P[6 + b, 6 + a] = 0.5 * (P[6 + a, 6 + b] + P[6 + b, 6 + a])
         for j in range(6):
             P[j, 6 + a] = P[6 + a, j]
-    if c.record:  # the transition matrix itself, for a smoother (KalmanState.prediction)
-        transition_matrix(R, a_e, decay, dt, work.F)
     # Q: gyro noise and bias random walk; over a gap, the extrapolated rate's error, whose std
     # is fixed at the gap's first sample: σ_gap,k² Δt² (2k − 1) makes it (σ_gap kΔt)² after k
     # samples.  Over a gap also the unknown linear acceleration: δv grows like (σ_gap,acc kΔt)².
@@ -478,13 +504,16 @@ def _keep_prediction(st, work, c):
 def kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c, outputs):
     """The filter over one recording ``(T, 3)``; ``outputs`` (see :func:`new_outputs`) receive, per
     sample, the estimate (``q``, ``bias``, ``velocity``, optionally ``P``), the gate decisions and,
-    with ``c.record``, the predictions and transition matrices (the smoother's input).
+    with ``c.record``, the smoother's input: the prediction (q⁻, b⁻, v⁻, P⁻), the filtered P⁺
+    (both covariances packed, :func:`pack_upper`) and ``R``, ``a_e`` of the transition matrix
+    (:func:`transition_matrix`; before the start, where a smoother does not read them, zeros).
 
     ``start``: first sample the filter sees; ``init_only``: that sample only initialises
     (``q0=None``), else it is filtered from ``q_init`` like any other.  Samples before the
     start output ``q_init``.
     """
-    out_q, out_bias, out_vel, out_P, acc_used, mag_used, pred_q, pred_bias, pred_vel, pred_P, pred_F = outputs
+    out_q, out_bias, out_vel, out_P, acc_used, mag_used = outputs[:6]
+    pred_q, pred_bias, pred_vel, pred_P, post_P, pred_R, pred_a_e = outputs[6:]
     n_t = out_q.shape[0]
     keep_P = out_P.shape[0] == n_t
     # The records are views into these arrays, which must stay referenced while they are used.
@@ -510,10 +539,6 @@ def kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c, outputs)
         else:
             acc_used[t], mag_used[t] = False, False
             _keep_prediction(st, work, c)
-            if c.record:
-                work.F[:, :] = 0.0
-                for a in range(NX):
-                    work.F[a, a] = 1.0
         out_q[t] = st.q
         out_bias[t] = st.bias
         out_vel[t] = st.velocity
@@ -521,7 +546,9 @@ def kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c, outputs)
             out_P[t] = st.P
         if c.record:
             pred_q[t], pred_bias[t], pred_vel[t] = work.q_pred, work.bias_pred, work.vel_pred
-            pred_P[t], pred_F[t] = work.P_pred, work.F
+            pred_R[t], pred_a_e[t] = work.R, work.a_e
+            pack_upper(work.P_pred, pred_P[t])
+            pack_upper(st.P, post_P[t])
     # Keep the record arrays alive to here (the loop reads them through st, work, gs).
     state_array[0], work_array[0], gap_array[0] = st, work, gs
 
@@ -534,7 +561,8 @@ def run_kalman(gyr, acc, mag, received, index, q_init, start, init_only, constan
     and ``received`` ``(M', T)`` it reads (broadcasting without copies); ``outputs`` arrays with
     the batch first (``P`` and the predictions may have a leading 1: not kept).
     """
-    out_q, out_bias, out_vel, out_P, acc_used, mag_used, pred_q, pred_bias, pred_vel, pred_P, pred_F = outputs
+    out_q, out_bias, out_vel, out_P, acc_used, mag_used = outputs[:6]
+    pred_q, pred_bias, pred_vel, pred_P, post_P, pred_R, pred_a_e = outputs[6:]
     p_stride = 1 if out_P.shape[0] == out_q.shape[0] else 0  # P and the predictions: kept, or one dummy row
     r_stride = 1 if pred_q.shape[0] == out_q.shape[0] else 0
     for n in prange(out_q.shape[0]):
@@ -543,4 +571,4 @@ def run_kalman(gyr, acc, mag, received, index, q_init, start, init_only, constan
         kalman_stream(gyr[index[n, 0]], acc[index[n, 1]], mag[index[n, 2]], received[index[n, 3]], q_init[n],
                       start[n], init_only, constants[0],
                       (out_q[n], out_bias[n], out_vel[n], out_P[p], acc_used[n], mag_used[n], pred_q[r],
-                       pred_bias[r], pred_vel[r], pred_P[r], pred_F[r]))
+                       pred_bias[r], pred_vel[r], pred_P[r], post_P[r], pred_R[r], pred_a_e[r]))

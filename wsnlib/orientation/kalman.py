@@ -262,7 +262,8 @@ def new_outputs(n_batch: int, n_t: int, *, keep_P: bool = False, record: bool = 
     return (np.empty((n_batch, n_t, 4)), np.empty((n_batch, n_t, 3)), np.empty((n_batch, n_t, 3)),
             np.empty((kept, n_t if keep_P else 1, NX, NX)), np.empty((n_batch, n_t), dtype=bool),
             np.empty((n_batch, n_t), dtype=bool), np.empty((rec, rec_t, 4)), np.empty((rec, rec_t, 3)),
-            np.empty((rec, rec_t, 3)), np.empty((rec, rec_t, NX, NX)), np.empty((rec, rec_t, NX, NX)))
+            np.empty((rec, rec_t, 3)), np.empty((rec, rec_t, K.NP)), np.empty((rec, rec_t, K.NP)),
+            np.empty((rec, rec_t, 3, 3)), np.empty((rec, rec_t, 3)))
 
 
 def check_finite_output(quat: np.ndarray) -> np.ndarray:
@@ -444,9 +445,11 @@ class KalmanState:
 
     @property
     def prediction(self) -> dict:
-        w = self.work[0]
+        w, c = self.work[0], self.constants[0]
+        F = np.empty((NX, NX))
+        K.transition_matrix(w["R"], w["a_e"], c["vel_decay"], c["dt"], F)
         return {"quat": w["q_pred"], "gyro_bias": w["bias_pred"], "velocity": w["vel_pred"],
-                "covariance": w["P_pred"], "transition": w["F"]}
+                "covariance": w["P_pred"], "transition": F}
 
     def copy(self) -> KalmanState:
         return KalmanState(self.constants, self.record.copy(), self.gap.copy(), self.history.copy(), self.work.copy(),

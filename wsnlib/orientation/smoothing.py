@@ -55,7 +55,7 @@ from numba import njit, prange
 
 from wsnlib.orientation import _batch as B
 from wsnlib.orientation import gaps
-from wsnlib.orientation._kalman_kernels import NX, kalman_stream
+from wsnlib.orientation._kalman_kernels import NP, NX, kalman_stream, transition_matrix, unpack_upper
 from wsnlib.orientation._kernels import (
     COMPILE,
     cross3,
@@ -205,16 +205,18 @@ def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, 
     filt_q = np.empty((n_t, 4))
     filt_b = np.empty((n_t, 3))
     filt_v = np.empty((n_t, 3))
-    filt_P = np.empty((n_t, NX, NX))
     pred_q = np.empty((n_t, 4))
     pred_b = np.empty((n_t, 3))
     pred_v = np.empty((n_t, 3))
-    pred_P = np.empty((n_t, NX, NX))
-    pred_F = np.empty((n_t, NX, NX))
+    pred_P = np.empty((n_t, NP))  # P⁻ and P⁺ packed (upper triangles); F from R(q⁻) and a_E
+    post_P = np.empty((n_t, NP))
+    pred_R = np.empty((n_t, 3, 3))
+    pred_a_e = np.empty((n_t, 3))
     acc_used = np.empty(n_t, dtype=np.bool_)
     mag_used = np.empty(n_t, dtype=np.bool_)
     kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c,
-                  (filt_q, filt_b, filt_v, filt_P, acc_used, mag_used, pred_q, pred_b, pred_v, pred_P, pred_F))
+                  (filt_q, filt_b, filt_v, np.empty((0, NX, NX)), acc_used, mag_used, pred_q, pred_b, pred_v, pred_P,
+                   post_P, pred_R, pred_a_e))
     out_q[:] = filt_q
     if n_t == 0:
         return
@@ -224,6 +226,7 @@ def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, 
     delta = np.empty(NX)
     chol = np.empty((NX, NX))
     y = np.empty(NX)
+    P_minus, P, F = np.empty((NX, NX)), np.empty((NX, NX)), np.empty((NX, NX))
     for k in range(n_t - 2, first - 1, -1):
         # correction = C_k δ = P⁺_k F_{k+1}ᵀ (P⁻_{k+1})⁻¹ δ: one solve with P⁻ (Cholesky), no inverse
         q_next = (out_q[k + 1, 0], out_q[k + 1, 1], out_q[k + 1, 2], out_q[k + 1, 3])
@@ -233,8 +236,10 @@ def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, 
             delta[a] = d_theta[a]
             delta[3 + a] = smooth_b[k + 1, a] - pred_b[k + 1, a]
             delta[6 + a] = smooth_v[k + 1, a] - pred_v[k + 1, a]
-        _cholesky_solve(pred_P[k + 1], delta, chol, y)
-        F, P = pred_F[k + 1], filt_P[k]
+        unpack_upper(pred_P[k + 1], P_minus)
+        _cholesky_solve(P_minus, delta, chol, y)
+        transition_matrix(pred_R[k + 1], pred_a_e[k + 1], c.vel_decay, c.dt, F)
+        unpack_upper(post_P[k], P)
         for a in range(NX):  # delta ← Fᵀ y
             acc_a = 0.0
             for b in range(NX):
@@ -340,8 +345,8 @@ def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
                   record=True)
     if not isinstance(interpolate_gaps, bool):
         raise ValueError(f"interpolate_gaps must be True or False, got {interpolate_gaps!r}")
-    # Output, plus each thread's scratch: filtered and predicted q, b, v, P and F, rates per sample.
-    B.check_memory(8 * inputs.n_t * (4 * inputs.index.shape[0] + 2 * (23 + 3 * NX * NX)),
+    # Output, plus each thread's scratch: filtered and predicted q, b, v, packed P, F's R and a_E, rates per sample.
+    B.check_memory(8 * inputs.n_t * (4 * inputs.index.shape[0] + 2 * (23 + 2 * NP + 12)),
                    f"smooth_orientation's output for batch {inputs.batch}, T = {inputs.n_t}")
     out_q = np.empty((inputs.index.shape[0], inputs.n_t, 4))
     _smooth_batch(inputs.gyr, inputs.acc, inputs.mag, inputs.received, inputs.index, inputs.q_init,
