@@ -57,8 +57,8 @@ NP = NX * (NX + 1) // 2
 #: kept for the smoother.
 WORK_DTYPE = np.dtype([
     ("R", "f8", (3, 3)), ("a_e", "f8", (3,)), ("dx", "f8", (NX,)), ("K", "f8", (NX,)),
-    ("row", "f8", (NX,)), ("ar_A", "f8", (gaps.MAX_ORDER, gaps.MAX_ORDER)), ("ar_r", "f8", (gaps.MAX_ORDER + 1,)),
-    ("predicted", "f8", (3,)),
+    ("rows", "f8", (3, NX)), ("inv_S", "f8", (3,)),
+    ("ar_A", "f8", (gaps.MAX_ORDER, gaps.MAX_ORDER)), ("ar_r", "f8", (gaps.MAX_ORDER + 1,)),
     ("q_pred", "f8", (4,)), ("bias_pred", "f8", (3,)), ("vel_pred", "f8", (3,)), ("P_pred", "f8", (NX, NX)),
 ])
 
@@ -231,28 +231,53 @@ def predict(st, work, c, omega, acc, received, lost_run):
 
 
 @njit(inline="always", **COMPILE)
-def scalar_update(P, dx, i, innovation, r, heading_only, K, row):
-    """Scalar Kalman update with ``H = e_iᵀ``: ``S = P_ii + r``, ``K = P_·i/S``.
+def scalar_updates(P, dx, first, z, r, rows, inv_S):
+    """Scalar Kalman updates with ``H = e_iᵀ``, ``i = first, first + 1, …``, one per measurement
+    ``z[u]`` (tuple of ≤ 3; noise variance ``r`` each), in turn, with a single pass over ``P``.
 
-    ``P ← (I − K H) P (I − K H)ᵀ + r K Kᵀ`` (Joseph form, valid for any K) is
-    ``P − K P_i· − P_·i Kᵀ + S K Kᵀ``; with the optimal gain that is ``P − P_·i P_i·/S``.  The
-    upper triangle is computed and mirrored (P stays exactly symmetric).
+    Update u: ``S = P_ii + r``, ``K = P_·i/S``, ``δx += K (z_u − δx_i)`` and ``P ← (I − K H) P
+    (I − K H)ᵀ + r K Kᵀ`` (Joseph form), which with the optimal gain is ``P − P_·i P_i·/S``.
+    Update u needs only row i of P after the earlier updates, so those rows come first
+    (``rows[u]``, ``inv_S[u]``); then each entry of the upper triangle takes the updates in
+    order and is mirrored: the same operations per entry, in the same order, as one pass per
+    update (P stays exactly symmetric).
     """
-    S = P[i, i] + r
+    for u in range(len(z)):
+        i, row = first + u, rows[u]
+        for a in range(NX):  # row i after updates 0 … u − 1
+            v = P[i, a]
+            for w in range(u):
+                v = v - (rows[w, i] * rows[w, a]) * inv_S[w]
+            row[a] = v
+        inv_S[u] = 1.0 / (row[i] + r)
+        innovation = z[u] - dx[i]
+        for a in range(NX):
+            dx[a] += (row[a] * inv_S[u]) * innovation
+    for a in range(NX):
+        for b in range(a, NX):
+            v = P[a, b]
+            for u in range(len(z)):
+                v = v - (rows[u, a] * rows[u, b]) * inv_S[u]
+            P[a, b] = P[b, a] = v
+
+
+@njit(inline="always", **COMPILE)
+def heading_update(P, dx, innovation, r, K, row):
+    """Scalar update of the heading (``H = e_2ᵀ``) with the gain's tilt rows zeroed (the
+    magnetometer must not tilt): ``S = P_22 + r``, ``K = P_·2/S`` then ``K_0 = K_1 = 0``,
+    ``δx += K innovation``, and ``P ← (I − K H) P (I − K H)ᵀ + r K Kᵀ`` (Joseph form, valid for
+    any gain) ``= P − K P_2· − P_·2 Kᵀ + S K Kᵀ``, upper triangle mirrored.
+    """
+    S = P[2, 2] + r
     inv_S = 1.0 / S
     for a in range(NX):
-        row[a] = P[i, a]
+        row[a] = P[2, a]
         K[a] = row[a] * inv_S
-    if heading_only:  # the magnetometer must not tilt: zero the gain's tilt rows (Joseph form)
-        K[0] = 0.0
-        K[1] = 0.0
-        for a in range(NX):
-            for b in range(a, NX):
-                P[a, b] = P[b, a] = P[a, b] - (K[a] * row[b] + row[a] * K[b]) + S * (K[a] * K[b])
-    else:
-        for a in range(NX):
-            for b in range(a, NX):
-                P[a, b] = P[b, a] = P[a, b] - (row[a] * row[b]) * inv_S
+    K[0] = 0.0
+    K[1] = 0.0
+    for a in range(NX):
+        for b in range(a, NX):
+            P[a, b] = P[b, a] = P[a, b] - (K[a] * row[b] + row[a] * K[b]) + S * (K[a] * K[b])
     for a in range(NX):
         dx[a] += K[a] * innovation
 
@@ -274,7 +299,7 @@ def inject(st, dx, bias_limit):
 def correct_acc(st, work, c, acc, omega):
     """Tilt update from the accelerometer (gated), then the leaky velocity's pseudo-measurement
     ``v = 0``; returns whether the accelerometer was used."""
-    P, dx, K, row = st.P, work.dx, work.K, work.row
+    P, dx = st.P, work.dx
     used = False
     acc_norm = vec_norm(acc)
     deviation = abs(acc_norm - c.gravity)
@@ -301,8 +326,7 @@ def correct_acc(st, work, c, acc, omega):
             scale = math.sqrt(d2 / c.acc_innovation_gate)
             tilt_var = 0.5 * (P[0, 0] + P[1, 1])
             r = scale * (tilt_var + r) - tilt_var
-        scalar_update(P, dx, 0, phi_x - dx[0], r, False, K, row)
-        scalar_update(P, dx, 1, phi_y - dx[1], r, False, K, row)
+        scalar_updates(P, dx, 0, (phi_x, phi_y), r, work.rows, work.inv_S)  # δθ_x = φ_x, δθ_y = φ_y
         inject(st, dx, c.bias_limit)
         used = True
     # --- Leaky velocity: pseudo-measurement v = 0 (every received sample) ----------------
@@ -310,9 +334,7 @@ def correct_acc(st, work, c, acc, omega):
     # leaky velocity stays small, while a tilt error δθ makes it ramp by g δθ Δt per sample:
     # VQF's low-pass of the earth-frame specific force (τ_acc), as a Kalman measurement.
     v = st.velocity
-    scalar_update(P, dx, 6, -v[0] - dx[6], c.vel_var, False, K, row)
-    scalar_update(P, dx, 7, -v[1] - dx[7], c.vel_var, False, K, row)
-    scalar_update(P, dx, 8, -v[2] - dx[8], c.vel_var, False, K, row)
+    scalar_updates(P, dx, 6, (-v[0], -v[1], -v[2]), c.vel_var, work.rows, work.inv_S)  # v̂ + δv = 0
     inject(st, dx, c.bias_limit)
     return used
 
@@ -430,7 +452,7 @@ def correct_mag(st, work, c, mag, omega):
         r *= c.mag_reject_var_factor
     if use and math.hypot(m_e[0], m_e[1]) > 0.0:
         psi = math.atan2(m_e[0], m_e[1])  # heading error δθ_z
-        scalar_update(P, work.dx, 2, psi - work.dx[2], r, True, work.K, work.row)
+        heading_update(P, work.dx, psi - work.dx[2], r, work.K, work.rows[0])
         inject(st, work.dx, c.bias_limit)
         return True
     return False
@@ -558,17 +580,16 @@ def run_kalman(gyr, acc, mag, received, index, q_init, start, init_only, constan
     """:func:`kalman_stream` on every element ``n`` of a flattened batch, in parallel.
 
     ``index`` (N, 4): for element ``n`` the rows of ``gyr``, ``acc``, ``mag`` (each ``(M, T, 3)``)
-    and ``received`` ``(M', T)`` it reads (broadcasting without copies); ``outputs`` arrays with
-    the batch first (``P`` and the predictions may have a leading 1: not kept).
+    and ``received`` ``(M', T)`` it reads (broadcasting without copies); ``outputs`` the first six
+    of :func:`kalman_stream`'s, with the batch first (``P`` may have a leading 1: not kept).  No
+    records (``constants.record`` off: the smoother runs :func:`kalman_stream` itself).
     """
-    out_q, out_bias, out_vel, out_P, acc_used, mag_used = outputs[:6]
-    pred_q, pred_bias, pred_vel, pred_P, post_P, pred_R, pred_a_e = outputs[6:]
-    p_stride = 1 if out_P.shape[0] == out_q.shape[0] else 0  # P and the predictions: kept, or one dummy row
-    r_stride = 1 if pred_q.shape[0] == out_q.shape[0] else 0
+    out_q, out_bias, out_vel, out_P, acc_used, mag_used = outputs
+    p_stride = 1 if out_P.shape[0] == out_q.shape[0] else 0  # P kept, or one dummy row
+    no_records = (np.empty((0, 4)), np.empty((0, 3)), np.empty((0, 3)), np.empty((0, NP)), np.empty((0, NP)),
+                  np.empty((0, 3, 3)), np.empty((0, 3)))
     for n in prange(out_q.shape[0]):
         p = n * p_stride
-        r = n * r_stride
         kalman_stream(gyr[index[n, 0]], acc[index[n, 1]], mag[index[n, 2]], received[index[n, 3]], q_init[n],
                       start[n], init_only, constants[0],
-                      (out_q[n], out_bias[n], out_vel[n], out_P[p], acc_used[n], mag_used[n], pred_q[r],
-                       pred_bias[r], pred_vel[r], pred_P[r], post_P[r], pred_R[r], pred_a_e[r]))
+                      (out_q[n], out_bias[n], out_vel[n], out_P[p], acc_used[n], mag_used[n]) + no_records)

@@ -132,13 +132,14 @@ constants the compiled step reads (``constants.gyro_var``) are in
 :mod:`wsnlib.orientation.kalman_settings`; the compiled step on a named state (``state.bias``,
 ``state.P``) is :mod:`._kalman_kernels` — one function per step above: :func:`~._kalman_kernels.predict`,
 :func:`~._kalman_kernels.correct_acc`, :func:`~._kalman_kernels.hard_iron`,
-:func:`~._kalman_kernels.correct_mag`, :func:`~._kalman_kernels.scalar_update`,
+:func:`~._kalman_kernels.correct_mag`, :func:`~._kalman_kernels.scalar_updates`,
+:func:`~._kalman_kernels.heading_update`,
 :func:`~._kalman_kernels.inject`, one sample :func:`~._kalman_kernels.kalman_step`, the loop
 :func:`~._kalman_kernels.kalman_stream` (also the forward pass of
 :func:`wsnlib.orientation.smooth_orientation`) and the parallel batch
 :func:`~._kalman_kernels.run_kalman` (speed by structure: ``predict`` propagates only the
 non-zero blocks of F, written as two shears ``F = F_v F_θ``, and every measurement update is a
-sequence of scalar ones); this module holds the public functions
+sequence of scalar ones, those of one sensor in one pass over P); this module holds the public functions
 (:func:`kalman_orientation` over recordings, :func:`kalman_step` on a :class:`KalmanState` one
 sample at a time) and :class:`KalmanReference`, the same equations as numpy matrices.  What
 happens in a gap (the rates, the replay) is :mod:`wsnlib.orientation.gaps`, shared with
@@ -254,16 +255,12 @@ def constants(settings, fs, *, gap, replay, gap_time_constant, has_mag, filter_n
     return c
 
 
-def new_outputs(n_batch: int, n_t: int, *, keep_P: bool = False, record: bool = False) -> tuple:
-    """The arrays :func:`._kalman_kernels.run_kalman` writes (P and the predictions only when asked)."""
+def new_outputs(n_batch: int, n_t: int, *, keep_P: bool = False) -> tuple:
+    """The arrays :func:`._kalman_kernels.run_kalman` writes (P only when asked)."""
     kept = n_batch if keep_P else 1
-    rec = n_batch if record else 1
-    rec_t = n_t if record else 1
     return (np.empty((n_batch, n_t, 4)), np.empty((n_batch, n_t, 3)), np.empty((n_batch, n_t, 3)),
             np.empty((kept, n_t if keep_P else 1, NX, NX)), np.empty((n_batch, n_t), dtype=bool),
-            np.empty((n_batch, n_t), dtype=bool), np.empty((rec, rec_t, 4)), np.empty((rec, rec_t, 3)),
-            np.empty((rec, rec_t, 3)), np.empty((rec, rec_t, K.NP)), np.empty((rec, rec_t, K.NP)),
-            np.empty((rec, rec_t, 3, 3)), np.empty((rec, rec_t, 3)))
+            np.empty((n_batch, n_t), dtype=bool))
 
 
 def check_finite_output(quat: np.ndarray) -> np.ndarray:
@@ -392,7 +389,7 @@ def kalman_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
     outputs = new_outputs(n_batch, n_t, keep_P=full_output)
     run_kalman(inputs.gyr, inputs.acc, inputs.mag, inputs.received, inputs.index, inputs.q_init, inputs.start,
                inputs.init_only, c, outputs)
-    out_q, out_bias, _, out_P, acc_used, mag_used = outputs[:6]
+    out_q, out_bias, _, out_P, acc_used, mag_used = outputs
     quat = check_finite_output(out_q.reshape(batch + (n_t, 4)))
     if hold_output:
         B.hold_lost_output(quat, received)
