@@ -523,19 +523,27 @@ def _keep_prediction(st, work, c):
 
 
 @njit(**COMPILE)
+def new_records(n_t):
+    """What :func:`kalman_stream` records for a smoother (``c.record``), ``n_t`` rows each: q⁻, v⁻,
+    P⁻ and P⁺ packed (:func:`pack_upper`), and R(q⁻), a_E, which define F (:func:`transition_matrix`).
+    Not b⁻: it is the previous sample's b⁺ (the prediction keeps the bias)."""
+    return (np.empty((n_t, 4)), np.empty((n_t, 3)), np.empty((n_t, NP)), np.empty((n_t, NP)), np.empty((n_t, 3, 3)),
+            np.empty((n_t, 3)))
+
+
+@njit(**COMPILE)
 def kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c, outputs):
     """The filter over one recording ``(T, 3)``; ``outputs`` (see :func:`new_outputs`) receive, per
     sample, the estimate (``q``, ``bias``, ``velocity``, optionally ``P``), the gate decisions and,
-    with ``c.record``, the smoother's input: the prediction (q⁻, b⁻, v⁻, P⁻), the filtered P⁺
-    (both covariances packed, :func:`pack_upper`) and ``R``, ``a_e`` of the transition matrix
-    (:func:`transition_matrix`; before the start, where a smoother does not read them, zeros).
+    with ``c.record``, :func:`new_records`' arrays (before the start, where a smoother does not
+    read them, P⁻ = P⁺ = the initial P and zero ``R``, ``a_e``).
 
     ``start``: first sample the filter sees; ``init_only``: that sample only initialises
     (``q0=None``), else it is filtered from ``q_init`` like any other.  Samples before the
     start output ``q_init``.
     """
     out_q, out_bias, out_vel, out_P, acc_used, mag_used = outputs[:6]
-    pred_q, pred_bias, pred_vel, pred_P, post_P, pred_R, pred_a_e = outputs[6:]
+    pred_q, pred_vel, pred_P, post_P, pred_R, pred_a_e = outputs[6:]
     n_t = out_q.shape[0]
     keep_P = out_P.shape[0] == n_t
     # The records are views into these arrays, which must stay referenced while they are used.
@@ -567,7 +575,7 @@ def kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c, outputs)
         if keep_P:
             out_P[t] = st.P
         if c.record:
-            pred_q[t], pred_bias[t], pred_vel[t] = work.q_pred, work.bias_pred, work.vel_pred
+            pred_q[t], pred_vel[t] = work.q_pred, work.vel_pred
             pred_R[t], pred_a_e[t] = work.R, work.a_e
             pack_upper(work.P_pred, pred_P[t])
             pack_upper(st.P, post_P[t])
@@ -586,8 +594,7 @@ def run_kalman(gyr, acc, mag, received, index, q_init, start, init_only, constan
     """
     out_q, out_bias, out_vel, out_P, acc_used, mag_used = outputs
     p_stride = 1 if out_P.shape[0] == out_q.shape[0] else 0  # P kept, or one dummy row
-    no_records = (np.empty((0, 4)), np.empty((0, 3)), np.empty((0, 3)), np.empty((0, NP)), np.empty((0, NP)),
-                  np.empty((0, 3, 3)), np.empty((0, 3)))
+    no_records = new_records(0)
     for n in prange(out_q.shape[0]):
         p = n * p_stride
         kalman_stream(gyr[index[n, 0]], acc[index[n, 1]], mag[index[n, 2]], received[index[n, 3]], q_init[n],
