@@ -65,29 +65,14 @@ WORK_DTYPE = np.dtype([
 
 @njit(**COMPILE)
 def initial_state(st, c, q0):
-    """The state before the first sample: ``q0``, no bias or velocity, ``P0 = diag(σ_tilt², σ_tilt²,
-    σ_heading², σ_b² I₃, σ_v² I₃)``, the gate unset."""
+    """The state before the first sample in ``st``, a record of zeros (``np.zeros(1, STATE_DTYPE)[0]``,
+    or one this function set and nothing stepped): ``q0``, no bias or velocity, ``P0 = diag(σ_tilt²,
+    σ_tilt², σ_heading², σ_b² I₃, σ_v² I₃)``, the gate unset (every other field stays 0)."""
     for a in range(4):
         st.q[a] = q0[a]
         st.q_last[a] = q0[a]
-    for a in range(3):
-        st.bias[a] = 0.0
-        st.velocity[a] = 0.0
-        st.rate[a] = 0.0
-        st.hard_iron[a] = 0.0
-        st.hi_r[a] = 0.0
-    for a in range(6):
-        st.hi_A[a] = 0.0
-    st.gap_sigma = 0.0
-    st.mag_ref_norm = st.mag_ref_dip = st.mag_cand_norm = st.mag_cand_dip = 0.0
-    st.mag_cand_time = st.mag_reject_time = st.lin_var = 0.0
-    st.hi_prev_ok = False
     P = st.P
-    for a in range(NX):
-        for b in range(NX):
-            P[a, b] = 0.0
-    P[0, 0] = c.init_tilt_var
-    P[1, 1] = c.init_tilt_var
+    P[0, 0] = P[1, 1] = c.init_tilt_var
     P[2, 2] = c.init_heading_var
     for a in range(3, 6):
         P[a, a] = c.init_bias_var
@@ -232,15 +217,11 @@ def predict(st, work, c, omega, acc, received, lost_run):
 
 @njit(inline="always", **COMPILE)
 def scalar_updates(P, dx, first, z, r, rows, inv_S):
-    """Scalar Kalman updates with ``H = e_iᵀ``, ``i = first, first + 1, …``, one per measurement
-    ``z[u]`` (tuple of ≤ 3; noise variance ``r`` each), in turn, with a single pass over ``P``.
-
-    Update u: ``S = P_ii + r``, ``K = P_·i/S``, ``δx += K (z_u − δx_i)`` and ``P ← (I − K H) P
-    (I − K H)ᵀ + r K Kᵀ`` (Joseph form), which with the optimal gain is ``P − P_·i P_i·/S``.
-    Update u needs only row i of P after the earlier updates, so those rows come first
-    (``rows[u]``, ``inv_S[u]``); then each entry of the upper triangle takes the updates in
-    order and is mirrored: the same operations per entry, in the same order, as one pass per
-    update (P stays exactly symmetric).
+    """Scalar updates (module docstring) with ``H = e_iᵀ``, ``i = first, first + 1, …``, one per
+    measurement ``z[u]`` (≤ 3, noise variance ``r`` each), in one pass over ``P``: with the optimal
+    gain update u is ``P ← P − P_·i P_i·/S`` and needs only row i after the earlier updates, so
+    the rows come first (``rows[u]``, ``inv_S[u]``); then each upper-triangle entry takes the
+    updates in order and is mirrored (the same operations, in the same order, as a pass per update).
     """
     for u in range(len(z)):
         i, row = first + u, rows[u]
@@ -263,11 +244,8 @@ def scalar_updates(P, dx, first, z, r, rows, inv_S):
 
 @njit(inline="always", **COMPILE)
 def heading_update(P, dx, innovation, r, K, row):
-    """Scalar update of the heading (``H = e_2ᵀ``) with the gain's tilt rows zeroed (the
-    magnetometer must not tilt): ``S = P_22 + r``, ``K = P_·2/S`` then ``K_0 = K_1 = 0``,
-    ``δx += K innovation``, and ``P ← (I − K H) P (I − K H)ᵀ + r K Kᵀ`` (Joseph form, valid for
-    any gain) ``= P − K P_2· − P_·2 Kᵀ + S K Kᵀ``, upper triangle mirrored.
-    """
+    """The heading's scalar update (``H = e_2ᵀ``) with the gain's tilt rows zeroed (the magnetometer
+    must not tilt), so in Joseph form (valid for any gain): ``P − K P_2· − P_·2 Kᵀ + S K Kᵀ``, mirrored."""
     S = P[2, 2] + r
     inv_S = 1.0 / S
     for a in range(NX):
@@ -514,11 +492,7 @@ def _replay(st, gs, history, omega, dt, replayed):
 @njit(**COMPILE)
 def _keep_prediction(st, work, c):
     if c.record:
-        for a in range(4):
-            work.q_pred[a] = st.q[a]
-        for a in range(3):
-            work.bias_pred[a] = st.bias[a]
-            work.vel_pred[a] = st.velocity[a]
+        work.q_pred[:], work.bias_pred[:], work.vel_pred[:] = st.q, st.bias, st.velocity
         work.P_pred[:, :] = st.P
 
 
@@ -533,7 +507,7 @@ def new_records(n_t):
 
 @njit(**COMPILE)
 def kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c, outputs):
-    """The filter over one recording ``(T, 3)``; ``outputs`` (see :func:`new_outputs`) receive, per
+    """The filter over one recording ``(T, 3)``; ``outputs`` (as :func:`run_kalman`'s) receive, per
     sample, the estimate (``q``, ``bias``, ``velocity``, optionally ``P``), the gate decisions and,
     with ``c.record``, :func:`new_records`' arrays (before the start, where a smoother does not
     read them, P⁻ = P⁺ = the initial P and zero ``R``, ``a_e``).

@@ -255,14 +255,6 @@ def constants(settings, fs, *, gap, replay, gap_time_constant, has_mag, filter_n
     return c
 
 
-def new_outputs(n_batch: int, n_t: int, *, keep_P: bool = False) -> tuple:
-    """The arrays :func:`._kalman_kernels.run_kalman` writes (P only when asked)."""
-    kept = n_batch if keep_P else 1
-    return (np.empty((n_batch, n_t, 4)), np.empty((n_batch, n_t, 3)), np.empty((n_batch, n_t, 3)),
-            np.empty((kept, n_t if keep_P else 1, NX, NX)), np.empty((n_batch, n_t), dtype=bool),
-            np.empty((n_batch, n_t), dtype=bool))
-
-
 def check_finite_output(quat: np.ndarray) -> np.ndarray:
     """Raise instead of returning NaN (extreme settings or ``fs`` can overflow in the kernel)."""
     if not np.all(np.isfinite(quat)):
@@ -386,7 +378,10 @@ def kalman_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
     n_batch, n_t, batch = inputs.index.shape[0], inputs.n_t, inputs.batch
     n_floats = 4 + 3 + 3 + (NX * NX if full_output else 0) + 3  # quaternion, bias, velocity, covariance, history
     B.check_memory((8 * n_floats + 2) * n_t * n_batch, f"kalman_orientation's output for batch {batch}, T = {n_t}")
-    outputs = new_outputs(n_batch, n_t, keep_P=full_output)
+    kept = n_batch if full_output else 1  # P only when asked (else one dummy row)
+    outputs = (np.empty((n_batch, n_t, 4)), np.empty((n_batch, n_t, 3)), np.empty((n_batch, n_t, 3)),
+               np.empty((kept, n_t if full_output else 1, NX, NX)), np.empty((n_batch, n_t), dtype=bool),
+               np.empty((n_batch, n_t), dtype=bool))
     run_kalman(inputs.gyr, inputs.acc, inputs.mag, inputs.received, inputs.index, inputs.q_init, inputs.start,
                inputs.init_only, c, outputs)
     out_q, out_bias, _, out_P, acc_used, mag_used = outputs

@@ -204,8 +204,7 @@ def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, 
     n_t = out_q.shape[0]
     # The filter's q, b, v are smoothed in place: sample k is overwritten after its RTS step read it.
     smooth_b, smooth_v = np.empty((n_t, 3)), np.empty((n_t, 3))
-    records = new_records(n_t)
-    pred_q, pred_v, pred_P, post_P, pred_R, pred_a_e = records
+    pred_q, pred_v, pred_P, post_P, pred_R, pred_a_e = records = new_records(n_t)
     kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c,
                   (out_q, smooth_b, smooth_v, np.empty((0, NX, NX)), np.empty(n_t, dtype=np.bool_),
                    np.empty(n_t, dtype=np.bool_)) + records)
