@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from _recordings import error_deg, turning_recording
+from _recordings import FS, error_deg, swinging_recording, turning_recording
 
 from wsnlib import frames
 from wsnlib import quaternion as Q
@@ -24,9 +24,6 @@ from wsnlib.orientation.kalman import (
 )
 from wsnlib.sim.arm import arm_kinematics, movement_set
 from wsnlib.sim.imu import ideal_imu
-
-FS = 50.0
-
 
 # ------------------------------------------------------------------------------------------
 # The compiled step against the matrix form (wsnlib.orientation.kalman.KalmanReference)
@@ -202,23 +199,8 @@ def test_gap_rate_end_weights_are_the_gaussian_conditional_expectation():
     np.testing.assert_allclose(ramp, np.arange(1, 401) / 400, rtol=1e-12)
 
 
-def _oscillating_recording(n=600, freq=1.5, amp=6.0):
-    """A fast swing about a fixed body axis (rate ``amp`` rad/s at ``freq`` Hz), exact signals."""
-    t = np.arange(n) / FS
-    axis = np.array([0.2, 0.9, 0.39])
-    axis /= np.linalg.norm(axis)
-    gyr = amp * np.sin(2 * np.pi * freq * t)[:, None] * axis
-    quat = np.empty((n, 4))
-    quat[0] = Q.from_axis_angle([1.0, 0.0, 0.0], 0.3)
-    for k in range(1, n):
-        quat[k] = Q.normalize(Q.multiply(quat[k - 1], Q.from_rotation_vector(gyr[k] / FS)))
-    acc = Q.rotate_inverse(quat, frames.gravity_specific_force_enu())
-    mag = Q.rotate_inverse(quat, np.broadcast_to(frames.magnetic_field_enu(), (n, 3)))
-    return gyr, acc, mag, quat
-
-
 def test_linear_prediction_follows_a_swing_through_a_gap_and_replay_lands_on_it():
-    gyr, acc, mag, truth = _oscillating_recording()
+    gyr, acc, mag, truth = swinging_recording()
     received = np.ones(len(gyr), bool)
     received[300:318] = False  # 0.36 s, half a period of the 1.5 Hz swing
     base = KalmanSettings(acc_rate_gate=math.inf)

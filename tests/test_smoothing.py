@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from _recordings import error_deg, turning_recording
+from _recordings import FS, error_deg, swinging_recording, turning_recording
 
 from wsnlib import frames, metrics, paths
 from wsnlib import quaternion as Q
@@ -17,8 +17,6 @@ from wsnlib.io.broad import BROAD_DIR_ENV_VAR, broad_trials
 from wsnlib.loss import LossProfile
 from wsnlib.orientation.kalman import KalmanSettings, kalman_orientation
 from wsnlib.orientation.smoothing import smooth_orientation
-
-FS = 50.0
 
 
 def test_smoother_equals_filter_at_the_end():
@@ -116,22 +114,8 @@ def test_hermite_gap_matches_both_ends_and_is_exact_for_constant_rate():
     assert error_deg(predicted, quat)[80:120].max() < 0.5
 
 
-def _swing(n=600, freq=1.5, amp=6.0):
-    """A fast swing about a fixed body axis (rate ``amp`` rad/s at ``freq`` Hz), exact signals."""
-    t = np.arange(n) / FS
-    axis = np.array([0.2, 0.9, 0.39]) / np.linalg.norm([0.2, 0.9, 0.39])
-    gyr = amp * np.sin(2 * np.pi * freq * t)[:, None] * axis
-    quat = np.empty((n, 4))
-    quat[0] = Q.from_axis_angle([1.0, 0.0, 0.0], 0.3)
-    for k in range(1, n):
-        quat[k] = Q.normalize(Q.multiply(quat[k - 1], Q.from_rotation_vector(gyr[k] / FS)))
-    acc = Q.rotate_inverse(quat, frames.gravity_specific_force_enu())
-    mag = Q.rotate_inverse(quat, np.broadcast_to(frames.magnetic_field_enu(), (n, 3)))
-    return gyr, acc, mag, quat
-
-
 def test_predicted_gap_follows_a_swing_that_hermite_cuts_across():
-    gyr, acc, mag, truth = _swing()
+    gyr, acc, mag, truth = swinging_recording()
     received = np.ones(len(gyr), bool)
     received[300:330] = False  # 0.6 s, most of a period: the end rates say little about the middle
     base = KalmanSettings(acc_rate_gate=math.inf, gap_rate_prediction_order=8, gap_rate_prediction_window_s=1.0)

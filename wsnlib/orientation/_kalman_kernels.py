@@ -49,41 +49,30 @@ STATE_DTYPE = np.dtype([
     ("hi_prev_ok", "?"), ("hard_iron", "f8", (3,)), ("lin_var", "f8"),
 ])
 
+#: Entries of a covariance's upper triangle (row by row): how the smoother stores P.
+NP = NX * (NX + 1) // 2
+
 #: Scratch of one stream, and the prediction of the last sample (``q_pred``, ``bias_pred``,
-#: ``vel_pred``, ``P_pred``, transition ``F``) kept for the smoother.
+#: ``vel_pred``, ``P_pred``; ``R`` = R(q⁻) and ``a_e`` = a_E, which define the transition F)
+#: kept for the smoother.
 WORK_DTYPE = np.dtype([
-    ("R", "f8", (3, 3)), ("F", "f8", (NX, NX)), ("dx", "f8", (NX,)), ("K", "f8", (NX,)),
-    ("row", "f8", (NX,)), ("ar_A", "f8", (gaps.MAX_ORDER, gaps.MAX_ORDER)), ("ar_r", "f8", (gaps.MAX_ORDER + 1,)),
-    ("predicted", "f8", (3,)),
+    ("R", "f8", (3, 3)), ("a_e", "f8", (3,)), ("dx", "f8", (NX,)), ("K", "f8", (NX,)),
+    ("rows", "f8", (3, NX)), ("inv_S", "f8", (3,)),
+    ("ar_A", "f8", (gaps.MAX_ORDER, gaps.MAX_ORDER)), ("ar_r", "f8", (gaps.MAX_ORDER + 1,)),
     ("q_pred", "f8", (4,)), ("bias_pred", "f8", (3,)), ("vel_pred", "f8", (3,)), ("P_pred", "f8", (NX, NX)),
 ])
 
 
 @njit(**COMPILE)
 def initial_state(st, c, q0):
-    """The state before the first sample: ``q0``, no bias or velocity, ``P0 = diag(σ_tilt², σ_tilt²,
-    σ_heading², σ_b² I₃, σ_v² I₃)``, the gate unset."""
+    """The state before the first sample in ``st``, a record of zeros (``np.zeros(1, STATE_DTYPE)[0]``,
+    or one this function set and nothing stepped): ``q0``, no bias or velocity, ``P0 = diag(σ_tilt²,
+    σ_tilt², σ_heading², σ_b² I₃, σ_v² I₃)``, the gate unset (every other field stays 0)."""
     for a in range(4):
         st.q[a] = q0[a]
         st.q_last[a] = q0[a]
-    for a in range(3):
-        st.bias[a] = 0.0
-        st.velocity[a] = 0.0
-        st.rate[a] = 0.0
-        st.hard_iron[a] = 0.0
-        st.hi_r[a] = 0.0
-    for a in range(6):
-        st.hi_A[a] = 0.0
-    st.gap_sigma = 0.0
-    st.mag_ref_norm = st.mag_ref_dip = st.mag_cand_norm = st.mag_cand_dip = 0.0
-    st.mag_cand_time = st.mag_reject_time = st.lin_var = 0.0
-    st.hi_prev_ok = False
     P = st.P
-    for a in range(NX):
-        for b in range(NX):
-            P[a, b] = 0.0
-    P[0, 0] = c.init_tilt_var
-    P[1, 1] = c.init_tilt_var
+    P[0, 0] = P[1, 1] = c.init_tilt_var
     P[2, 2] = c.init_heading_var
     for a in range(3, 6):
         P[a, a] = c.init_bias_var
@@ -96,8 +85,29 @@ def initial_state(st, c, q0):
 
 
 @njit(**COMPILE)
+def pack_upper(P, out):
+    """The upper triangle of the symmetric ``P`` (9 × 9), row by row, into ``out`` (:data:`NP`,)."""
+    k = 0
+    for a in range(NX):
+        for b in range(a, NX):
+            out[k] = P[a, b]
+            k += 1
+
+
+@njit(**COMPILE)
+def unpack_upper(packed, P):
+    """The symmetric ``P`` (9 × 9) from its upper triangle ``packed`` (:func:`pack_upper`)."""
+    k = 0
+    for a in range(NX):
+        for b in range(a, NX):
+            P[a, b] = P[b, a] = packed[k]
+            k += 1
+
+
+@njit(**COMPILE)
 def transition_matrix(R, a_e, decay, dt, F):
-    """``F = [[I, −R Δt, 0], [0, I, 0], [−[a_E]× Δt, [a_E]× R Δt², c I]]`` into ``F`` (9 × 9)."""
+    """``F = [[I, −R Δt, 0], [0, I, 0], [−[a_E]× Δt, [a_E]× R Δt², c I]]`` into ``F`` (9 × 9), from
+    ``R`` = R(q⁻) and ``a_e`` = a_E (0 when lost), as :func:`predict` leaves them in the work record."""
     for a in range(NX):
         for b in range(NX):
             F[a, b] = 1.0 if a == b else 0.0
@@ -117,7 +127,7 @@ def transition_matrix(R, a_e, decay, dt, F):
 def predict(st, work, c, omega, acc, received, lost_run):
     """Prediction of one sample by the bias-corrected rate ``omega`` (3-tuple; over a gap the gap
     module's); ``lost_run``: samples lost in a row (0 when received).  Leaves R(q⁻) in ``work.R``
-    and, with ``c.record``, the transition matrix in ``work.F``."""
+    and a_E in ``work.a_e`` (what defines the transition matrix, :func:`transition_matrix`)."""
     dt = c.dt
     for a in range(3):
         st.rate[a] = omega[a]
@@ -135,6 +145,9 @@ def predict(st, work, c, omega, acc, received, lost_run):
     a_e = (0.0, 0.0, 0.0)
     if received:
         a_e = quat_rotate(q, (acc[0], acc[1], acc[2]))
+    for a in range(3):
+        work.a_e[a] = a_e[a]
+    if received:
         v[0] = decay * v[0] + a_e[0] * dt
         v[1] = decay * v[1] + a_e[1] * dt
         v[2] = decay * v[2] + (a_e[2] - c.gravity) * dt
@@ -181,8 +194,6 @@ def predict(st, work, c, omega, acc, received, lost_run):
             P[6 + a, 6 + b] = P[6 + b, 6 + a] = 0.5 * (P[6 + a, 6 + b] + P[6 + b, 6 + a])
         for j in range(6):
             P[j, 6 + a] = P[6 + a, j]
-    if c.record:  # the transition matrix itself, for a smoother (KalmanState.prediction)
-        transition_matrix(R, a_e, decay, dt, work.F)
     # Q: gyro noise and bias random walk; over a gap, the extrapolated rate's error, whose std
     # is fixed at the gap's first sample: σ_gap,k² Δt² (2k − 1) makes it (σ_gap kΔt)² after k
     # samples.  Over a gap also the unknown linear acceleration: δv grows like (σ_gap,acc kΔt)².
@@ -205,28 +216,46 @@ def predict(st, work, c, omega, acc, received, lost_run):
 
 
 @njit(inline="always", **COMPILE)
-def scalar_update(P, dx, i, innovation, r, heading_only, K, row):
-    """Scalar Kalman update with ``H = e_iᵀ``: ``S = P_ii + r``, ``K = P_·i/S``.
-
-    ``P ← (I − K H) P (I − K H)ᵀ + r K Kᵀ`` (Joseph form, valid for any K) is
-    ``P − K P_i· − P_·i Kᵀ + S K Kᵀ``; with the optimal gain that is ``P − P_·i P_i·/S``.  The
-    upper triangle is computed and mirrored (P stays exactly symmetric).
+def scalar_updates(P, dx, first, z, r, rows, inv_S):
+    """Scalar updates (module docstring) with ``H = e_iᵀ``, ``i = first, first + 1, …``, one per
+    measurement ``z[u]`` (≤ 3, noise variance ``r`` each), in one pass over ``P``: with the optimal
+    gain update u is ``P ← P − P_·i P_i·/S`` and needs only row i after the earlier updates, so
+    the rows come first (``rows[u]``, ``inv_S[u]``); then each upper-triangle entry takes the
+    updates in order and is mirrored (the same operations, in the same order, as a pass per update).
     """
-    S = P[i, i] + r
+    for u in range(len(z)):
+        i, row = first + u, rows[u]
+        for a in range(NX):  # row i after updates 0 … u − 1
+            v = P[i, a]
+            for w in range(u):
+                v = v - (rows[w, i] * rows[w, a]) * inv_S[w]
+            row[a] = v
+        inv_S[u] = 1.0 / (row[i] + r)
+        innovation = z[u] - dx[i]
+        for a in range(NX):
+            dx[a] += (row[a] * inv_S[u]) * innovation
+    for a in range(NX):
+        for b in range(a, NX):
+            v = P[a, b]
+            for u in range(len(z)):
+                v = v - (rows[u, a] * rows[u, b]) * inv_S[u]
+            P[a, b] = P[b, a] = v
+
+
+@njit(inline="always", **COMPILE)
+def heading_update(P, dx, innovation, r, K, row):
+    """The heading's scalar update (``H = e_2ᵀ``) with the gain's tilt rows zeroed (the magnetometer
+    must not tilt), so in Joseph form (valid for any gain): ``P − K P_2· − P_·2 Kᵀ + S K Kᵀ``, mirrored."""
+    S = P[2, 2] + r
     inv_S = 1.0 / S
     for a in range(NX):
-        row[a] = P[i, a]
+        row[a] = P[2, a]
         K[a] = row[a] * inv_S
-    if heading_only:  # the magnetometer must not tilt: zero the gain's tilt rows (Joseph form)
-        K[0] = 0.0
-        K[1] = 0.0
-        for a in range(NX):
-            for b in range(a, NX):
-                P[a, b] = P[b, a] = P[a, b] - (K[a] * row[b] + row[a] * K[b]) + S * (K[a] * K[b])
-    else:
-        for a in range(NX):
-            for b in range(a, NX):
-                P[a, b] = P[b, a] = P[a, b] - (row[a] * row[b]) * inv_S
+    K[0] = 0.0
+    K[1] = 0.0
+    for a in range(NX):
+        for b in range(a, NX):
+            P[a, b] = P[b, a] = P[a, b] - (K[a] * row[b] + row[a] * K[b]) + S * (K[a] * K[b])
     for a in range(NX):
         dx[a] += K[a] * innovation
 
@@ -248,7 +277,7 @@ def inject(st, dx, bias_limit):
 def correct_acc(st, work, c, acc, omega):
     """Tilt update from the accelerometer (gated), then the leaky velocity's pseudo-measurement
     ``v = 0``; returns whether the accelerometer was used."""
-    P, dx, K, row = st.P, work.dx, work.K, work.row
+    P, dx = st.P, work.dx
     used = False
     acc_norm = vec_norm(acc)
     deviation = abs(acc_norm - c.gravity)
@@ -275,8 +304,7 @@ def correct_acc(st, work, c, acc, omega):
             scale = math.sqrt(d2 / c.acc_innovation_gate)
             tilt_var = 0.5 * (P[0, 0] + P[1, 1])
             r = scale * (tilt_var + r) - tilt_var
-        scalar_update(P, dx, 0, phi_x - dx[0], r, False, K, row)
-        scalar_update(P, dx, 1, phi_y - dx[1], r, False, K, row)
+        scalar_updates(P, dx, 0, (phi_x, phi_y), r, work.rows, work.inv_S)  # δθ_x = φ_x, δθ_y = φ_y
         inject(st, dx, c.bias_limit)
         used = True
     # --- Leaky velocity: pseudo-measurement v = 0 (every received sample) ----------------
@@ -284,9 +312,7 @@ def correct_acc(st, work, c, acc, omega):
     # leaky velocity stays small, while a tilt error δθ makes it ramp by g δθ Δt per sample:
     # VQF's low-pass of the earth-frame specific force (τ_acc), as a Kalman measurement.
     v = st.velocity
-    scalar_update(P, dx, 6, -v[0] - dx[6], c.vel_var, False, K, row)
-    scalar_update(P, dx, 7, -v[1] - dx[7], c.vel_var, False, K, row)
-    scalar_update(P, dx, 8, -v[2] - dx[8], c.vel_var, False, K, row)
+    scalar_updates(P, dx, 6, (-v[0], -v[1], -v[2]), c.vel_var, work.rows, work.inv_S)  # v̂ + δv = 0
     inject(st, dx, c.bias_limit)
     return used
 
@@ -404,7 +430,7 @@ def correct_mag(st, work, c, mag, omega):
         r *= c.mag_reject_var_factor
     if use and math.hypot(m_e[0], m_e[1]) > 0.0:
         psi = math.atan2(m_e[0], m_e[1])  # heading error δθ_z
-        scalar_update(P, work.dx, 2, psi - work.dx[2], r, True, work.K, work.row)
+        heading_update(P, work.dx, psi - work.dx[2], r, work.K, work.rows[0])
         inject(st, work.dx, c.bias_limit)
         return True
     return False
@@ -466,25 +492,32 @@ def _replay(st, gs, history, omega, dt, replayed):
 @njit(**COMPILE)
 def _keep_prediction(st, work, c):
     if c.record:
-        for a in range(4):
-            work.q_pred[a] = st.q[a]
-        for a in range(3):
-            work.bias_pred[a] = st.bias[a]
-            work.vel_pred[a] = st.velocity[a]
+        work.q_pred[:], work.bias_pred[:], work.vel_pred[:] = st.q, st.bias, st.velocity
         work.P_pred[:, :] = st.P
 
 
 @njit(**COMPILE)
+def new_records(n_t):
+    """What :func:`kalman_stream` records for a smoother (``c.record``), ``n_t`` rows each: q⁻, v⁻,
+    P⁻ and P⁺ packed (:func:`pack_upper`), and R(q⁻), a_E, which define F (:func:`transition_matrix`).
+    Not b⁻: it is the previous sample's b⁺ (the prediction keeps the bias)."""
+    return (np.empty((n_t, 4)), np.empty((n_t, 3)), np.empty((n_t, NP)), np.empty((n_t, NP)), np.empty((n_t, 3, 3)),
+            np.empty((n_t, 3)))
+
+
+@njit(**COMPILE)
 def kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c, outputs):
-    """The filter over one recording ``(T, 3)``; ``outputs`` (see :func:`new_outputs`) receive, per
+    """The filter over one recording ``(T, 3)``; ``outputs`` (as :func:`run_kalman`'s) receive, per
     sample, the estimate (``q``, ``bias``, ``velocity``, optionally ``P``), the gate decisions and,
-    with ``c.record``, the predictions and transition matrices (the smoother's input).
+    with ``c.record``, :func:`new_records`' arrays (before the start, where a smoother does not
+    read them, P⁻ = P⁺ = the initial P and zero ``R``, ``a_e``).
 
     ``start``: first sample the filter sees; ``init_only``: that sample only initialises
     (``q0=None``), else it is filtered from ``q_init`` like any other.  Samples before the
     start output ``q_init``.
     """
-    out_q, out_bias, out_vel, out_P, acc_used, mag_used, pred_q, pred_bias, pred_vel, pred_P, pred_F = outputs
+    out_q, out_bias, out_vel, out_P, acc_used, mag_used = outputs[:6]
+    pred_q, pred_vel, pred_P, post_P, pred_R, pred_a_e = outputs[6:]
     n_t = out_q.shape[0]
     keep_P = out_P.shape[0] == n_t
     # The records are views into these arrays, which must stay referenced while they are used.
@@ -510,18 +543,16 @@ def kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c, outputs)
         else:
             acc_used[t], mag_used[t] = False, False
             _keep_prediction(st, work, c)
-            if c.record:
-                work.F[:, :] = 0.0
-                for a in range(NX):
-                    work.F[a, a] = 1.0
         out_q[t] = st.q
         out_bias[t] = st.bias
         out_vel[t] = st.velocity
         if keep_P:
             out_P[t] = st.P
         if c.record:
-            pred_q[t], pred_bias[t], pred_vel[t] = work.q_pred, work.bias_pred, work.vel_pred
-            pred_P[t], pred_F[t] = work.P_pred, work.F
+            pred_q[t], pred_vel[t] = work.q_pred, work.vel_pred
+            pred_R[t], pred_a_e[t] = work.R, work.a_e
+            pack_upper(work.P_pred, pred_P[t])
+            pack_upper(st.P, post_P[t])
     # Keep the record arrays alive to here (the loop reads them through st, work, gs).
     state_array[0], work_array[0], gap_array[0] = st, work, gs
 
@@ -531,16 +562,15 @@ def run_kalman(gyr, acc, mag, received, index, q_init, start, init_only, constan
     """:func:`kalman_stream` on every element ``n`` of a flattened batch, in parallel.
 
     ``index`` (N, 4): for element ``n`` the rows of ``gyr``, ``acc``, ``mag`` (each ``(M, T, 3)``)
-    and ``received`` ``(M', T)`` it reads (broadcasting without copies); ``outputs`` arrays with
-    the batch first (``P`` and the predictions may have a leading 1: not kept).
+    and ``received`` ``(M', T)`` it reads (broadcasting without copies); ``outputs`` the first six
+    of :func:`kalman_stream`'s, with the batch first (``P`` may have a leading 1: not kept).  No
+    records (``constants.record`` off: the smoother runs :func:`kalman_stream` itself).
     """
-    out_q, out_bias, out_vel, out_P, acc_used, mag_used, pred_q, pred_bias, pred_vel, pred_P, pred_F = outputs
-    p_stride = 1 if out_P.shape[0] == out_q.shape[0] else 0  # P and the predictions: kept, or one dummy row
-    r_stride = 1 if pred_q.shape[0] == out_q.shape[0] else 0
+    out_q, out_bias, out_vel, out_P, acc_used, mag_used = outputs
+    p_stride = 1 if out_P.shape[0] == out_q.shape[0] else 0  # P kept, or one dummy row
+    no_records = new_records(0)
     for n in prange(out_q.shape[0]):
         p = n * p_stride
-        r = n * r_stride
         kalman_stream(gyr[index[n, 0]], acc[index[n, 1]], mag[index[n, 2]], received[index[n, 3]], q_init[n],
                       start[n], init_only, constants[0],
-                      (out_q[n], out_bias[n], out_vel[n], out_P[p], acc_used[n], mag_used[n], pred_q[r],
-                       pred_bias[r], pred_vel[r], pred_P[r], pred_F[r]))
+                      (out_q[n], out_bias[n], out_vel[n], out_P[p], acc_used[n], mag_used[n]) + no_records)

@@ -132,13 +132,14 @@ constants the compiled step reads (``constants.gyro_var``) are in
 :mod:`wsnlib.orientation.kalman_settings`; the compiled step on a named state (``state.bias``,
 ``state.P``) is :mod:`._kalman_kernels` — one function per step above: :func:`~._kalman_kernels.predict`,
 :func:`~._kalman_kernels.correct_acc`, :func:`~._kalman_kernels.hard_iron`,
-:func:`~._kalman_kernels.correct_mag`, :func:`~._kalman_kernels.scalar_update`,
+:func:`~._kalman_kernels.correct_mag`, :func:`~._kalman_kernels.scalar_updates`,
+:func:`~._kalman_kernels.heading_update`,
 :func:`~._kalman_kernels.inject`, one sample :func:`~._kalman_kernels.kalman_step`, the loop
 :func:`~._kalman_kernels.kalman_stream` (also the forward pass of
 :func:`wsnlib.orientation.smooth_orientation`) and the parallel batch
 :func:`~._kalman_kernels.run_kalman` (speed by structure: ``predict`` propagates only the
 non-zero blocks of F, written as two shears ``F = F_v F_θ``, and every measurement update is a
-sequence of scalar ones); this module holds the public functions
+sequence of scalar ones, those of one sensor in one pass over P); this module holds the public functions
 (:func:`kalman_orientation` over recordings, :func:`kalman_step` on a :class:`KalmanState` one
 sample at a time) and :class:`KalmanReference`, the same equations as numpy matrices.  What
 happens in a gap (the rates, the replay) is :mod:`wsnlib.orientation.gaps`, shared with
@@ -252,17 +253,6 @@ def constants(settings, fs, *, gap, replay, gap_time_constant, has_mag, filter_n
     if not (np.all(np.isfinite(variances)) and np.all(variances > 0.0)):
         raise ValueError(f"fs = {fs!r} Hz with these settings gives noise variances that are not finite and > 0")
     return c
-
-
-def new_outputs(n_batch: int, n_t: int, *, keep_P: bool = False, record: bool = False) -> tuple:
-    """The arrays :func:`._kalman_kernels.run_kalman` writes (P and the predictions only when asked)."""
-    kept = n_batch if keep_P else 1
-    rec = n_batch if record else 1
-    rec_t = n_t if record else 1
-    return (np.empty((n_batch, n_t, 4)), np.empty((n_batch, n_t, 3)), np.empty((n_batch, n_t, 3)),
-            np.empty((kept, n_t if keep_P else 1, NX, NX)), np.empty((n_batch, n_t), dtype=bool),
-            np.empty((n_batch, n_t), dtype=bool), np.empty((rec, rec_t, 4)), np.empty((rec, rec_t, 3)),
-            np.empty((rec, rec_t, 3)), np.empty((rec, rec_t, NX, NX)), np.empty((rec, rec_t, NX, NX)))
 
 
 def check_finite_output(quat: np.ndarray) -> np.ndarray:
@@ -388,10 +378,13 @@ def kalman_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
     n_batch, n_t, batch = inputs.index.shape[0], inputs.n_t, inputs.batch
     n_floats = 4 + 3 + 3 + (NX * NX if full_output else 0) + 3  # quaternion, bias, velocity, covariance, history
     B.check_memory((8 * n_floats + 2) * n_t * n_batch, f"kalman_orientation's output for batch {batch}, T = {n_t}")
-    outputs = new_outputs(n_batch, n_t, keep_P=full_output)
+    kept = n_batch if full_output else 1  # P only when asked (else one dummy row)
+    outputs = (np.empty((n_batch, n_t, 4)), np.empty((n_batch, n_t, 3)), np.empty((n_batch, n_t, 3)),
+               np.empty((kept, n_t if full_output else 1, NX, NX)), np.empty((n_batch, n_t), dtype=bool),
+               np.empty((n_batch, n_t), dtype=bool))
     run_kalman(inputs.gyr, inputs.acc, inputs.mag, inputs.received, inputs.index, inputs.q_init, inputs.start,
                inputs.init_only, c, outputs)
-    out_q, out_bias, _, out_P, acc_used, mag_used = outputs[:6]
+    out_q, out_bias, _, out_P, acc_used, mag_used = outputs
     quat = check_finite_output(out_q.reshape(batch + (n_t, 4)))
     if hold_output:
         B.hold_lost_output(quat, received)
@@ -444,9 +437,11 @@ class KalmanState:
 
     @property
     def prediction(self) -> dict:
-        w = self.work[0]
+        w, c = self.work[0], self.constants[0]
+        F = np.empty((NX, NX))
+        K.transition_matrix(w["R"], w["a_e"], c["vel_decay"], c["dt"], F)
         return {"quat": w["q_pred"], "gyro_bias": w["bias_pred"], "velocity": w["vel_pred"],
-                "covariance": w["P_pred"], "transition": w["F"]}
+                "covariance": w["P_pred"], "transition": F}
 
     def copy(self) -> KalmanState:
         return KalmanState(self.constants, self.record.copy(), self.gap.copy(), self.history.copy(), self.work.copy(),

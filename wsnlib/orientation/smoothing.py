@@ -55,7 +55,7 @@ from numba import njit, prange
 
 from wsnlib.orientation import _batch as B
 from wsnlib.orientation import gaps
-from wsnlib.orientation._kalman_kernels import NX, kalman_stream
+from wsnlib.orientation._kalman_kernels import NP, NX, kalman_stream, new_records, transition_matrix, unpack_upper
 from wsnlib.orientation._kernels import (
     COMPILE,
     cross3,
@@ -202,28 +202,19 @@ def _cholesky_solve(A, b, L, x):
 def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, interpolate_gaps):
     """Forward filter, RTS pass and (``interpolate_gaps``) curves across gaps for one recording."""
     n_t = out_q.shape[0]
-    filt_q = np.empty((n_t, 4))
-    filt_b = np.empty((n_t, 3))
-    filt_v = np.empty((n_t, 3))
-    filt_P = np.empty((n_t, NX, NX))
-    pred_q = np.empty((n_t, 4))
-    pred_b = np.empty((n_t, 3))
-    pred_v = np.empty((n_t, 3))
-    pred_P = np.empty((n_t, NX, NX))
-    pred_F = np.empty((n_t, NX, NX))
-    acc_used = np.empty(n_t, dtype=np.bool_)
-    mag_used = np.empty(n_t, dtype=np.bool_)
+    # The filter's q, b, v are smoothed in place: sample k is overwritten after its RTS step read it.
+    smooth_b, smooth_v = np.empty((n_t, 3)), np.empty((n_t, 3))
+    pred_q, pred_v, pred_P, post_P, pred_R, pred_a_e = records = new_records(n_t)
     kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c,
-                  (filt_q, filt_b, filt_v, filt_P, acc_used, mag_used, pred_q, pred_b, pred_v, pred_P, pred_F))
-    out_q[:] = filt_q
+                  (out_q, smooth_b, smooth_v, np.empty((0, NX, NX)), np.empty(n_t, dtype=np.bool_),
+                   np.empty(n_t, dtype=np.bool_)) + records)
     if n_t == 0:
         return
-    smooth_b = filt_b.copy()
-    smooth_v = filt_v.copy()
     first = start  # the first sample the filter's state exists at
     delta = np.empty(NX)
     chol = np.empty((NX, NX))
     y = np.empty(NX)
+    P_minus, P, F = np.empty((NX, NX)), np.empty((NX, NX)), np.empty((NX, NX))
     for k in range(n_t - 2, first - 1, -1):
         # correction = C_k δ = P⁺_k F_{k+1}ᵀ (P⁻_{k+1})⁻¹ δ: one solve with P⁻ (Cholesky), no inverse
         q_next = (out_q[k + 1, 0], out_q[k + 1, 1], out_q[k + 1, 2], out_q[k + 1, 3])
@@ -231,10 +222,12 @@ def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, 
         d_theta = quat_log(quat_multiply(q_next, quat_conjugate(q_pred)))
         for a in range(3):
             delta[a] = d_theta[a]
-            delta[3 + a] = smooth_b[k + 1, a] - pred_b[k + 1, a]
+            delta[3 + a] = smooth_b[k + 1, a] - smooth_b[k, a]  # b⁻_{k+1} = b⁺_k, not yet smoothed
             delta[6 + a] = smooth_v[k + 1, a] - pred_v[k + 1, a]
-        _cholesky_solve(pred_P[k + 1], delta, chol, y)
-        F, P = pred_F[k + 1], filt_P[k]
+        unpack_upper(pred_P[k + 1], P_minus)
+        _cholesky_solve(P_minus, delta, chol, y)
+        transition_matrix(pred_R[k + 1], pred_a_e[k + 1], c.vel_decay, c.dt, F)
+        unpack_upper(post_P[k], P)
         for a in range(NX):  # delta ← Fᵀ y
             acc_a = 0.0
             for b in range(NX):
@@ -246,12 +239,12 @@ def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, 
                 acc_a += P[a, b] * delta[b]
             y[a] = acc_a
         q = quat_normalize(quat_multiply(quat_exp((y[0], y[1], y[2])),
-                                         (filt_q[k, 0], filt_q[k, 1], filt_q[k, 2], filt_q[k, 3])))
+                                         (out_q[k, 0], out_q[k, 1], out_q[k, 2], out_q[k, 3])))
         for a in range(4):
             out_q[k, a] = q[a]
         for a in range(3):
-            smooth_b[k, a] = filt_b[k, a] + y[3 + a]
-            smooth_v[k, a] = filt_v[k, a] + y[6 + a]
+            smooth_b[k, a] += y[3 + a]
+            smooth_v[k, a] += y[6 + a]
     if not interpolate_gaps:
         return
     dt = c.dt
@@ -340,8 +333,8 @@ def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
                   record=True)
     if not isinstance(interpolate_gaps, bool):
         raise ValueError(f"interpolate_gaps must be True or False, got {interpolate_gaps!r}")
-    # Output, plus each thread's scratch: filtered and predicted q, b, v, P and F, rates per sample.
-    B.check_memory(8 * inputs.n_t * (4 * inputs.index.shape[0] + 2 * (23 + 3 * NX * NX)),
+    # Output, plus each thread's scratch: b, v, the records (q⁻, v⁻, packed P⁻ and P⁺, R, a_E), rates per sample.
+    B.check_memory(8 * inputs.n_t * (4 * inputs.index.shape[0] + 2 * (6 + 7 + 2 * NP + 12 + 3)),
                    f"smooth_orientation's output for batch {inputs.batch}, T = {inputs.n_t}")
     out_q = np.empty((inputs.index.shape[0], inputs.n_t, 4))
     _smooth_batch(inputs.gyr, inputs.acc, inputs.mag, inputs.received, inputs.index, inputs.q_init,
