@@ -385,3 +385,48 @@ def test_hybrid_refuses_acc_parallel_to_mag_where_it_needs_triad(blend):
         blend_with_single_frame(quat_d, acc, mag, received=received)
     received[26] = False  # not received: never read
     estimate_orientation(gyr, acc, mag, fs=50.0, beta=0.1, received=received, blend=blend)
+
+
+@pytest.mark.parametrize("name", ["kalman_orientation", "smooth_orientation"])
+def test_kalman_filters_refuse_acc_that_does_not_match_their_gravity(name):
+    from wsnlib.orientation import KalmanSettings, kalman_orientation, smooth_orientation
+
+    run = {"kalman_orientation": kalman_orientation, "smooth_orientation": smooth_orientation}[name]
+    gyr, acc, mag = _still_recording()
+    with pytest.raises(ValueError, match=r"acc's median norm is 1 m/s² but the filter's gravity is 9.807.*in g\?"):
+        run(gyr, acc / 9.81, mag, fs=50.0)
+    with pytest.raises(ValueError, match="filter's gravity is 1 m/s²: .*gravity setting"):
+        run(gyr, acc, mag, fs=50.0, settings=KalmanSettings(gravity=1.0))
+    run(gyr, acc / 9.81, mag, fs=50.0, settings=KalmanSettings(gravity=1.0))  # consistent units are fine
+
+
+def test_kalman_settings_that_underflow_name_the_field():
+    from wsnlib.orientation import KalmanSettings, kalman_orientation
+
+    gyr, acc, mag = _still_recording()
+    with pytest.raises(ValueError, match=r"KalmanSettings bias_noise=1e-300 at fs = 50.0 Hz"):
+        kalman_orientation(gyr, acc, mag, fs=50.0, settings=KalmanSettings(bias_noise=1e-300))
+
+
+@pytest.mark.parametrize("name", ["madgwick", "kalman_orientation"])
+def test_a_broadcast_batch_is_not_materialised(name):
+    """Issue 23: np.broadcast_to inputs were copied in full before the memory check (an OOM kill)."""
+    import tracemalloc
+
+    from wsnlib.orientation import kalman_orientation, madgwick
+
+    def run(batch):
+        gyr, acc, mag = _still_recording(3000)
+        gyr = np.broadcast_to(gyr, (batch,) + gyr.shape)
+        if name == "madgwick":
+            return madgwick(gyr, acc, mag, fs=50.0, beta=0.1)
+        return kalman_orientation(gyr, acc, mag, fs=50.0)
+
+    run(2)  # warm: compiled code loaded
+    tracemalloc.start()
+    out = run(100)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    per_sample = {"madgwick": 4 * 8, "kalman_orientation": 8 * 13 + 2}[name]  # what the memory check counts
+    assert out.shape == (100, 3000, 4)
+    assert peak < 1.25 * per_sample * out.shape[0] * out.shape[1]  # a copy of gyr alone would add 3 × 8 B

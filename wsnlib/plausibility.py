@@ -85,7 +85,11 @@ def check_imu_plausible(gyr: np.ndarray | None, acc: np.ndarray, mag: np.ndarray
     if gravity is not None and np.isfinite(acc_median):
         ratio = acc_median / gravity
         if not 1.0 / ACC_SCALE_FACTOR_MAX <= ratio <= ACC_SCALE_FACTOR_MAX:
-            in_g = 0.5 <= acc_median <= 2.0
-            hint = "the accelerometer in g? multiply it by 9.80665" if in_g else "acc in other units than m/s²?"
+            if 0.5 <= acc_median <= 2.0:
+                hint = "the accelerometer in g? multiply it by 9.80665"
+            elif 7.0 <= acc_median <= 13.0:
+                hint = "the accelerometer reads m/s²: is the filter's gravity setting right?"
+            else:
+                hint = "acc in other units than m/s²?"
             raise ValueError(f"{prefix}acc's median norm is {acc_median:.3g} m/s² but the filter's gravity is "
                              f"{gravity:.4g} m/s²: {hint} (or set gravity to what the data reads at rest)")

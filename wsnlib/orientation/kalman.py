@@ -188,12 +188,13 @@ class KalmanInputs:
     n_t: int
 
 
-def prepare_inputs(gyr, acc, mag, received, q0) -> KalmanInputs:
+def prepare_inputs(gyr, acc, mag, received, q0, gravity: float) -> KalmanInputs:
     """Check the arguments with Madgwick's checks (:mod:`._batch`) and flatten them.
 
     ``ValueError`` naming the argument, as :func:`wsnlib.orientation.madgwick`: lost samples
     are never read (they may hold NaN); received ones must be finite, ``acc`` and ``mag``
-    non-zero; with ``q0=None`` every batch element must receive a sample.
+    non-zero; with ``q0=None`` every batch element must receive a sample; the recording must be
+    plausible with the settings' ``gravity`` (m/s², :func:`wsnlib.plausibility.check_imu_plausible`).
     """
     signals, mask, q0, shapes = B.check_inputs(gyr, acc, mag, received, q0)
     n_t = signals["gyr"].shape[-2]
@@ -204,7 +205,7 @@ def prepare_inputs(gyr, acc, mag, received, q0) -> KalmanInputs:
     if q0 is None and n_t == 0:
         raise ValueError("no samples (T = 0): pass q0 to define the output")
     if n_t:
-        B.check_usable(signals, mask)
+        B.check_usable(signals, mask, gravity)
     if q0 is None:
         B.check_has_sample(mask, batch)
     has_mag = mag is not None
@@ -233,8 +234,9 @@ def prepare_inputs(gyr, acc, mag, received, q0) -> KalmanInputs:
 KALMAN_GAP_TIME_CONSTANT_S = 0.2
 
 
-#: Constants that are variances (must be finite and > 0 at the chosen ``fs``).
-_VARIANCES = ("gyro_var", "bias_var", "acc_var", "mag_var", "vel_var", "acc_sensor_var", "gap_acc_var")
+#: Constants that are variances (must be finite and > 0 at the chosen ``fs``) → the setting each squares.
+_VARIANCES = {"gyro_var": "gyro_noise", "bias_var": "bias_noise", "acc_var": "acc_noise", "mag_var": "mag_noise",
+              "vel_var": "velocity_noise", "acc_sensor_var": "acc_sensor_noise", "gap_acc_var": "gap_acc_noise"}
 
 
 def constants(settings, fs, *, gap, replay, gap_time_constant, has_mag, filter_name, record=False) -> np.ndarray:
@@ -249,9 +251,11 @@ def constants(settings, fs, *, gap, replay, gap_time_constant, has_mag, filter_n
     tau = KALMAN_GAP_TIME_CONSTANT_S if gap_time_constant is None else gap_time_constant
     c = kalman_constants(settings, 1.0 / fs, gap=gaps.GAP_CODES[gap], replay=replay, gap_time_constant=tau,
                          has_mag=has_mag, record=record)
-    variances = np.array([c[name][0] for name in _VARIANCES])
-    if not (np.all(np.isfinite(variances)) and np.all(variances > 0.0)):
-        raise ValueError(f"fs = {fs!r} Hz with these settings gives noise variances that are not finite and > 0")
+    bad = [field for name, field in _VARIANCES.items() if not (np.isfinite(c[name][0]) and c[name][0] > 0.0)]
+    if bad:
+        listed = ", ".join(f"{field}={getattr(settings, field)!r}" for field in bad)
+        raise ValueError(f"KalmanSettings {listed} at fs = {fs!r} Hz gives a noise variance that is not finite and > 0 "
+                         f"(it underflows or overflows double precision)")
     return c
 
 
@@ -373,7 +377,7 @@ def kalman_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
     """
     c = constants(settings, fs, gap=gap, replay=replay, gap_time_constant=gap_time_constant,
                   has_mag=mag is not None, filter_name="kalman_orientation")
-    inputs = prepare_inputs(gyr, acc, mag, received, q0)
+    inputs = prepare_inputs(gyr, acc, mag, received, q0, (settings or KalmanSettings()).gravity)
     hold_output = B.check_output_on_lost(output_on_lost)
     n_batch, n_t, batch = inputs.index.shape[0], inputs.n_t, inputs.batch
     n_floats = 4 + 3 + 3 + (NX * NX if full_output else 0) + 3  # quaternion, bias, velocity, covariance, history

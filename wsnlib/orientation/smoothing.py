@@ -66,6 +66,7 @@ from wsnlib.orientation._kernels import (
     quat_normalize,
 )
 from wsnlib.orientation.kalman import check_finite_output, constants, prepare_inputs
+from wsnlib.orientation.kalman_settings import KalmanSettings
 
 
 @njit(**COMPILE)
@@ -327,7 +328,7 @@ def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
     ValueError
         As :func:`~wsnlib.orientation.kalman.kalman_orientation`.
     """
-    inputs = prepare_inputs(gyr, acc, mag, received, q0)
+    inputs = prepare_inputs(gyr, acc, mag, received, q0, (settings or KalmanSettings()).gravity)
     c = constants(settings, fs, gap=gap, replay=replay,
                   gap_time_constant=gap_time_constant, has_mag=inputs.has_mag, filter_name="smooth_orientation",
                   record=True)
