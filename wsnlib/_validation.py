@@ -22,12 +22,7 @@ def as_float_array(value, name: str, last_dim: int | None = None, min_ndim: int 
     min_ndim : int
         Minimum number of dimensions.
     """
-    if np.iscomplexobj(value):  # numpy would drop the imaginary part with only a ComplexWarning
-        raise ValueError(f"{name} must be real, got complex values")
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a numeric array, got {type(value).__name__}") from exc
+    arr = real_array(value, name)
     if arr.ndim < min_ndim:
         raise ValueError(f"{name} must have at least {min_ndim} dimension(s), got shape {arr.shape}")
     if last_dim is not None and arr.shape[-1] != last_dim:
@@ -36,6 +31,16 @@ def as_float_array(value, name: str, last_dim: int | None = None, min_ndim: int 
         bad = np.argwhere(~np.isfinite(arr))[0]
         raise ValueError(f"{name} contains NaN or inf (first at index {tuple(int(i) for i in bad)})")
     return arr
+
+
+def real_array(value, name: str) -> np.ndarray:
+    """``value`` as a float64 array (not checked finite), or ``ValueError`` naming ``name``: not numeric, or complex."""
+    if np.iscomplexobj(value):  # numpy would drop the imaginary part with only a ComplexWarning
+        raise ValueError(f"{name} must be real, got complex values")
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a numeric array, got {type(value).__name__}") from exc
 
 
 def check_nonzero_norm(arr: np.ndarray, name: str, what: str) -> np.ndarray:

@@ -75,6 +75,7 @@ import pandas as pd
 
 from wsnlib._validation import as_float_array, check_positive, check_type
 from wsnlib.io.sidecar import (
+    check_columns,
     check_names,
     finite_column,
     name_column,
@@ -258,21 +259,12 @@ def read_recording(path) -> Recording:
             raise ValueError(f"{sidecar_path(path)}: {exc}") from exc
 
     columns = list(frame.columns)
-    missing = [c for c in BASE_COLUMNS if c not in columns]
-    if missing:
-        raise ValueError(f"{path}: missing column(s) {missing}")
-    unknown = [c for c in columns if c not in ALL_COLUMNS]
-    if unknown:
-        raise ValueError(f"{path}: unknown column(s) {unknown}; expected {list(ALL_COLUMNS)}")
     quat_present = [c for c in QUAT_COLUMNS if c in columns]
     if quat_present and len(quat_present) != 4:
         absent = [c for c in QUAT_COLUMNS if c not in columns]
         raise ValueError(f"{path}: quaternion columns must come all four or none; missing {absent}")
     expected = list(BASE_COLUMNS) + (list(QUAT_COLUMNS) if quat_present else [])
-    if columns != expected:
-        raise ValueError(f"{path}: columns must be in the order {expected}, got {columns}")
-    if len(frame) == 0:
-        raise ValueError(f"{path}: has no data rows")
+    check_columns(frame, expected, str(path))  # exactly these, in order, and at least one row
     if meta is not None and bool(meta.get("has_quaternions", bool(quat_present))) != bool(quat_present):
         raise ValueError(f"{sidecar_path(path)}: 'has_quaternions' is {meta.get('has_quaternions')!r} "
                          f"but {path} {'has' if quat_present else 'lacks'} the quat_* columns")

@@ -13,7 +13,7 @@ import os
 
 import numpy as np
 
-from wsnlib._validation import as_float_array
+from wsnlib._validation import as_float_array, real_array
 from wsnlib.orientation import _kernels as K
 from wsnlib.plausibility import check_imu_plausible
 
@@ -107,12 +107,7 @@ def broadcast_batch(shapes: dict[str, tuple[int, ...]]) -> tuple[int, ...]:
 
 def as_signal(value, name: str) -> np.ndarray:
     """Float array of shape ``(..., T, 3)``; finiteness is checked later, on received samples."""
-    if np.iscomplexobj(value):  # numpy would drop the imaginary part with only a ComplexWarning
-        raise ValueError(f"{name} must be real, got complex values")
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a numeric array, got {type(value).__name__}") from exc
+    arr = real_array(value, name)
     if arr.ndim < 2 or arr.shape[-1] != 3:
         raise ValueError(f"{name} must have shape (..., T, 3), got shape {arr.shape}")
     return arr
