@@ -52,6 +52,15 @@ def test_registry_grids_kinds_and_colours():
         lt.Method("x", "ours", ({},), print)
 
 
+def test_a_setting_the_method_does_not_use_is_refused():
+    """Issue 23: an option the chosen method ignores (rho for the Kalman filter) was accepted silently."""
+    rec = types.SimpleNamespace(gyr=np.zeros((10, 3)), acc=np.zeros((10, 3)), mag=np.zeros((10, 3)))
+    received = np.ones((1, 10), dtype=bool)
+    for method in lt.default_methods().values():
+        with pytest.raises(ValueError, match=r"setting\(s\) \['rho'\] are not used by this method"):
+            method.run(rec, {**method.grid[0], "rho": 1.0}, received)
+
+
 def test_a_budget_gives_every_method_the_same_number_of_settings_grid_first():
     methods = lt.default_methods()
     assert lt.with_budget(methods, 2) == {name: dataclasses.replace(m, grid=m.grid[:2]) for name, m in methods.items()}

@@ -130,12 +130,21 @@ class Method:
                 raise ValueError(f"space[{key!r}] of {self.name!r} must be a Range or a Choice, got {dimension!r}")
 
 
+def _used(setting, allowed, method: str) -> None:
+    """``ValueError`` if ``setting`` has a key the method does not use (it would be ignored silently)."""
+    unused = sorted(set(setting) - set(allowed))
+    if unused:
+        raise ValueError(f"{method}: setting(s) {unused} are not used by this method; it takes {sorted(allowed)}")
+
+
 def _madgwick(rec, setting, received, **options):
+    _used(setting, ("beta",), "Madgwick")
     return estimate_orientation(rec.gyr, rec.acc, rec.mag, fs=FS, beta=setting["beta"], received=received,
                                 **options)
 
 
 def _hybrid(rec, setting, received, *, gated=False):
+    _used(setting, ("rho_tau",), "the hybrid")
     return estimate_orientation(rec.gyr, rec.acc, rec.mag, fs=FS, beta=MADGWICK_BETA, received=received,
                                 blend="feedback", rho=1.0, tau=setting["rho_tau"],
                                 single_frame_gate=SingleFrameGate() if gated else None)
@@ -146,6 +155,8 @@ def _peer(rec, setting, received, *, library, hybrid=False, gated=False, **optio
     authors' values otherwise).  ``hybrid``: wrapped in our hybrid, feedback blend, ρ = 1 and
     τ = ``setting["rho_tau"]`` (``gated``: behind :class:`~wsnlib.orientation.SingleFrameGate`);
     ``options``: more keywords of the peer's function (``gap``, or a fixed blend and μ)."""
+    _used(setting, (("gain",) if library == "Fusion" else ("tauAcc", "tauMag")) + (("rho_tau",) if hybrid else ()),
+          library)
     signals = [np.broadcast_to(x, received.shape + (3,)) for x in (rec.gyr, rec.acc, rec.mag)]
     if hybrid:
         options.update(blend="feedback", rho=1.0, tau=setting["rho_tau"])
@@ -160,6 +171,8 @@ def _peer(rec, setting, received, *, library, hybrid=False, gated=False, **optio
 def _kalman(rec, setting, received, *, offline):
     """The Kalman filter (or the smoother, whose forward pass it is) with ``setting``: ``replay`` as
     a keyword, the other entries :class:`~wsnlib.orientation.KalmanSettings` fields."""
+    _used(setting, ("replay", *(field.name for field in dataclasses.fields(KalmanSettings))),
+          "the smoother" if offline else "the Kalman filter")
     setting = dict(setting)
     replay = setting.pop("replay", True)
     function = smooth_orientation if offline else kalman_orientation
