@@ -340,10 +340,12 @@ def test_rss_vectors_of_a_target_without_packets_is_refused():
 
 
 def _still_recording(n=200):
-    """A sensor lying still at 50 Hz in the documented units (rad/s, m/s², µT)."""
+    """A sensor turning slowly at 50 Hz in the documented units (rad/s, m/s², µT), with sensor noise."""
     t = np.arange(n) / 50.0
-    gyr = np.stack([0.3 * np.sin(t), 0.2 * np.cos(t), np.full_like(t, 0.1)], axis=-1)
-    return gyr, np.tile([0.0, 0.0, 9.81], (n, 1)), np.tile([0.0, 25.0, -38.0], (n, 1))
+    noise = np.random.default_rng(23).normal(size=(3, n, 3))
+    gyr = np.stack([0.3 * np.sin(t), 0.2 * np.cos(t), np.full_like(t, 0.1)], axis=-1) + 0.01 * noise[0]
+    acc = np.tile([0.0, 0.0, 9.81], (n, 1)) + 0.05 * noise[1]
+    return gyr, acc, np.tile([0.0, 25.0, -38.0], (n, 1)) + 0.3 * noise[2]
 
 
 def _filters():
@@ -430,3 +432,37 @@ def test_a_broadcast_batch_is_not_materialised(name):
     per_sample = {"madgwick": 4 * 8, "kalman_orientation": 8 * 13 + 2}[name]  # what the memory check counts
     assert out.shape == (100, 3000, 4)
     assert peak < 1.25 * per_sample * out.shape[0] * out.shape[1]  # a copy of gyr alone would add 3 × 8 B
+
+
+@pytest.mark.parametrize("name", ["madgwick", "estimate_orientation", "kalman_orientation", "smooth_orientation"])
+def test_one_implausible_sample_is_treated_as_lost(name):
+    """Issue 23: one gyro sample of 1e6 rad/s corrupted 10 s of output; acc·1e200 was called parallel to mag."""
+    run = _filters()[name]
+    gyr, acc, mag = _still_recording(400)
+    clean = run(gyr, acc, mag)
+    for signal, value in (("gyr", 1e6), ("acc", 1e200)):
+        bad = {"gyr": gyr.copy(), "acc": acc.copy()}
+        bad[signal][100] *= value
+        with pytest.warns(UserWarning, match=r"1 received sample\(s\) with an implausible reading"):
+            out = run(bad["gyr"], bad["acc"], mag)
+        assert np.all(np.isfinite(out))
+        # a lost sample costs a little; the corrupted sample used to leave tens of degrees for seconds
+        assert Q.angle_between(out[150:], clean[150:]).max() < np.radians(5.0)
+
+
+def test_kalman_full_output_counts_what_it_treated_as_lost_and_warns_of_an_unused_magnetometer():
+    from wsnlib.orientation import kalman_orientation
+
+    gyr, acc, mag = _still_recording(400)
+    gyr = gyr.copy()
+    gyr[[50, 60]] = 1e6
+    with pytest.warns(UserWarning, match="2 received sample"):
+        out = kalman_orientation(gyr, acc, mag, fs=50.0, full_output=True)
+    assert out.treated_as_lost.sum() == 2 and out.treated_as_lost[50] and out.treated_as_lost[60]
+    frozen = np.broadcast_to(mag[0], mag.shape).copy()
+    frozen[:, 0] += np.repeat(np.arange(40), 10) * 1e-3  # updates once in 10 samples
+    with pytest.warns(UserWarning, match="mag is frozen: 90% of the received samples"):
+        kalman_orientation(_still_recording(400)[0], acc, frozen, fs=50.0)
+    magnet = mag + np.where(np.arange(400)[:, None] >= 100, [0.0, 300.0, 0.0], 0.0)  # a magnet from 2 s on
+    with pytest.warns(UserWarning, match=r"magnetometer was rejected on \d+% of the received samples"):
+        kalman_orientation(_still_recording(400)[0], acc, magnet, fs=50.0)

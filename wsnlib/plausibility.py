@@ -17,6 +17,10 @@ human-motion recording in the documented units can look like.
   ‖acc‖ off ``gravity`` by more than a factor 2 is an accelerometer in g (median ≈ 1) or a
   ``gravity`` setting that does not match the data.  Filters that normalise the accelerometer
   (Madgwick's) pass no ``gravity``: for them any consistent unit is fine.
+
+One sample can be implausible too: :func:`implausible_samples` finds the received samples whose
+norm no body-worn sensor can read (:data:`SAMPLE_NORM_MAX`); the filters treat them as lost, with
+one warning per call (one gyro sample of 1e6 rad/s used to corrupt 10 s of output).
 """
 
 from __future__ import annotations
@@ -32,6 +36,11 @@ SWAPPED_MAG_RANGE = (4.0, 15.0)
 #: Largest factor between the median ‖acc‖ and ``gravity`` (either way).
 ACC_SCALE_FACTOR_MAX = 2.0
 
+
+#: A received sample whose norm is beyond these is no measurement (a bit error, one packet in other
+#: units): the filters treat it as lost.  Far above any body-worn sensor's range: gyroscopes saturate at
+#: ≤ 4,000 °/s (70 rad/s), accelerometers at ≤ 16 g (a high-g one at 200 g), magnetometers at ≤ 5 mT.
+SAMPLE_NORM_MAX = {"gyr": 100.0, "acc": 2000.0, "mag": 1e4}
 
 #: At most this many samples (spread evenly in time) enter a median: cheap on a large batch.
 MEDIAN_SAMPLES = 1 << 16
@@ -93,3 +102,48 @@ def check_imu_plausible(gyr: np.ndarray | None, acc: np.ndarray, mag: np.ndarray
                 hint = "acc in other units than m/s²?"
             raise ValueError(f"{prefix}acc's median norm is {acc_median:.3g} m/s² but the filter's gravity is "
                              f"{gravity:.4g} m/s²: {hint} (or set gravity to what the data reads at rest)")
+
+
+def implausible_samples(signals: dict) -> np.ndarray | None:
+    """Bool ``(..., T)`` (the broadcast of the signals' leading shapes): a sample of ``gyr``, ``acc`` or
+    ``mag`` (``signals[name]``, ``(..., T, 3)``) whose norm exceeds :data:`SAMPLE_NORM_MAX` or overflows;
+    None when there is none (the usual case: nothing is allocated beyond the norms)."""
+    found = None
+    for name, arr in signals.items():
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflowing norm is inf: beyond the limit
+            beyond = np.einsum("...i,...i->...", arr, arr) > SAMPLE_NORM_MAX[name] ** 2
+        if beyond.any():
+            found = beyond if found is None else found | beyond
+    return found
+
+
+#: Above this fraction of received samples a magnetometer is reported frozen (a reading repeated
+#: exactly from the previous received sample) or saturated (an axis at its largest |value|).
+MAG_STUCK_FRACTION = 0.5
+MAG_SATURATED_FRACTION = 0.05
+
+
+def magnetometer_problem(mag: np.ndarray, received: np.ndarray) -> str | None:
+    """What is wrong with a magnetometer over a whole recording, in words, or None.
+
+    ``mag`` ``(..., T, 3)`` (µT), ``received`` ``(..., T)`` bool.  *Frozen*: more than
+    :data:`MAG_STUCK_FRACTION` of the received samples repeat the previous received one exactly
+    (a sensor that stopped updating; real readings carry noise).  *Saturated*: on some axis more
+    than :data:`MAG_SATURATED_FRACTION` of the received samples sit exactly at that axis' largest
+    magnitude (a clipped range; a magnet near the sensor).  Checked per batch element of ``mag``'s
+    own leading shape, on the samples received in some batch element; the first problem found.
+    """
+    rx = np.asarray(received).reshape(-1, mag.shape[-2]).any(axis=0)  # received in some batch element
+    for m in mag.reshape((-1,) + mag.shape[-2:])[:, rx]:
+        if m.shape[0] < 10:
+            continue
+        frozen = float(np.mean(np.all(m[1:] == m[:-1], axis=-1)))
+        if frozen > MAG_STUCK_FRACTION:
+            return f"mag is frozen: {frozen:.0%} of the received samples repeat the previous one exactly"
+        peak = np.abs(m).max(axis=0)
+        at_peak = np.mean(np.abs(m) == peak, axis=0)
+        if np.any((at_peak > MAG_SATURATED_FRACTION) & (peak > 0.0)):
+            axis = int(np.argmax(at_peak))
+            return (f"mag looks saturated: {at_peak[axis]:.0%} of the received samples sit at ±{peak[axis]:.4g} µT on "
+                    f"axis {'xyz'[axis]}")
+    return None

@@ -10,12 +10,14 @@ broadcast copies of the signals), after checking that the output fits in memory,
 from __future__ import annotations
 
 import os
+import warnings
 
 import numpy as np
 
 from wsnlib._validation import as_float_array, real_array
 from wsnlib.orientation import _kernels as K
-from wsnlib.plausibility import check_imu_plausible
+from wsnlib.plausibility import SAMPLE_NORM_MAX as PLAUSIBLE_NORM
+from wsnlib.plausibility import check_imu_plausible, implausible_samples
 
 #: Largest sampling rate (Hz) and smallest one accepted: outside, Δt·|ω| or β·Δt overflow.
 FS_RANGE = (1e-6, 1e9)
@@ -308,10 +310,12 @@ def new_output(batch: tuple[int, ...], n_t: int, n_components: int = 4) -> np.nd
     return np.empty(batch + (n_t, n_components))
 
 
-def check_usable(signals: dict[str, np.ndarray], received: np.ndarray | None, gravity: float | None = None) -> None:
+def check_usable(signals: dict[str, np.ndarray], received: np.ndarray, gravity: float | None = None) -> np.ndarray:
     """Raise if a received sample is not finite (or, for ``acc``/``mag``, a zero vector), or if
     the recording is implausible as a whole (:func:`wsnlib.plausibility.check_imu_plausible`:
-    gyro in deg/s, acc and mag swapped, and, given the filter's ``gravity``, acc in g).
+    gyro in deg/s, acc and mag swapped, and, given the filter's ``gravity``, acc in g); return the
+    mask the filter uses: ``received`` less the received samples whose norm no sensor can read
+    (:func:`wsnlib.plausibility.implausible_samples`), treated as lost with one ``UserWarning``.
 
     Reported at the first such sample in (batch..., t) order of the broadcast of the signal
     and the mask, ``gyr`` then ``acc`` then ``mag``.  Lost samples are never checked.
@@ -330,7 +334,16 @@ def check_usable(signals: dict[str, np.ndarray], received: np.ndarray | None, gr
             index = np.unravel_index(b, batch) + (int(result[b, 0]),)
             what = "is not finite" if result[b, 1] == 1 else "is a zero vector"
             raise ValueError(f"{name} {what} at received sample (batch..., t) = {tuple(int(i) for i in index)}")
+    # the whole recording first (a unit mistake makes every sample implausible), then single samples
     check_imu_plausible(signals.get("gyr"), signals["acc"], signals.get("mag"), received, gravity=gravity)
+    implausible = implausible_samples(signals)
+    if implausible is not None and (implausible & received).any():
+        n_lost = int((implausible & received).sum())
+        limits = ", ".join(f"|{name}| > {PLAUSIBLE_NORM[name]:g}" for name in signals)
+        warnings.warn(f"{n_lost} received sample(s) with an implausible reading ({limits}; rad/s, m/s², µT) "
+                      f"are treated as lost", UserWarning, stacklevel=3)
+        received = received & ~implausible
+    return received
 
 
 def raise_on_status(status: np.ndarray, batch: tuple[int, ...], **params) -> None:
@@ -367,7 +380,7 @@ def run_filter(signals, received, q0, batch, *, fs, method=K.STANDARD, replay=Fa
     out = new_output(batch, n_t)
     if n_t == 0:
         return out
-    check_usable(signals, mask)
+    mask = check_usable(signals, mask)
     if q0 is None:
         check_has_sample(mask, batch)
     use_mag = "mag" in signals

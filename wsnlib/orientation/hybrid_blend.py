@@ -157,7 +157,7 @@ def single_frame_trusted(gyr, acc, mag, received=None, *, fs: float, single_fram
         mask = np.ones(n_t, dtype=bool)
     shapes["received"] = mask.shape[:-1]
     batch = B.broadcast_batch(shapes)
-    B.check_usable(signals, mask)
+    mask = B.check_usable(signals, mask)
     return trusted_unchecked(signals, mask, batch, gate.vector(fs))
 
 
@@ -274,7 +274,7 @@ def blend_with_single_frame(
     if window is not None:
         params["hold_window"] = window.shape
     batch = B.broadcast_batch(shapes | params)
-    B.check_usable(signals, mask)
+    mask = B.check_usable(signals, mask)
     out = B.new_output(batch, n_t)
     if n_t:
         if gate is None:

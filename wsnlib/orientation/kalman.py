@@ -148,6 +148,7 @@ Madgwick's filter.  The argument checks are Madgwick's (:mod:`wsnlib.orientation
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -159,6 +160,7 @@ from wsnlib.orientation import gaps
 from wsnlib.orientation._kalman_kernels import NX, run_kalman
 from wsnlib.orientation.kalman_settings import KalmanSettings, kalman_constants
 from wsnlib.orientation.triad import tilt_quaternion, triad
+from wsnlib.plausibility import magnetometer_problem
 
 # ==========================================================================================
 # Input checks (outside the kernels) and the public function
@@ -172,7 +174,8 @@ class KalmanInputs:
     ``gyr``, ``acc``, ``mag`` ``(M, T, 3)`` (``mag`` a dummy ``(1, 1, 3)`` without
     magnetometer), ``received`` ``(M', T)``, ``index`` ``(N, 4)`` rows read by batch element
     ``n``, ``q_init`` ``(N, 4)``, ``start`` ``(N,)``, ``init_only``, ``batch`` (the output's
-    leading shape), ``n_t``.
+    leading shape), ``n_t``; ``treated_as_lost`` ``(..., T)`` bool, the received samples whose
+    reading no sensor can give (:func:`wsnlib.plausibility.implausible_samples`), run as lost.
     """
 
     gyr: np.ndarray
@@ -186,6 +189,7 @@ class KalmanInputs:
     init_only: bool
     batch: tuple
     n_t: int
+    treated_as_lost: np.ndarray
 
 
 def prepare_inputs(gyr, acc, mag, received, q0, gravity: float) -> KalmanInputs:
@@ -204,8 +208,13 @@ def prepare_inputs(gyr, acc, mag, received, q0, gravity: float) -> KalmanInputs:
     batch = B.broadcast_batch(shapes)
     if q0 is None and n_t == 0:
         raise ValueError("no samples (T = 0): pass q0 to define the output")
+    given = mask
     if n_t:
-        B.check_usable(signals, mask, gravity)
+        mask = B.check_usable(signals, mask, gravity)
+        problem = None if mag is None else magnetometer_problem(signals["mag"], mask)
+        if problem:
+            warnings.warn(f"{problem}; the filter's magnetometer gates will reject it, and the heading then rests "
+                          f"on the gyroscope alone", UserWarning, stacklevel=3)
     if q0 is None:
         B.check_has_sample(mask, batch)
     has_mag = mag is not None
@@ -224,7 +233,7 @@ def prepare_inputs(gyr, acc, mag, received, q0, gravity: float) -> KalmanInputs:
     return KalmanInputs(
         gyr=flat["gyr"], acc=flat["acc"], mag=flat["mag"] if has_mag else np.ones((1, 1, 3)), has_mag=has_mag,
         received=flat_mask, index=index, q_init=np.ascontiguousarray(q_init, dtype=float), start=start,
-        init_only=q0 is None, batch=tuple(batch), n_t=n_t,
+        init_only=q0 is None, batch=tuple(batch), n_t=n_t, treated_as_lost=given & ~mask,
     )
 
 
@@ -259,6 +268,23 @@ def constants(settings, fs, *, gap, replay, gap_time_constant, has_mag, filter_n
     return c
 
 
+#: Above this fraction of received samples with the magnetometer rejected, :func:`kalman_orientation` warns.
+MAG_REJECTED_FRACTION = 0.5
+
+
+def _warn_if_magnetometer_unused(mag_used: np.ndarray, inputs: KalmanInputs) -> None:
+    """One ``UserWarning`` when the gates rejected the magnetometer on most received samples (e.g. a
+    magnet fixed near the sensor, a saturated or frozen sensor): the heading then drifts with the gyro."""
+    if not inputs.has_mag:
+        return
+    received = inputs.received[inputs.index[:, 3]]
+    rejected = float((received & ~mag_used).sum()) / max(int(received.sum()), 1)
+    if rejected > MAG_REJECTED_FRACTION:
+        warnings.warn(f"the magnetometer was rejected on {rejected:.0%} of the received samples (saturated, frozen, "
+                      f"or a magnetic disturbance?): the heading rests on the gyroscope there; full_output's "
+                      f"mag_used says where", UserWarning, stacklevel=3)
+
+
 def check_finite_output(quat: np.ndarray) -> np.ndarray:
     """Raise instead of returning NaN (extreme settings or ``fs`` can overflow in the kernel)."""
     if not np.all(np.isfinite(quat)):
@@ -282,6 +308,8 @@ class KalmanOutput:
         heading), δb the bias error (rad/s), δv the leaky velocity's error (m/s, earth frame).
     acc_used, mag_used : numpy.ndarray of bool, shape (..., T)
         Whether the sample's accelerometer / magnetometer passed the gates and was used.
+    treated_as_lost : numpy.ndarray of bool, shape (..., T)
+        Received samples with a reading no sensor can give (e.g. a gyro of 1e6 rad/s), run as lost.
     """
 
     quat: np.ndarray
@@ -289,6 +317,7 @@ class KalmanOutput:
     covariance: np.ndarray
     acc_used: np.ndarray
     mag_used: np.ndarray
+    treated_as_lost: np.ndarray
 
 
 def kalman_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None, settings=None, gap: str = "ar",
@@ -389,6 +418,7 @@ def kalman_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
     run_kalman(inputs.gyr, inputs.acc, inputs.mag, inputs.received, inputs.index, inputs.q_init, inputs.start,
                inputs.init_only, c, outputs)
     out_q, out_bias, _, out_P, acc_used, mag_used = outputs
+    _warn_if_magnetometer_unused(mag_used, inputs)
     quat = check_finite_output(out_q.reshape(batch + (n_t, 4)))
     if hold_output:
         B.hold_lost_output(quat, received)
@@ -396,7 +426,8 @@ def kalman_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
         return quat
     return KalmanOutput(quat=quat, gyro_bias=out_bias.reshape(batch + (n_t, 3)),
                         covariance=out_P.reshape(batch + (n_t, NX, NX)), acc_used=acc_used.reshape(batch + (n_t,)),
-                        mag_used=mag_used.reshape(batch + (n_t,)))
+                        mag_used=mag_used.reshape(batch + (n_t,)),
+                        treated_as_lost=np.broadcast_to(inputs.treated_as_lost, batch + (n_t,)).copy())
 
 
 # ==========================================================================================

@@ -113,7 +113,7 @@ def _prepare(gyr, acc, mag, fs, received):
     if mask is None:
         mask = np.ones(n_t, dtype=bool)
     batch = B.broadcast_batch(shapes)
-    B.check_usable(signals, mask)  # NaN/inf (zero acc, mag) in received samples
+    mask = B.check_usable(signals, mask)  # NaN/inf (zero acc, mag) in received samples; implausible ones lost
     mask = np.broadcast_to(mask, batch + (n_t,))
     has_sample = mask.any(axis=-1)
     if not np.all(has_sample):
