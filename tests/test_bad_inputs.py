@@ -410,6 +410,7 @@ def test_kalman_settings_that_underflow_name_the_field():
         kalman_orientation(gyr, acc, mag, fs=50.0, settings=KalmanSettings(bias_noise=1e-300))
 
 
+@pytest.mark.filterwarnings("ignore:the magnetometer was rejected")  # a turning gyro, a fixed field: not the point
 @pytest.mark.parametrize("name", ["madgwick", "kalman_orientation"])
 def test_a_broadcast_batch_is_not_materialised(name):
     """Issue 23: np.broadcast_to inputs were copied in full before the memory check (an OOM kill)."""
@@ -460,9 +461,22 @@ def test_kalman_full_output_counts_what_it_treated_as_lost_and_warns_of_an_unuse
         out = kalman_orientation(gyr, acc, mag, fs=50.0, full_output=True)
     assert out.treated_as_lost.sum() == 2 and out.treated_as_lost[50] and out.treated_as_lost[60]
     frozen = np.broadcast_to(mag[0], mag.shape).copy()
-    frozen[:, 0] += np.repeat(np.arange(40), 10) * 1e-3  # updates once in 10 samples
-    with pytest.warns(UserWarning, match="mag is frozen: 90% of the received samples"):
+    frozen[:, 0] += np.repeat(np.arange(4), 100) * 1e-3  # updates once in 100 samples
+    with pytest.warns(UserWarning, match="mag is frozen: 99% of the received samples"):
         kalman_orientation(_still_recording(400)[0], acc, frozen, fs=50.0)
-    magnet = mag + np.where(np.arange(400)[:, None] >= 100, [0.0, 300.0, 0.0], 0.0)  # a magnet from 2 s on
+    gyr, acc, mag = _still_recording(4000)  # 80 s: longer than 3 × mag_new_time_s
+    magnet = mag + np.where(np.arange(4000)[:, None] >= 500, [0.0, 300.0, 0.0], 0.0)  # a magnet from 10 s on
     with pytest.warns(UserWarning, match=r"magnetometer was rejected on \d+% of the received samples"):
-        kalman_orientation(_still_recording(400)[0], acc, magnet, fs=50.0)
+        kalman_orientation(gyr, acc, magnet, fs=50.0)
+
+
+def test_a_saturated_magnetometer_is_named():
+    from wsnlib.plausibility import magnetometer_problem
+
+    gyr, acc, mag = _still_recording(400)
+    clipped = mag.copy()
+    clipped[100:300, 1] = 800.0  # a magnet near the sensor: the y axis at its full scale
+    assert "mag looks saturated: 50% of the received samples sit at ±800 µT on axis y" in magnetometer_problem(
+        clipped, np.ones(400, dtype=bool))
+    assert magnetometer_problem(mag, np.ones(400, dtype=bool)) is None
+

@@ -68,3 +68,4 @@ def _ensure(path: Path) -> Path:
     path.mkdir(parents=True, exist_ok=True)
     return path
 # edited
+# edited

@@ -118,9 +118,13 @@ def implausible_samples(signals: dict) -> np.ndarray | None:
 
 
 #: Above this fraction of received samples a magnetometer is reported frozen (a reading repeated
-#: exactly from the previous received sample) or saturated (an axis at its largest |value|).
-MAG_STUCK_FRACTION = 0.5
+#: exactly from the previous received sample; a coarsely quantised sensor held still repeats often,
+#: so only nearly all of them) or saturated (an axis at its largest |value|).
+MAG_STUCK_FRACTION = 0.95
 MAG_SATURATED_FRACTION = 0.05
+#: A clipped axis reads at least this (µT): twice the strongest geomagnetic field (~65 µT), so that
+#: a quantised axis that barely moves is not taken for one.
+MAG_SATURATION_MIN_UT = 130.0
 
 
 def magnetometer_problem(mag: np.ndarray, received: np.ndarray) -> str | None:
@@ -130,8 +134,9 @@ def magnetometer_problem(mag: np.ndarray, received: np.ndarray) -> str | None:
     :data:`MAG_STUCK_FRACTION` of the received samples repeat the previous received one exactly
     (a sensor that stopped updating; real readings carry noise).  *Saturated*: on some axis more
     than :data:`MAG_SATURATED_FRACTION` of the received samples sit exactly at that axis' largest
-    magnitude (a clipped range; a magnet near the sensor).  Checked per batch element of ``mag``'s
-    own leading shape, on the samples received in some batch element; the first problem found.
+    magnitude, beyond :data:`MAG_SATURATION_MIN_UT` (a clipped range; a magnet near the sensor).
+    Checked per batch element of ``mag``'s own leading shape, on the samples received in some
+    batch element; the first problem found.
     """
     rx = np.asarray(received).reshape(-1, mag.shape[-2]).any(axis=0)  # received in some batch element
     for m in mag.reshape((-1,) + mag.shape[-2:])[:, rx]:
@@ -142,7 +147,7 @@ def magnetometer_problem(mag: np.ndarray, received: np.ndarray) -> str | None:
             return f"mag is frozen: {frozen:.0%} of the received samples repeat the previous one exactly"
         peak = np.abs(m).max(axis=0)
         at_peak = np.mean(np.abs(m) == peak, axis=0)
-        if np.any((at_peak > MAG_SATURATED_FRACTION) & (peak > 0.0)):
+        if np.any((at_peak > MAG_SATURATED_FRACTION) & (peak > MAG_SATURATION_MIN_UT)):
             axis = int(np.argmax(at_peak))
             return (f"mag looks saturated: {at_peak[axis]:.0%} of the received samples sit at ±{peak[axis]:.4g} µT on "
                     f"axis {'xyz'[axis]}")

@@ -315,3 +315,5 @@ def ar_end_weights(coef, axis, order, n, h, weights):
             cov += h[k - i] * h[n - i]
         weights[k - 1] = cov / den
 # edited
+# edited
+# edited

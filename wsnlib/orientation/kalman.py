@@ -272,10 +272,12 @@ def constants(settings, fs, *, gap, replay, gap_time_constant, has_mag, filter_n
 MAG_REJECTED_FRACTION = 0.5
 
 
-def _warn_if_magnetometer_unused(mag_used: np.ndarray, inputs: KalmanInputs) -> None:
+def _warn_if_magnetometer_unused(mag_used: np.ndarray, inputs: KalmanInputs, settings, fs: float) -> None:
     """One ``UserWarning`` when the gates rejected the magnetometer on most received samples (e.g. a
-    magnet fixed near the sensor, a saturated or frozen sensor): the heading then drifts with the gyro."""
-    if not inputs.has_mag:
+    magnet fixed near the sensor, a saturated or frozen sensor): the heading then drifts with the gyro.
+    Only for recordings longer than three times ``mag_new_time_s`` (before, the field may still be new)."""
+    settings = settings or KalmanSettings()
+    if not inputs.has_mag or inputs.n_t < 3.0 * settings.mag_new_time_s * fs:
         return
     received = inputs.received[inputs.index[:, 3]]
     rejected = float((received & ~mag_used).sum()) / max(int(received.sum()), 1)
@@ -418,7 +420,7 @@ def kalman_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
     run_kalman(inputs.gyr, inputs.acc, inputs.mag, inputs.received, inputs.index, inputs.q_init, inputs.start,
                inputs.init_only, c, outputs)
     out_q, out_bias, _, out_P, acc_used, mag_used = outputs
-    _warn_if_magnetometer_unused(mag_used, inputs)
+    _warn_if_magnetometer_unused(mag_used, inputs, settings, fs)
     quat = check_finite_output(out_q.reshape(batch + (n_t, 4)))
     if hold_output:
         B.hold_lost_output(quat, received)
