@@ -318,3 +318,17 @@ def test_an_unreadable_manifest_is_said(output_dir):
     path.write_text('{"quick": true, "notebooks": [{"notebook": "01')  # cut short
     with pytest.warns(UserWarning, match="manifest.json is unreadable"):
         assert batch_manifest.previous_outputs() == {}
+
+
+def test_a_run_of_some_notebooks_keeps_the_others_entries(output_dir, tmp_path, monkeypatch):
+    """Issue 23: the manifest is read, merged and replaced (under the lock), not overwritten by the last run."""
+    nb_dir = tmp_path / "nbs"
+    _write_notebook(nb_dir / "01_first.ipynb", "pass")
+    _write_notebook(nb_dir / "02_second.ipynb", "pass")
+    monkeypatch.setattr(paths, "NOTEBOOKS", nb_dir)
+    assert reproduce.main(["--quick", "--only", "02_second.ipynb"]) == 0
+    assert reproduce.main(["--quick", "--only", "01"]) == 0
+    entries = _manifest(output_dir)["notebooks"]
+    assert [e["notebook"] for e in entries] == ["01_first.ipynb", "02_second.ipynb"]
+    assert all(e["status"] == "ok" for e in entries)
+

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from wsnlib import paths
 from wsnlib._files import atomic_write_text, is_temporary, sha256_of
-from wsnlib.batch_selection import notebook_name
+from wsnlib.batch_selection import list_batch, notebook_name
 
 MANIFEST_NAME = "manifest.json"
 
@@ -87,9 +87,30 @@ def manifest_path() -> Path:
 
 
 def write_manifest(entries: list[dict], quick: bool, jobs: int = 1) -> Path:
-    """Write the manifest (atomically) with these notebook entries."""
-    manifest = {"quick": quick, "jobs": jobs, "kernel": paths.KERNEL_NAME, "notebooks": entries}
+    """Write the manifest with these notebook entries: read, merge, replace (atomically).
+
+    The entries of notebooks this run did not select (``--only``) stay as the manifest had them;
+    all are listed in batch order.  Called under :func:`output_lock`, so no other run writes
+    between the read and the replace.  ``quick`` and ``jobs`` describe this run (each entry's
+    ``parameters`` say how it ran).
+    """
+    names = {entry["notebook"] for entry in entries}
+    kept = [entry for entry in _manifest_entries() if entry.get("notebook") not in names]
+    order = {notebook_name(nb): index for index, nb in enumerate(list_batch())}
+    merged = sorted(entries + kept, key=lambda entry: order.get(entry["notebook"], len(order)))
+    manifest = {"quick": quick, "jobs": jobs, "kernel": paths.KERNEL_NAME, "notebooks": merged}
     return atomic_write_text(manifest_path(), json.dumps(manifest, indent=2, sort_keys=True) + "\n")
+
+
+def _manifest_entries() -> list[dict]:
+    """The notebook entries of the manifest on disk ([] if there is none or it is unreadable)."""
+    try:
+        entries = json.loads(manifest_path().read_text(encoding="utf-8"))["notebooks"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return []
+    if not isinstance(entries, list):
+        return []
+    return [entry for entry in entries if isinstance(entry, dict) and "notebook" in entry]
 
 
 def previous_outputs() -> dict[str, list[str]]:
