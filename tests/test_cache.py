@@ -89,8 +89,8 @@ def test_the_key_is_the_source_this_process_imported(tmp_path):
     env = {**os.environ, "PYTHONPATH": str(tmp_path)}
 
     def key(mode):
-        return subprocess.run([sys.executable, "-c", script, mode], env=env, capture_output=True, text=True,
-                              check=True).stdout.strip()
+        return subprocess.run([sys.executable, "-c", script, mode], env=env, cwd=tmp_path, capture_output=True,
+                              text=True, check=True).stdout.strip()
 
     old = key("none")
     kept_open = key("edit")  # imported, then the source changes under it

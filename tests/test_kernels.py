@@ -248,7 +248,7 @@ def test_each_version_of_the_sources_caches_apart(tmp_path):
     )
 
     def cache_of(mode):
-        done = subprocess.run([sys.executable, "-c", script, mode], env=env, check=True, timeout=600,
+        done = subprocess.run([sys.executable, "-c", script, mode], env=env, cwd=tmp_path, check=True, timeout=600,
                               capture_output=True, text=True)
         return Path(done.stdout.strip())
 

@@ -67,5 +67,3 @@ def executed_notebooks() -> Path:
 def _ensure(path: Path) -> Path:
     path.mkdir(parents=True, exist_ok=True)
     return path
-# edited
-# edited

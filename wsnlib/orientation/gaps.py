@@ -314,6 +314,3 @@ def ar_end_weights(coef, axis, order, n, h, weights):
         for i in range(1, k + 1):
             cov += h[k - i] * h[n - i]
         weights[k - 1] = cov / den
-# edited
-# edited
-# edited
