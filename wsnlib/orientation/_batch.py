@@ -16,8 +16,7 @@ import numpy as np
 
 from wsnlib._validation import as_float_array, real_array
 from wsnlib.orientation import _kernels as K
-from wsnlib.plausibility import SAMPLE_NORM_MAX as PLAUSIBLE_NORM
-from wsnlib.plausibility import check_imu_plausible, implausible_samples
+from wsnlib.plausibility import SAMPLE_NORM_MAX, check_imu_plausible, implausible_samples
 
 #: Largest sampling rate (Hz) and smallest one accepted: outside, Δt·|ω| or β·Δt overflow.
 FS_RANGE = (1e-6, 1e9)
@@ -339,7 +338,7 @@ def check_usable(signals: dict[str, np.ndarray], received: np.ndarray, gravity: 
     implausible = implausible_samples(signals)
     if implausible is not None and (implausible & received).any():
         n_lost = int((implausible & received).sum())
-        limits = ", ".join(f"|{name}| > {PLAUSIBLE_NORM[name]:g}" for name in signals)
+        limits = ", ".join(f"|{name}| > {SAMPLE_NORM_MAX[name]:g}" for name in signals)
         warnings.warn(f"{n_lost} received sample(s) with an implausible reading ({limits}; rad/s, m/s², µT) "
                       f"are treated as lost", UserWarning, stacklevel=3)
         received = received & ~implausible
