@@ -479,3 +479,18 @@ def test_a_saturated_magnetometer_is_named():
         clipped, np.ones(400, dtype=bool))
     assert magnetometer_problem(mag, np.ones(400, dtype=bool)) is None
 
+
+def test_a_write_that_fails_for_lack_of_space_names_the_file(tmp_path, monkeypatch):
+    """Issue 23: a full disk failed with "OSError: [Errno 27] File too large", naming no file."""
+    import errno
+    import os
+
+    def full_disk(src, dst):
+        raise OSError(errno.EFBIG, os.strerror(errno.EFBIG))
+
+    monkeypatch.setattr(_files.os, "replace", full_disk)
+    target = tmp_path / "a01_table.csv"
+    with pytest.raises(OSError, match=rf"writing {target}: File too large") as info:
+        _files.atomic_write_text(target, "a\n1\n")
+    assert info.value.errno == errno.EFBIG and not list(tmp_path.iterdir())  # no file, no temporary left
+

@@ -332,3 +332,15 @@ def test_a_run_of_some_notebooks_keeps_the_others_entries(output_dir, tmp_path, 
     assert [e["notebook"] for e in entries] == ["01_first.ipynb", "02_second.ipynb"]
     assert all(e["status"] == "ok" for e in entries)
 
+
+def test_only_accepts_the_manifests_names_and_a_miss_lists_the_notebooks(output_dir, tmp_path, monkeypatch, capsys):
+    """Issue 23: ``--only 02_x.ipynb`` (the manifest's own name) said "no notebook matches" and listed nothing."""
+    nb_dir = tmp_path / "nbs"
+    _write_notebook(nb_dir / "01_first.ipynb", "pass")
+    _write_notebook(nb_dir / "02_second.ipynb", "pass")
+    monkeypatch.setattr(paths, "NOTEBOOKS", nb_dir)
+    assert [nb.name for nb in batch_selection.list_batch("02_second.ipynb")] == ["02_second.ipynb"]
+    with pytest.raises(SystemExit):
+        reproduce.main(["--quick", "--only", "03_third.ipynb"])
+    assert "the notebooks are: 01_first.ipynb, 02_second.ipynb" in capsys.readouterr().err
+
