@@ -22,6 +22,7 @@ from wsnlib.orientation.kalman import (
     kalman_orientation,
     kalman_step,
 )
+from wsnlib.orientation.kalman_settings import gap_prediction_order
 from wsnlib.sim.arm import arm_kinematics, movement_set
 from wsnlib.sim.imu import ideal_imu
 
@@ -54,7 +55,7 @@ NO_HARD_IRON = KalmanSettings(mag_hard_iron_min_bias=math.inf)
 ])
 def test_compiled_step_equals_the_matrix_form_over_2000_samples(options):
     gyr, acc, mag, received = _reference_case(2000)
-    settings = dataclasses.replace(NO_HARD_IRON, gap_rate_prediction_order=8, gap_rate_prediction_window_s=1.0,
+    settings = dataclasses.replace(NO_HARD_IRON, gap_rate_prediction_span_s=0.16, gap_rate_prediction_window_s=1.0,
                                    acc_disturbance_factor=16.0)
     got = kalman_orientation(gyr, acc, mag, fs=FS, received=received, settings=settings, full_output=True, **options)
     want, want_P = KalmanReference.run(gyr, acc, mag, received, fs=FS, settings=settings, **options)
@@ -98,7 +99,7 @@ def test_causal_a_prefix_gives_the_same_outputs_at_every_gap_end(options):
     """Strict causality: cut the recording just after each gap's end (where the replay and the
     AR fit act); the run on the prefix equals the full run there, bit for bit."""
     gyr, acc, mag, received = _reference_case(1500, seed=5)
-    settings = KalmanSettings(gap_rate_prediction_order=8, gap_rate_prediction_window_s=1.0)
+    settings = KalmanSettings(gap_rate_prediction_span_s=0.16, gap_rate_prediction_window_s=1.0)
     full = kalman_orientation(gyr, acc, mag, fs=FS, received=received, settings=settings, **options)
     ends = np.flatnonzero(received[1:] & ~received[:-1]) + 1
     assert len(ends) >= 5
@@ -229,7 +230,7 @@ def test_recent_linear_acceleration_lowers_the_accelerometer_weight():
     lin[200:400, 0], lin[200:400, 1] = 4.0 * np.cos(2 * np.pi * t[200:400]), 4.0 * np.sin(2 * np.pi * t[200:400])
     lin[200:400, 2] = 1.5 * np.sin(2 * np.pi * 2 * t[200:400])  # and some vertical, so the norm varies
     bad = Q.rotate_inverse(truth, frames.gravity_specific_force_enu() + lin)
-    plain = KalmanSettings(velocity_noise=1e6)  # the accelerometer's update alone
+    plain = KalmanSettings(velocity_noise_density=1e6)  # the accelerometer's update alone
     off = kalman_orientation(gyr, bad, mag, fs=FS, settings=plain, full_output=True)
     on = kalman_orientation(gyr, bad, mag, fs=FS, settings=dataclasses.replace(plain, acc_disturbance_factor=16.0),
                             full_output=True)
@@ -266,7 +267,7 @@ def test_prediction_continues_through_a_gap_instead_of_freezing():
                                   gap_time_constant=math.inf)
     decaying = kalman_orientation(gyr, acc, mag, fs=FS, received=received, gap="constant_rate")  # τ = 0.2 s
     predicted = kalman_orientation(gyr, acc, mag, fs=FS, received=received,  # a window of 1 s before the gap
-                                   settings=KalmanSettings(gap_rate_prediction_order=8,
+                                   settings=KalmanSettings(gap_rate_prediction_span_s=0.16,
                                                            gap_rate_prediction_window_s=1.0))
     held = madgwick(gyr, acc, mag, fs=FS, beta=0.041, received=received)
     kalman_held = kalman_orientation(gyr, acc, mag, fs=FS, received=received, gap="hold")
@@ -315,13 +316,13 @@ def test_accelerometer_gated_under_large_acceleration():
     # leaky-velocity pseudo-measurement made negligible)
     push = np.array([2 * frames.STANDARD_GRAVITY, 0.0, 0.0])
     bad[300:350] = Q.rotate_inverse(truth[300:350], frames.gravity_specific_force_enu() + push)
-    gate_only = KalmanSettings(velocity_noise=1e6)
+    gate_only = KalmanSettings(velocity_noise_density=1e6)
     out = kalman_orientation(gyr, bad, mag, fs=FS, full_output=True, settings=gate_only)
     assert not out.acc_used[300:350].any()
     assert error_deg(out.quat, truth)[300:360].max() < 1.0
     # the norm gate is what excluded them: without it they are used (with inflated noise)
     ungated = kalman_orientation(gyr, bad, mag, fs=FS, full_output=True, settings=KalmanSettings(
-        acc_norm_gate=math.inf, velocity_noise=1e6))
+        acc_norm_gate=math.inf, velocity_noise_density=1e6))
     assert ungated.acc_used[300:350].all()
     assert not np.array_equal(ungated.quat[300:360], out.quat[300:360])
 
@@ -387,7 +388,7 @@ def test_lost_samples_may_hold_nan_and_imu_form_runs():
         ({"fs": 1e-300}, "fs"),
         ({"received": np.ones(50)}, "received"),
         ({"q0": [0, 0, 0, 0]}, "q0"),
-        ({"settings": {"acc_noise": 1}}, "settings"),
+        ({"settings": {"acc_noise_density": 1}}, "settings"),
     ],
 )
 def test_rejects_bad_arguments(kwargs, match):
@@ -403,8 +404,8 @@ def test_rejects_nan_in_received_sample_and_bad_settings():
     acc[10] = np.nan
     with pytest.raises(ValueError, match="acc"):
         kalman_orientation(gyr, acc, mag, fs=FS)
-    with pytest.raises(ValueError, match="acc_noise"):
-        KalmanSettings(acc_noise=-1.0)
+    with pytest.raises(ValueError, match="acc_noise_density"):
+        KalmanSettings(acc_noise_density=-1.0)
     with pytest.raises(ValueError, match="gyro_noise"):
         KalmanSettings(gyro_noise=math.inf)
     with pytest.raises(ValueError, match="replay"):
@@ -413,17 +414,17 @@ def test_rejects_nan_in_received_sample_and_bad_settings():
         KalmanSettings(mag_hard_iron_tau_s=0.0)
     np.testing.assert_array_equal(kalman_orientation(gyr[:9], acc[:9], mag[:9], fs=FS, replay=np.bool_(False)),
                                   kalman_orientation(gyr[:9], acc[:9], mag[:9], fs=FS, replay=False))
-    with pytest.raises(ValueError, match="gap_rate_prediction_order"):
-        KalmanSettings(gap_rate_prediction_order=2.5)
-    with pytest.raises(ValueError, match="gap_rate_prediction_order"):
-        KalmanSettings(gap_rate_prediction_order=0)
+    with pytest.raises(ValueError, match="gap_rate_prediction_span_s"):
+        KalmanSettings(gap_rate_prediction_span_s=0)
     for gone in ("gap_replay", "gap_rate_prediction", "gap_rate_decay_s"):  # now kalman_orientation's keywords
         with pytest.raises(TypeError, match=gone):
             KalmanSettings(**{gone: True})
     with pytest.raises(ValueError, match="acc_disturbance_factor"):
         KalmanSettings(acc_disturbance_factor=-1.0)
     assert KalmanSettings(acc_disturbance_factor=0).acc_disturbance_factor == 0.0
-    assert KalmanSettings(gap_rate_prediction_order=4.0).gap_rate_prediction_order == 4
+    # The predictor's order is the span in samples at the run's rate, within [1, 64].
+    span = KalmanSettings(gap_rate_prediction_span_s=0.5)
+    assert [gap_prediction_order(span, 1.0 / fs) for fs in (1.0, 40.0, 100.0, 2000 / 7)] == [1, 20, 50, 64]
 
 
 # ------------------------------------------------------------------------------------------
@@ -443,7 +444,8 @@ def test_gap_time_constant_defaults_to_the_kalman_constant_and_decays_the_rate()
     assert np.abs(slower - default).max() > 1e-6
     # without a window of rates before the gaps, "ar" is the decaying rate, with the same time constant
     np.testing.assert_array_equal(kalman_orientation(gyr, acc, mag, fs=FS, received=masks), default)
-    imu = kalman_orientation(gyr, acc, None, fs=FS, received=masks, settings=KalmanSettings(acc_noise=0.1),
+    settings = KalmanSettings(acc_noise_density=0.1 / math.sqrt(FS))
+    imu = kalman_orientation(gyr, acc, None, fs=FS, received=masks, settings=settings,
                              gap="constant_rate", gap_time_constant=0.3)
     assert imu.shape == (2, 200, 4) and np.all(np.isfinite(imu))
 
@@ -475,7 +477,7 @@ def test_output_on_lost_hold_holds_the_output_and_changes_nothing_else():
         ({"gap": "constant_rate", "gap_time_constant": -1.0}, "gap_time_constant"),
         ({"replay": "yes"}, "replay"),
         ({"output_on_lost": "previous"}, "output_on_lost.*'estimate'.*'hold'"),
-        ({"settings": {"acc_noise": 1}}, "settings"),
+        ({"settings": {"acc_noise_density": 1}}, "settings"),
     ],
 )
 def test_kalman_orientation_rejects_bad_loss_options(kwargs, match):

@@ -433,7 +433,8 @@ def test_weight_vs_gap_reads_the_kalman_settings():
     settings = KalmanSettings()
     prior = np.radians(1.0) ** 2
     grown = prior + (settings.gap_rate_noise * 24 / 50.0) ** 2
-    assert kalman[2] == pytest.approx(settings.mag_noise ** 2 / (grown + settings.mag_noise ** 2))
+    mag_var = settings.mag_noise_density ** 2 * 50.0  # one sample's variance at 50 Hz
+    assert kalman[2] == pytest.approx(mag_var / (grown + mag_var))
     assert np.all(np.diff(kalman) < 0) and paper[0] == 1.0
     # Noisier prediction in a gap: the first measurement after it is trusted more.
     noisy = ltt.weight_vs_gap([24], settings=dataclasses.replace(settings, gap_rate_noise=1.0))

@@ -43,7 +43,7 @@ MADGWICK = _named(estimate_orientation, "estimate_orientation", beta=BETA)
 #: The Kalman filter with a short linear prediction (order 8 on 1 s), so that the gaps below
 #: use both its "ar" prediction and, where less than a window precedes them, its fall-back.
 KALMAN = _named(kalman_orientation, "kalman_orientation",
-                settings=KalmanSettings(gap_rate_prediction_order=8, gap_rate_prediction_window_s=1.0))
+                settings=KalmanSettings(gap_rate_prediction_span_s=0.16, gap_rate_prediction_window_s=1.0))
 SMOOTHER = _named(smooth_orientation, "smooth_orientation")
 PEERS = [fusion_orientation, vqf_orientation]
 #: Every filter that runs over time.

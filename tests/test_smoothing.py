@@ -38,7 +38,7 @@ def test_forward_pass_is_the_filter_with_the_same_options(options):
     received = np.ones(len(gyr), bool)
     received[100:130] = False
     received[560:590] = False  # late, so that the last sample still depends on the gap option
-    settings = KalmanSettings(gap_rate_prediction_order=8, gap_rate_prediction_window_s=1.0)
+    settings = KalmanSettings(gap_rate_prediction_span_s=0.16, gap_rate_prediction_window_s=1.0)
     filt = kalman_orientation(gyr, acc, mag, fs=FS, received=received, settings=settings, **options)
     smooth = smooth_orientation(gyr, acc, mag, fs=FS, received=received, settings=settings, **options)
     np.testing.assert_allclose(Q.canonical(smooth[-1]), Q.canonical(filt[-1]), atol=1e-12)
@@ -109,7 +109,7 @@ def test_hermite_gap_matches_both_ends_and_is_exact_for_constant_rate():
                                 gap_time_constant=math.inf)
     assert error_deg(smooth, quat)[80:120].max() < 0.5
     # the gap curve from both sides' linear prediction is exact for a constant rate too
-    window = KalmanSettings(gap_rate_prediction_order=8, gap_rate_prediction_window_s=1.0)
+    window = KalmanSettings(gap_rate_prediction_span_s=0.16, gap_rate_prediction_window_s=1.0)
     predicted = smooth_orientation(gyr, acc, mag, fs=FS, received=received, settings=window)
     assert error_deg(predicted, quat)[80:120].max() < 0.5
 
@@ -118,7 +118,7 @@ def test_predicted_gap_follows_a_swing_that_hermite_cuts_across():
     gyr, acc, mag, truth = swinging_recording()
     received = np.ones(len(gyr), bool)
     received[300:330] = False  # 0.6 s, most of a period: the end rates say little about the middle
-    base = KalmanSettings(acc_rate_gate=math.inf, gap_rate_prediction_order=8, gap_rate_prediction_window_s=1.0)
+    base = KalmanSettings(acc_rate_gate=math.inf, gap_rate_prediction_span_s=0.16, gap_rate_prediction_window_s=1.0)
     predicted = smooth_orientation(gyr, acc, mag, fs=FS, received=received, settings=base)
     hermite = smooth_orientation(gyr, acc, mag, fs=FS, received=received, settings=base, gap="constant_rate")
     err_p, err_h = error_deg(predicted, truth)[300:330], error_deg(hermite, truth)[300:330]
@@ -130,7 +130,7 @@ def test_gap_without_a_window_on_each_side_keeps_the_hermite_curve():
     gyr, acc, mag, _ = turning_recording(noise=0.02)
     received = np.ones(len(gyr), bool)
     received[20:38] = False  # 0.4 s of history only: less than the 1 s window (filter and smoother)
-    window = KalmanSettings(gap_rate_prediction_order=8, gap_rate_prediction_window_s=1.0)
+    window = KalmanSettings(gap_rate_prediction_span_s=0.16, gap_rate_prediction_window_s=1.0)
     with_prediction = smooth_orientation(gyr, acc, mag, fs=FS, received=received, settings=window)
     without = smooth_orientation(gyr, acc, mag, fs=FS, received=received, settings=window, gap="constant_rate")
     np.testing.assert_array_equal(with_prediction, without)

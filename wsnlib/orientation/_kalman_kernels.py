@@ -76,7 +76,7 @@ def initial_state(st, c, q0):
     P[2, 2] = c.init_heading_var
     for a in range(3, 6):
         P[a, a] = c.init_bias_var
-        P[a + 3, a + 3] = c.vel_var
+        P[a + 3, a + 3] = c.init_vel_var
 
 
 # ------------------------------------------------------------------------------------------

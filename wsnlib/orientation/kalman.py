@@ -57,7 +57,7 @@ Equations (one sample, Δt = 1/fs; names used in the kernel's comments)
   ``φ = atan2(‖e × e_z‖, e·e_z) · (e × e_z)/‖e × e_z‖`` (exact for large errors, e.g. after a
   gap), and ``φ_x = δθ_x``, ``φ_y = δθ_y`` (two scalar updates, ``H = e_0ᵀ, e_1ᵀ``).
 * **Velocity pseudo-measurement** (every received sample, after the accelerometer):
-  ``v = 0`` with noise std ``σ_v`` (three scalar updates, ``H = e_6ᵀ, e_7ᵀ, e_8ᵀ``,
+  ``v = 0`` with noise variance ``σ_v²/Δt`` (three scalar updates, ``H = e_6ᵀ, e_7ᵀ, e_8ᵀ``,
   innovation ``−v̂_i``).  A tilt error ``δθ`` makes ``v̂`` ramp by ``g δθ Δt`` per sample,
   and ``P``'s cross terms from ``F`` turn that ramp into a tilt correction — with no
   accelerometer gate, so tilt stays observed during fast motion, where the gated update
@@ -81,7 +81,7 @@ Equations (one sample, Δt = 1/fs; names used in the kernel's comments)
 Gates (where they come from)
 ----------------------------
 * Accelerometer, hard: used only if ``|‖a‖ − g| ≤ acc_norm_gate`` and ``‖ω − b̂‖ ≤
-  acc_rate_gate``.  Soft: inside the gate the noise variance is inflated to ``σ_a² +
+  acc_rate_gate``.  Soft: inside the gate the noise variance is inflated to ``σ_a²/Δt +
   ((‖a‖ − g)² + f ℓ²)/g²``, since a linear acceleration that changes the norm by ``d`` tilts
   the direction by at least about ``d/g`` rad, and one perpendicular to gravity tilts it
   without changing the norm: ``ℓ²`` is the low-pass (``acc_disturbance_tau_s``) of
@@ -106,7 +106,7 @@ Gates (where they come from)
   ``mag_max_rejection_s`` of rejection the field is used again with its variance multiplied
   by ``mag_rejection_factor²`` (VQF divides its gain by the factor).  Timers count received
   samples (time the sensor was observed).  The heading measured through a tilt error ε is
-  off by up to ``tan(dip) · ε``, so the heading variance is ``σ_m² + tan²(dip_ref) σ_tilt²``
+  off by up to ``tan(dip) · ε``, so the heading variance is ``σ_m²/Δt + tan²(dip_ref) σ_tilt²``
   (``|dip_ref|`` capped at 1.5 rad).
 * Magnetometer, hard iron (a magnet or ferrous part fixed to the sensor, BROAD trials 33–36):
   the field is ``m = Rᵀ m_E + b_m`` with a constant body-frame ``b_m``; the gyroscope makes
@@ -158,7 +158,7 @@ from wsnlib.orientation import _batch as B
 from wsnlib.orientation import _kalman_kernels as K
 from wsnlib.orientation import gaps
 from wsnlib.orientation._kalman_kernels import NX, run_kalman
-from wsnlib.orientation.kalman_settings import KalmanSettings, kalman_constants
+from wsnlib.orientation.kalman_settings import KalmanSettings, gap_prediction_order, kalman_constants
 from wsnlib.orientation.triad import tilt_quaternion, triad
 from wsnlib.plausibility import magnetometer_problem
 
@@ -244,8 +244,10 @@ KALMAN_GAP_TIME_CONSTANT_S = 0.2
 
 
 #: Constants that are variances (must be finite and > 0 at the chosen ``fs``) → the setting each squares.
-_VARIANCES = {"gyro_var": "gyro_noise", "bias_var": "bias_noise", "acc_var": "acc_noise", "mag_var": "mag_noise",
-              "vel_var": "velocity_noise", "acc_sensor_var": "acc_sensor_noise", "gap_acc_var": "gap_acc_noise"}
+_VARIANCES = {"gyro_var": "gyro_noise", "bias_var": "bias_noise", "acc_var": "acc_noise_density",
+              "mag_var": "mag_noise_density", "vel_var": "velocity_noise_density",
+              "init_vel_var": "initial_velocity_sigma", "acc_sensor_var": "velocity_random_walk",
+              "gap_acc_var": "gap_acc_noise"}
 
 
 def constants(settings, fs, *, gap, replay, gap_time_constant, has_mag, filter_name, record=False) -> np.ndarray:
@@ -350,7 +352,7 @@ def kalman_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
         received sample, from TRIAD (or the tilt without ``mag``); that sample only
         initialises, and the output before it is that initial estimate.
     settings : KalmanSettings, optional
-        Noise levels, gates and the "ar" prediction's order and window; default
+        Noise levels, gates and the "ar" prediction's span and window; default
         ``KalmanSettings()`` (tuned on BROAD, see there).
     gap : {"ar", "constant_rate", "hold"}
         The rate the state turns by in a gap (the vocabulary of :mod:`wsnlib.orientation`).
@@ -359,8 +361,8 @@ def kalman_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
         arm's swing is a damped oscillation, which a short linear predictor follows for a
         fraction of a period, while a held or decaying rate overshoots it.  Its norm is capped
         at the window's largest; it falls back to ``"constant_rate"`` when fewer than a window
-        of rates precede the gap, or when the window holds fewer than
-        ``3 × gap_rate_prediction_order`` samples at this ``fs``.  (On gaps of 18 samples cut
+        of rates precede the gap, or when the window holds fewer than three times the
+        predictor's order (``gap_rate_prediction_span_s`` in samples at this ``fs``).  (On gaps of 18 samples cut
         into the 17 shared BROAD trials, starting from the true orientation, order 8 on 1 s
         gives a mean error at the gap's end of 34° against 47° for the rate decaying with
         0.2 s; chosen by every fold of leave-one-trial-out against ``"constant_rate"``.)
@@ -563,11 +565,11 @@ class KalmanReference:
         self.gap, self.replay = gap, replay
         tau = KALMAN_GAP_TIME_CONSTANT_S if gap_time_constant is None else gap_time_constant
         self.decay = 0.0 if gap == "hold" else float(np.exp(-self.dt / tau))
-        self.order, self.window = s.gap_rate_prediction_order, round(s.gap_rate_prediction_window_s * fs)
+        self.order, self.window = gap_prediction_order(s, self.dt), round(s.gap_rate_prediction_window_s * fs)
         self.q = np.asarray(q0, dtype=float)
         self.b, self.v = np.zeros(3), np.zeros(3)
         self.P = np.diag([s.initial_tilt_sigma**2] * 2 + [s.initial_heading_sigma**2] + [s.initial_bias_sigma**2] * 3
-                         + [s.velocity_noise**2] * 3)
+                         + [s.initial_velocity_sigma**2] * 3)
         self.rates = [] if first_rate is None else [np.asarray(first_rate, dtype=float)]  # the rate of every sample
         self.held, self.lost, self.gap_sigma, self.lin_var = np.zeros(3), 0, 0.0, 0.0
         self.q_last = self.q.copy()
@@ -659,7 +661,7 @@ class KalmanReference:
         F[6:, :3] = -cross * dt
         F[6:, 3:6] = cross @ R * dt**2
         F[6:, 6:] = c * np.eye(3)
-        Qn = np.diag([s.gyro_noise**2 * dt] * 3 + [s.bias_noise**2 * dt] * 3 + [(s.acc_sensor_noise * dt) ** 2] * 3)
+        Qn = np.diag([s.gyro_noise**2 * dt] * 3 + [s.bias_noise**2 * dt] * 3 + [s.velocity_random_walk**2 * dt] * 3)
         if not received:
             if self.lost == 1:
                 self.gap_sigma = s.gap_rate_noise + s.gap_rate_relative_noise * np.linalg.norm(omega)
@@ -691,14 +693,14 @@ class KalmanReference:
             axis = np.cross(e, [0.0, 0.0, 1.0])
             norm = np.linalg.norm(axis)
             phi = (np.arctan2(norm, e[2]) * axis / norm)[:2] if norm > 0 else np.zeros(2)
-            r = s.acc_noise**2 + (dev**2 + s.acc_disturbance_factor * self.lin_var) / s.gravity**2
+            r = s.acc_noise_density**2 / dt + (dev**2 + s.acc_disturbance_factor * self.lin_var) / s.gravity**2
             H = np.eye(9)[:2]
             d2 = phi @ np.linalg.solve(H @ self.P @ H.T + r * np.eye(2), phi)
             if d2 > s.acc_innovation_gate:  # robust: the pull is bounded
                 tilt_var = 0.5 * (self.P[0, 0] + self.P[1, 1])
                 r = np.sqrt(d2 / s.acc_innovation_gate) * (tilt_var + r) - tilt_var
             self._correct(H, phi, r)
-        self._correct(np.eye(9)[6:], -self.v, s.velocity_noise**2)  # the leaky velocity: v = 0
+        self._correct(np.eye(9)[6:], -self.v, s.velocity_noise_density**2 / dt)  # the leaky velocity: v = 0
         if mag is None:
             return
         m_e = Q.rotate(self.q, mag)
@@ -711,7 +713,7 @@ class KalmanReference:
             raise ValueError("the field looks disturbed: the reference covers undisturbed fields only")
         gain = -np.expm1(-dt / s.mag_reference_tau_s)  # the reference follows accepted fields
         self.ref = [self.ref[0] + gain * (m_norm - self.ref[0]), self.ref[1] + gain * (dip - self.ref[1])]
-        r = s.mag_noise**2 + np.tan(min(abs(self.ref[1]), 1.5)) ** 2 * tilt_var
+        r = s.mag_noise_density**2 / dt + np.tan(min(abs(self.ref[1]), 1.5)) ** 2 * tilt_var
         self._correct(np.eye(9)[2:3], np.array([np.arctan2(m_e[0], m_e[1])]), r, heading_only=True)
 
     @classmethod

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from wsnlib._validation import check_settings_fields
+from wsnlib.orientation import gaps
 
 # ==========================================================================================
 # Settings
@@ -30,16 +31,20 @@ class KalmanSettings:
     :func:`~wsnlib.orientation.kalman.kalman_orientation`); the parameters of its "ar"
     prediction and its noise model are here.
 
-    Defaults: ``acc_disturbance_factor``, ``gap_rate_prediction_order`` and
+    Defaults: ``acc_disturbance_factor``, ``gap_rate_prediction_span_s`` and
     ``gap_rate_prediction_window_s`` are the values chosen most often by leave-one-trial-out
     tuning (8 settings, as every peer: replay ∈ {True, False} × acc_disturbance_factor ∈
-    {4, 16} × (order, window) ∈ {(24, 3 s), (48, 6 s)}) on the 17 shared BROAD trials at 50 Hz
+    {4, 16} × (span, window) ∈ {(0.48 s, 3 s), (0.96 s, 6 s)}) on the 17 shared BROAD trials at 50 Hz
     under Gilbert–Elliott loss (10 %, mean burst 3 packets of 6 samples), see
     :mod:`wsnlib.studies.loss_tolerance`; ``acc_disturbance_factor`` > 0 was chosen by every
     fold in earlier runs of that study against 0, as were ``mag_hard_iron_min_bias``,
-    ``gap_rate_relative_noise``, ``mag_noise``, ``mag_norm_gate``, ``velocity_noise``,
-    ``acc_noise`` and ``gap_rate_noise`` (most often, with other grids); the other numbers are
-    as documented per field.
+    ``gap_rate_relative_noise``, ``mag_noise_density``, ``mag_norm_gate``,
+    ``velocity_noise_density``, ``acc_noise_density`` and ``gap_rate_noise`` (most often, with
+    other grids); the other numbers are as documented per field.
+
+    Every setting is in physical units (per second, not per sample), so one settings object
+    behaves the same at 40, 50, 100 Hz or BROAD's native 2000/7 Hz (measured:
+    ``benchmarks/eval_rates_and_starts.py``); the values tuned at 50 Hz are kept.
 
     Attributes
     ----------
@@ -58,13 +63,16 @@ class KalmanSettings:
         Prior std (rad) of the initial estimate's inclination and heading.  Defaults 5° and
         20°: TRIAD on one sample is exact at rest, but its heading is off by tens of degrees
         near a disturbance or under acceleration (BROAD, notebook 05).
-    acc_noise : float
-        Std of the measured tilt error (rad) of an accepted accelerometer sample.  Default 0.4,
-        chosen most often by LOTO from {0.05, 0.1, 0.2, 0.4} (eval_loss_tolerance.py, before
-        the leaky velocity was added).
-    mag_noise : float
-        Std of the measured heading error (rad) of an accepted magnetometer sample.
-        Default 0.2 rad, chosen most often by LOTO from {0.2, 0.5}.
+    acc_noise_density : float
+        Noise density of the measured tilt error of an accepted accelerometer sample (rad·√s):
+        one sample's variance is ``acc_noise_density² / Δt``, so a second of samples weighs the
+        same at any rate.  Default ``0.4·√0.02`` ≈ 0.057 (0.4 rad per sample at 50 Hz), chosen
+        most often by LOTO from {0.05, 0.1, 0.2, 0.4} rad per sample at 50 Hz
+        (eval_loss_tolerance.py, before the leaky velocity was added).
+    mag_noise_density : float
+        Noise density of the measured heading error of an accepted magnetometer sample (rad·√s;
+        one sample's variance ``mag_noise_density² / Δt``).  Default ``0.2·√0.02`` ≈ 0.028
+        (0.2 rad per sample at 50 Hz), chosen most often by LOTO from {0.2, 0.5} rad per sample.
     gap_rate_noise : float
         Std of the error of the extrapolated angular rate during a gap (rad/s).  Default 0.3,
         chosen most often by LOTO from {0.3, 1.0} (eval_loss_tolerance.py, before the leaky
@@ -103,12 +111,16 @@ class KalmanSettings:
     velocity_tau_s : float
         Time constant τ_v (s) of the leaky velocity (module docstring).  Default 3 s, VQF's
         ``tauAcc``.
-    velocity_noise : float
-        Std σ_v (m/s) of the pseudo-measurement ``v_x = v_y = v_z = 0``.  Default 1.0, chosen
-        most often by LOTO from {0.5, 1.0} (eval_loss_tolerance.py).
-    acc_sensor_noise : float
-        Accelerometer noise σ_s (m/s² per sample) in the leaky velocity's process noise.
-        Default 0.05 (MEMS datasheet order at 50 Hz).
+    velocity_noise_density : float
+        Noise density σ_v (m/s·√s) of the pseudo-measurement ``v_x = v_y = v_z = 0`` (one
+        sample's variance ``σ_v² / Δt``).  Default ``1.0·√0.02`` ≈ 0.14 (1 m/s per sample at
+        50 Hz), chosen most often by LOTO from {0.5, 1.0} m/s per sample (eval_loss_tolerance.py).
+    initial_velocity_sigma : float
+        Prior std of the leaky velocity (m/s).  Default 1.0.
+    velocity_random_walk : float
+        Random walk σ_s (m/s/√s) of the leaky velocity from accelerometer noise: its variance grows
+        by ``σ_s² Δt`` per received sample.  Default ``0.05·√0.02`` ≈ 0.0071 (0.05 m/s² of
+        accelerometer noise per sample at 50 Hz, MEMS datasheet order).
     gap_acc_noise : float
         Std (m/s²) of the unknown linear acceleration during a gap (velocity variance grows
         like ``(σ kΔt)²`` after ``k`` lost samples).  Default 5 m/s² (about half a g).
@@ -126,11 +138,13 @@ class KalmanSettings:
         field norm (and the corrected norm is closer to the reference than the raw one);
         ``inf`` switches the correction off.  Default 0.1, the size ``mag_norm_gate`` would
         reject; chosen most often by LOTO from {0.1, inf}.
-    gap_rate_prediction_order : int
-        With ``gap="ar"``: order of the linear predictor (an autoregressive model per axis,
-        :func:`wsnlib.orientation.gaps.ar_fit`, fitted at the gap's start on
-        the rates of the last ``gap_rate_prediction_window_s``), 1 to 64.
-        Default 48 (LOTO, see the class's defaults).
+    gap_rate_prediction_span_s : float
+        With ``gap="ar"``: how far back (s) the linear predictor of the rate looks (an
+        autoregressive model per axis, :func:`wsnlib.orientation.gaps.ar_fit`, fitted at the
+        gap's start on the rates of the last ``gap_rate_prediction_window_s``): its order is
+        ``round(span · fs)`` samples, at least 1 and at most 64 (:data:`wsnlib.orientation.gaps.MAX_ORDER`;
+        above 66.7 Hz the default span is cut to 64 samples).  Default 0.96 s (48 samples at
+        50 Hz; LOTO, see the class's defaults).
     gap_rate_prediction_window_s : float
         Length (s) of the rate history the predictor is fitted on.  Default 6 s (LOTO, see
         the class's defaults): a long window averages the fit over many swings.
@@ -156,8 +170,8 @@ class KalmanSettings:
     bias_limit: float = math.radians(2.0)
     initial_tilt_sigma: float = math.radians(5.0)
     initial_heading_sigma: float = math.radians(20.0)
-    acc_noise: float = 0.4
-    mag_noise: float = 0.2
+    acc_noise_density: float = 0.4 * math.sqrt(0.02)
+    mag_noise_density: float = 0.2 * math.sqrt(0.02)
     gap_rate_noise: float = 0.3
     gap_rate_relative_noise: float = 0.1
     gravity: float = 9.80665
@@ -172,27 +186,25 @@ class KalmanSettings:
     mag_rejection_factor: float = 2.0
     acc_innovation_gate: float = 13.8
     velocity_tau_s: float = 3.0
-    velocity_noise: float = 1.0
-    acc_sensor_noise: float = 0.05
+    velocity_noise_density: float = 1.0 * math.sqrt(0.02)
+    initial_velocity_sigma: float = 1.0
+    velocity_random_walk: float = 0.05 * math.sqrt(0.02)
     gap_acc_noise: float = 5.0
     mag_dip_tilt_sigmas: float = 3.0
     mag_hard_iron_tau_s: float = 3.0
     mag_hard_iron_min_bias: float = 0.1
-    gap_rate_prediction_order: int = 48
+    gap_rate_prediction_span_s: float = 0.96
     gap_rate_prediction_window_s: float = 6.0
     acc_disturbance_factor: float = 4.0
     acc_disturbance_tau_s: float = 0.5
 
     def __post_init__(self):
         check_settings_fields(self, may_be_zero=_MAY_BE_ZERO, may_be_infinite=_MAY_BE_INFINITE,
-                              integers={name: _LARGEST_ORDER for name in _INTEGER_SETTINGS}, largest=_LARGEST_SETTING)
+                              largest=_LARGEST_SETTING)
 
 
 #: Settings that may be 0 (switches the feature off).
 _MAY_BE_ZERO = frozenset({"acc_disturbance_factor"})
-#: Settings that are whole numbers, and their largest value.
-_INTEGER_SETTINGS = frozenset({"gap_rate_prediction_order"})
-_LARGEST_ORDER = 64
 #: Settings that may be ``inf`` (switches the feature off).
 _MAY_BE_INFINITE = frozenset({"acc_innovation_gate", "acc_norm_gate", "acc_rate_gate",
                               "mag_norm_gate", "mag_dip_gate", "mag_reference_tau_s", "mag_new_time_s",
@@ -212,8 +224,8 @@ CONSTANTS_DTYPE = np.dtype([
     ("dt", "f8"),                    # Δt (s)
     ("gyro_var", "f8"),              # σ_g² Δt: attitude variance added per sample
     ("bias_var", "f8"),              # σ_b² Δt: bias random walk per sample
-    ("acc_var", "f8"),               # σ_a²: tilt measurement variance
-    ("mag_var", "f8"),               # σ_m²: heading measurement variance
+    ("acc_var", "f8"),               # σ_a²/Δt: tilt measurement variance
+    ("mag_var", "f8"),               # σ_m²/Δt: heading measurement variance
     ("gap_noise", "f8"),             # σ_gap (rad/s)
     ("gap_relative_noise", "f8"),    # × ‖ω_last‖
     ("gravity", "f8"),               # g (m/s²)
@@ -227,8 +239,9 @@ CONSTANTS_DTYPE = np.dtype([
     ("mag_reject_var_factor", "f8"), ("mag_dip_tilt_sigmas", "f8"),
     ("init_tilt_var", "f8"), ("init_heading_var", "f8"), ("init_bias_var", "f8"), ("bias_limit", "f8"),
     ("vel_decay", "f8"),             # c = exp(−Δt/τ_v)
-    ("vel_var", "f8"),               # σ_v²: the pseudo-measurement v = 0
-    ("acc_sensor_var", "f8"),        # (σ_s Δt)²: velocity process noise per sample
+    ("vel_var", "f8"),               # σ_v²/Δt: the pseudo-measurement v = 0
+    ("init_vel_var", "f8"),          # prior variance of the velocity
+    ("acc_sensor_var", "f8"),        # σ_s² Δt: velocity process noise per received sample
     ("gap_acc_var", "f8"),           # (σ_gap,acc Δt)²
     ("hi_decay", "f8"),              # exp(−Δt/τ_hard-iron)
     ("hi_ridge", "f8"),              # ridge of the hard-iron normal equations
@@ -240,6 +253,12 @@ CONSTANTS_DTYPE = np.dtype([
 ])
 
 
+def gap_prediction_order(settings: KalmanSettings, dt: float) -> int:
+    """The rate predictor's order (samples) at Δt (s): ``round(gap_rate_prediction_span_s / Δt)`` in
+    ``[1, MAX_ORDER]``."""
+    return int(min(max(round(settings.gap_rate_prediction_span_s / dt), 1), gaps.MAX_ORDER))
+
+
 def kalman_constants(settings: KalmanSettings, dt: float, *, gap: int, replay: bool, gap_time_constant: float,
                      has_mag: bool, record: bool = False) -> np.ndarray:
     """The compiled step's constants (a record of :data:`CONSTANTS_DTYPE`, shape ``(1,)``) for
@@ -248,8 +267,9 @@ def kalman_constants(settings: KalmanSettings, dt: float, *, gap: int, replay: b
     s = settings
     c = np.zeros(1, CONSTANTS_DTYPE)
     values = {
-        "dt": dt, "gyro_var": s.gyro_noise**2 * dt, "bias_var": s.bias_noise**2 * dt, "acc_var": s.acc_noise**2,
-        "mag_var": s.mag_noise**2, "gap_noise": s.gap_rate_noise, "gap_relative_noise": s.gap_rate_relative_noise,
+        "dt": dt, "gyro_var": s.gyro_noise**2 * dt, "bias_var": s.bias_noise**2 * dt,
+        "acc_var": s.acc_noise_density**2 / dt, "mag_var": s.mag_noise_density**2 / dt,
+        "gap_noise": s.gap_rate_noise, "gap_relative_noise": s.gap_rate_relative_noise,
         "gravity": s.gravity, "acc_norm_gate": s.acc_norm_gate, "acc_rate_gate": s.acc_rate_gate,
         "acc_innovation_gate": s.acc_innovation_gate, "acc_dist_factor": s.acc_disturbance_factor,
         "acc_dist_gain": -math.expm1(-dt / s.acc_disturbance_tau_s), "mag_norm_gate": s.mag_norm_gate,
@@ -258,15 +278,16 @@ def kalman_constants(settings: KalmanSettings, dt: float, *, gap: int, replay: b
         "mag_max_reject": s.mag_max_rejection_s, "mag_reject_var_factor": s.mag_rejection_factor**2,
         "mag_dip_tilt_sigmas": s.mag_dip_tilt_sigmas, "init_tilt_var": s.initial_tilt_sigma**2,
         "init_heading_var": s.initial_heading_sigma**2, "init_bias_var": s.initial_bias_sigma**2,
-        "bias_limit": s.bias_limit, "vel_decay": math.exp(-dt / s.velocity_tau_s), "vel_var": s.velocity_noise**2,
-        "acc_sensor_var": (s.acc_sensor_noise * dt) ** 2, "gap_acc_var": (s.gap_acc_noise * dt) ** 2,
+        "bias_limit": s.bias_limit, "vel_decay": math.exp(-dt / s.velocity_tau_s),
+        "vel_var": s.velocity_noise_density**2 / dt, "init_vel_var": s.initial_velocity_sigma**2,
+        "acc_sensor_var": s.velocity_random_walk**2 * dt, "gap_acc_var": (s.gap_acc_noise * dt) ** 2,
         "hi_decay": math.exp(-dt / s.mag_hard_iron_tau_s),
         # Ridge of the hard-iron normal equations: as much as 1 s of rotation at 0.3 rad/s, so that
         # the estimate shrinks to 0 when the sensor has not turned enough to observe it.
         "hi_ridge": 0.09 / dt, "hi_min_bias": s.mag_hard_iron_min_bias,
         # The held rate's factor per lost sample: 0 holds the state, 1 keeps the rate constant.
         "gap": gap, "gap_factor": 0.0 if gap == 0 else math.exp(-dt / gap_time_constant), "replay": replay,
-        "ar_order": s.gap_rate_prediction_order, "ar_window": round(s.gap_rate_prediction_window_s / dt),
+        "ar_order": gap_prediction_order(s, dt), "ar_window": round(s.gap_rate_prediction_window_s / dt),
         "has_mag": has_mag, "record": record,
     }
     for name, value in values.items():

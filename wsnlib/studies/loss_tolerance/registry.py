@@ -202,16 +202,17 @@ HYBRID_GRID = settings_grid(rho_tau=(1, 3, 6, 12, 24, 48, 96, 192))
 HYBRID_SPACE = {"rho_tau": Range(1, 384, integer=True)}
 #: Our Kalman filter and smoother (``replay``, and :class:`wsnlib.orientation.KalmanSettings`
 #: fields; the rest at their defaults): gap replay on/off, how strongly the accelerometer's noise
-#: grows with the recent linear-acceleration level, and the order / window (s) of the linear
+#: grows with the recent linear-acceleration level, and the span / window (s) of the linear
 #: prediction of the rate in a gap (paired: a longer window carries a longer model).  One grid
 #: for both, since the smoother's forward pass is the filter; each is tuned on its own score.
 KALMAN_GRID = tuple({"replay": replay, "acc_disturbance_factor": factor,
-                     "gap_rate_prediction_order": order, "gap_rate_prediction_window_s": window}
-                    for replay in (True, False) for factor in (4.0, 16.0) for order, window in ((24, 3.0), (48, 6.0)))
-#: Beyond the grid (:func:`with_budget`), the order and the window vary independently; a window
-#: shorter than 3 × order samples makes the filter predict at a constant rate instead.
+                     "gap_rate_prediction_span_s": span, "gap_rate_prediction_window_s": window}
+                    for replay in (True, False) for factor in (4.0, 16.0)
+                    for span, window in ((0.48, 3.0), (0.96, 6.0)))
+#: Beyond the grid (:func:`with_budget`), the span and the window vary independently; a window
+#: shorter than 3 × the span makes the filter predict at a constant rate instead.
 KALMAN_SPACE = {"replay": Choice((True, False)), "acc_disturbance_factor": Range(1.0, 64.0),
-                "gap_rate_prediction_order": Range(4, 64, integer=True),
+                "gap_rate_prediction_span_s": Range(0.08, 1.28),
                 "gap_rate_prediction_window_s": Range(1.0, 10.0)}
 #: Fusion's gain (plain and with constant-rate prediction in a gap).
 FUSION_GRID = settings_grid(gain=(0.1, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0))

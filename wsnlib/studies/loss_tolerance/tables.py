@@ -31,7 +31,7 @@ def weight_vs_gap(lost_samples, *, fs: float = FS, settings: KalmanSettings | No
     The filter predicts through λ lost samples with a rate error of std ``settings.gap_rate_noise``
     (rad/s), so its heading variance grows from ``prior_std_deg``² to
     ``prior + (gap_rate_noise · λ / fs)²`` (rad²); the first magnetometer update after the gap has
-    the gain ``K = P / (P + mag_noise²)``.
+    the gain ``K = P / (P + mag_noise_density² · fs)`` (one sample's variance).
 
     Parameters
     ----------
@@ -40,7 +40,7 @@ def weight_vs_gap(lost_samples, *, fs: float = FS, settings: KalmanSettings | No
     fs : float
         Sample rate (Hz).
     settings : KalmanSettings, optional
-        The filter's noise levels (``gap_rate_noise`` rad/s, ``mag_noise`` rad); default
+        The filter's noise levels (``gap_rate_noise`` rad/s, ``mag_noise_density`` rad·√s); default
         :class:`~wsnlib.orientation.KalmanSettings` ().
     prior_std_deg : float
         Heading std before the gap (°).
@@ -62,7 +62,7 @@ def weight_vs_gap(lost_samples, *, fs: float = FS, settings: KalmanSettings | No
         raise ValueError(f"prior_std_deg must be >= 0, got {prior_std_deg!r}")
     settings = KalmanSettings() if settings is None else settings
     grown = np.radians(prior_std_deg) ** 2 + (settings.gap_rate_noise * lost / fs) ** 2
-    gain = grown / (grown + settings.mag_noise ** 2)
+    gain = grown / (grown + settings.mag_noise_density ** 2 * fs)
     return pd.DataFrame({"λ (samples)": lost, "gap (s)": lost / fs,
                          f"paper: μ(λ), ρ = {rho:g}, τ = {tau:g}": slerp_weight(lost, rho, tau),
                          KALMAN_WEIGHT_COLUMN: 1.0 - gain}).set_index("λ (samples)")
