@@ -100,9 +100,13 @@ Gates (where they come from)
   ``mag_dip_gate + mag_dip_tilt_sigmas · σ_tilt`` (``σ_tilt² = max(P_00, P_11)``: the dip is
   seen through the estimated tilt, so an uncertain tilt, e.g. after a gap, must not reject an
   undisturbed field; VQF has no tilt covariance and uses the fixed threshold) of a reference
-  that is learned online (set from the first received sample, then low-pass filtered on
-  accepted samples); a new field that stays consistent for ``mag_new_time_s`` while the
-  sensor turns faster than ``mag_new_min_rate`` becomes the new reference; after
+  that is learned online: before it exists, a candidate (norm, dip) that stays consistent
+  for ``mag_new_first_time_s`` becomes it, and meanwhile each field is used with the variance
+  of a rejected one (so a recording that starts in motion or in a disturbance does not set its
+  gates from one sample); then it is low-pass filtered on accepted samples, and the norm gate's
+  own reference follows every field whose dip passes (``mag_norm_tau_s``); a new field that
+  stays consistent for ``mag_new_time_s`` while the sensor turns faster than
+  ``mag_new_min_rate`` becomes the new reference; after
   ``mag_max_rejection_s`` of rejection the field is used again with its variance multiplied
   by ``mag_rejection_factor²`` (VQF divides its gain by the factor).  Timers count received
   samples (time the sensor was observed).  The heading measured through a tilt error ε is
@@ -272,21 +276,40 @@ def constants(settings, fs, *, gap, replay, gap_time_constant, has_mag, filter_n
 
 #: Above this fraction of received samples with the magnetometer rejected, :func:`kalman_orientation` warns.
 MAG_REJECTED_FRACTION = 0.5
+#: A magnetometer rejected for longer than this (s) is counted (``KalmanOutput.long_mag_rejections``) and warned of.
+MAG_LONG_REJECTION_S = 10.0
 
 
-def _warn_if_magnetometer_unused(mag_used: np.ndarray, inputs: KalmanInputs, settings, fs: float) -> None:
-    """One ``UserWarning`` when the gates rejected the magnetometer on most received samples (e.g. a
-    magnet fixed near the sensor, a saturated or frozen sensor): the heading then drifts with the gyro.
-    Only for recordings longer than three times ``mag_new_time_s`` (before, the field may still be new)."""
+def long_mag_rejections(mag_used: np.ndarray, received: np.ndarray, fs: float) -> np.ndarray:
+    """Per row of ``mag_used``/``received`` (N, T): how many times the magnetometer stayed rejected on
+    every received sample for longer than :data:`MAG_LONG_REJECTION_S` (lost samples inside do
+    not end a rejection; its length runs from its first to its last rejected sample)."""
+    counts = np.zeros(mag_used.shape[0], dtype=np.int64)
+    for n, (used, got) in enumerate(zip(mag_used, received, strict=True)):
+        samples = np.flatnonzero(got)
+        rejected = ~used[samples]
+        edges = np.diff(np.concatenate(([0], rejected.astype(np.int8), [0])))
+        starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+        counts[n] = int(np.sum((samples[ends] - samples[starts] + 1) / fs > MAG_LONG_REJECTION_S))
+    return counts
+
+
+def _warn_if_magnetometer_unused(mag_used: np.ndarray, received: np.ndarray, long_rejections: np.ndarray,
+                                 settings, fs: float) -> None:
+    """One ``UserWarning`` per call when the magnetometer was rejected for longer than
+    :data:`MAG_LONG_REJECTION_S` or, in recordings longer than three times ``mag_new_time_s``, on
+    most received samples (a magnet fixed near the sensor, a saturated or frozen sensor, a field
+    whose strength changes faster than ``mag_norm_tau_s`` follows): the heading then rests on
+    the gyroscope."""
     settings = settings or KalmanSettings()
-    if not inputs.has_mag or inputs.n_t < 3.0 * settings.mag_new_time_s * fs:
-        return
-    received = inputs.received[inputs.index[:, 3]]
     rejected = float((received & ~mag_used).sum()) / max(int(received.sum()), 1)
-    if rejected > MAG_REJECTED_FRACTION:
-        warnings.warn(f"the magnetometer was rejected on {rejected:.0%} of the received samples (saturated, frozen, "
-                      f"or a magnetic disturbance?): the heading rests on the gyroscope there; full_output's "
-                      f"mag_used says where", UserWarning, stacklevel=3)
+    mostly = mag_used.shape[1] >= 3.0 * settings.mag_new_time_s * fs and rejected > MAG_REJECTED_FRACTION
+    if long_rejections.any() or mostly:
+        warnings.warn(f"the magnetometer was rejected on {rejected:.0%} of the received samples, "
+                      f"{int(long_rejections.sum())} time(s) for longer than {MAG_LONG_REJECTION_S:g} s (saturated, "
+                      f"frozen, a magnetic disturbance, or a field strength that drifts?): the heading rests on the "
+                      f"gyroscope there; full_output's mag_used and long_mag_rejections say where",
+                      UserWarning, stacklevel=3)
 
 
 def check_finite_output(quat: np.ndarray) -> np.ndarray:
@@ -312,6 +335,9 @@ class KalmanOutput:
         heading), δb the bias error (rad/s), δv the leaky velocity's error (m/s, earth frame).
     acc_used, mag_used : numpy.ndarray of bool, shape (..., T)
         Whether the sample's accelerometer / magnetometer passed the gates and was used.
+    long_mag_rejections : numpy.ndarray of int, shape (...)
+        How many times the magnetometer stayed rejected for longer than :data:`MAG_LONG_REJECTION_S`
+        (:func:`long_mag_rejections`; also warned of, once per call).
     treated_as_lost : numpy.ndarray of bool, shape (..., T)
         Received samples with a reading no sensor can give (e.g. a gyro of 1e6 rad/s), run as lost.
     """
@@ -321,6 +347,7 @@ class KalmanOutput:
     covariance: np.ndarray
     acc_used: np.ndarray
     mag_used: np.ndarray
+    long_mag_rejections: np.ndarray
     treated_as_lost: np.ndarray
 
 
@@ -422,7 +449,11 @@ def kalman_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
     run_kalman(inputs.gyr, inputs.acc, inputs.mag, inputs.received, inputs.index, inputs.q_init, inputs.start,
                inputs.init_only, c, outputs)
     out_q, out_bias, _, out_P, acc_used, mag_used = outputs
-    _warn_if_magnetometer_unused(mag_used, inputs, settings, fs)
+    long_rejections = np.zeros(n_batch, dtype=np.int64)
+    if inputs.has_mag:
+        received_rows = inputs.received[inputs.index[:, 3]]
+        long_rejections = long_mag_rejections(mag_used, received_rows, fs)
+        _warn_if_magnetometer_unused(mag_used, received_rows, long_rejections, settings, fs)
     quat = check_finite_output(out_q.reshape(batch + (n_t, 4)))
     if hold_output:
         B.hold_lost_output(quat, received)
@@ -430,7 +461,7 @@ def kalman_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
         return quat
     return KalmanOutput(quat=quat, gyro_bias=out_bias.reshape(batch + (n_t, 3)),
                         covariance=out_P.reshape(batch + (n_t, NX, NX)), acc_used=acc_used.reshape(batch + (n_t,)),
-                        mag_used=mag_used.reshape(batch + (n_t,)),
+                        mag_used=mag_used.reshape(batch + (n_t,)), long_mag_rejections=long_rejections.reshape(batch),
                         treated_as_lost=np.broadcast_to(inputs.treated_as_lost, batch + (n_t,)).copy())
 
 
@@ -575,6 +606,7 @@ class KalmanReference:
         self.q_last = self.q.copy()
         self.last_rate = self.rates[0] if self.rates else np.zeros(3)
         self.ref = None  # the magnetometer's reference norm and dip
+        self.candidate, self.candidate_time, self.gate_norm = None, 0.0, 0.0
         self.coef, self.largest = None, 0.0
 
     @staticmethod
@@ -705,13 +737,27 @@ class KalmanReference:
             return
         m_e = Q.rotate(self.q, mag)
         m_norm, dip = np.linalg.norm(mag), np.arctan2(-m_e[2], np.hypot(m_e[0], m_e[1]))
-        if self.ref is None:
-            self.ref = [m_norm, dip]
         tilt_var = max(self.P[0, 0], self.P[1, 1])
-        if not (abs(m_norm - self.ref[0]) < s.mag_norm_gate * self.ref[0]
-                and abs(dip - self.ref[1]) < s.mag_dip_gate + s.mag_dip_tilt_sigmas * np.sqrt(tilt_var)):
-            raise ValueError("the field looks disturbed: the reference covers undisturbed fields only")
         gain = -np.expm1(-dt / s.mag_reference_tau_s)  # the reference follows accepted fields
+        if self.ref is None:  # no reference yet: a candidate consistent for mag_new_first_time_s
+            cand = self.candidate
+            if cand is not None and (abs(m_norm - cand[0]) < s.mag_norm_gate * cand[0]
+                                     and abs(dip - cand[1]) < s.mag_dip_gate):
+                self.candidate_time += dt
+                self.candidate = [cand[0] + gain * (m_norm - cand[0]), cand[1] + gain * (dip - cand[1])]
+            else:
+                self.candidate_time, self.candidate = 0.0, [m_norm, dip]
+            r = s.mag_rejection_factor**2 * s.mag_noise_density**2 / dt
+            if self.candidate_time >= s.mag_new_first_time_s:
+                self.ref, self.gate_norm = list(self.candidate), self.candidate[0]
+                r = s.mag_noise_density**2 / dt
+            r += np.tan(min(abs(dip), 1.5)) ** 2 * tilt_var
+            self._correct(np.eye(9)[2:3], np.array([np.arctan2(m_e[0], m_e[1])]), r, heading_only=True)
+            return
+        dip_consistent = abs(dip - self.ref[1]) < s.mag_dip_gate + s.mag_dip_tilt_sigmas * np.sqrt(tilt_var)
+        if not (dip_consistent and abs(m_norm - self.gate_norm) < s.mag_norm_gate * self.gate_norm):
+            raise ValueError("the field looks disturbed: the reference covers undisturbed fields only")
+        self.gate_norm += -np.expm1(-dt / s.mag_norm_tau_s) * (m_norm - self.gate_norm)
         self.ref = [self.ref[0] + gain * (m_norm - self.ref[0]), self.ref[1] + gain * (dip - self.ref[1])]
         r = s.mag_noise_density**2 / dt + np.tan(min(abs(self.ref[1]), 1.5)) ** 2 * tilt_var
         self._correct(np.eye(9)[2:3], np.array([np.arctan2(m_e[0], m_e[1])]), r, heading_only=True)
