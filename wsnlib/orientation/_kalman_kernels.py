@@ -132,8 +132,9 @@ def predict(st, work, c, omega, acc, received, lost_run):
     for a in range(3):
         st.rate[a] = omega[a]
     # --- Strapdown prediction: q⁻ = q ⊗ Exp((ω − b) Δt) -----------------------------------
-    q = quat_normalize(quat_multiply((st.q[0], st.q[1], st.q[2], st.q[3]),
-                                     quat_exp((omega[0] * dt, omega[1] * dt, omega[2] * dt))))
+    q = (st.q[0], st.q[1], st.q[2], st.q[3])
+    if omega[0] != 0.0 or omega[1] != 0.0 or omega[2] != 0.0:  # (gap="hold": exactly still)
+        q = quat_normalize(quat_multiply(q, quat_exp((omega[0] * dt, omega[1] * dt, omega[2] * dt))))
     for a in range(4):
         st.q[a] = q[a]
     R = work.R
