@@ -17,7 +17,8 @@ not the other way round (``tests/test_layers.py`` checks it).
 * :mod:`wsnlib.io.vectors`: the one RSS vector type (:class:`~wsnlib.io.vectors.RssVectors`)
   and the one windowing function both RSS paths (``rss``, ``pabr``) build their vectors with;
 * :mod:`wsnlib.io.download`: the verified download both dataset loaders share;
-* :mod:`wsnlib.io.resample`: rate conversion of recordings (e.g. BROAD's 285.7 Hz to 50 Hz).
+* :mod:`wsnlib.io.resample`: rate conversion of recordings (e.g. BROAD's 285.7 Hz to 50 Hz), and
+  resampling from time stamps (irregular, repeated, with gaps) to any rate.
 """
 
 from wsnlib.io import accel, broad, download, pabr, recording, resample, rss, vectors
