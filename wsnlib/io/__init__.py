@@ -1,9 +1,9 @@
 """File formats and dataset loaders: the io layer, which imports no simulator.
 
 Every module here depends only on the core (numpy, pandas, scipy, :mod:`wsnlib.paths`,
-:mod:`wsnlib.quaternion`, :mod:`wsnlib.testbed` and the private helpers), never on
-:mod:`wsnlib.sim`, :mod:`wsnlib.orientation` or the studies; the simulators import from here,
-not the other way round (``tests/test_layers.py`` checks it).
+:mod:`wsnlib.quaternion`, :mod:`wsnlib.frames`, :mod:`wsnlib.plausibility`, :mod:`wsnlib.testbed`
+and the private helpers), never on :mod:`wsnlib.sim`, :mod:`wsnlib.orientation` or the studies;
+the simulators import from here, not the other way round (``tests/test_layers.py`` checks it).
 
 * :mod:`wsnlib.io.recording`: IMU recordings (:class:`~wsnlib.io.recording.Recording`) and their
   CSV + JSON format;
@@ -17,9 +17,12 @@ not the other way round (``tests/test_layers.py`` checks it).
 * :mod:`wsnlib.io.vectors`: the one RSS vector type (:class:`~wsnlib.io.vectors.RssVectors`)
   and the one windowing function both RSS paths (``rss``, ``pabr``) build their vectors with;
 * :mod:`wsnlib.io.download`: the verified download both dataset loaders share;
-* :mod:`wsnlib.io.resample`: rate conversion of recordings (e.g. BROAD's 285.7 Hz to 50 Hz).
+* :mod:`wsnlib.io.resample`: rate conversion of recordings (e.g. BROAD's 285.7 Hz to 50 Hz);
+* :mod:`wsnlib.io.health`: the health check to run on a recording before any study
+  (:func:`~wsnlib.io.health.recording_health`: time base, repeated samples, reference vs
+  gyroscope, magnetic field, units).
 """
 
-from wsnlib.io import accel, broad, download, pabr, recording, resample, rss, vectors
+from wsnlib.io import accel, broad, download, health, pabr, recording, resample, rss, vectors
 
-__all__ = ["accel", "broad", "download", "pabr", "recording", "resample", "rss", "vectors"]
+__all__ = ["accel", "broad", "download", "health", "pabr", "recording", "resample", "rss", "vectors"]
