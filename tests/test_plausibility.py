@@ -53,3 +53,16 @@ def test_only_received_samples_count(recording):
     check_imu_plausible(garbage, acc, mag, received)
     with pytest.raises(ValueError, match="deg/s"):
         check_imu_plausible(garbage, acc, mag, ~received)
+
+
+def test_every_problem_as_text_and_the_check_raises_the_first(recording):
+    from wsnlib.plausibility import imu_unit_problems
+
+    gyr, acc, mag = recording
+    assert imu_unit_problems(gyr, acc, mag, gravity=STANDARD_GRAVITY) == []
+    problems = imu_unit_problems(np.degrees(gyr) * 10, acc / STANDARD_GRAVITY, mag, gravity=STANDARD_GRAVITY)
+    assert len(problems) == 2
+    assert problems[0].startswith("gyr looks like deg/s") and problems[1].startswith("acc's median norm is 0.98")
+    with pytest.raises(ValueError) as raised:
+        check_imu_plausible(np.degrees(gyr) * 10, acc / STANDARD_GRAVITY, mag, gravity=STANDARD_GRAVITY, where="f")
+    assert str(raised.value) == "f: " + problems[0]

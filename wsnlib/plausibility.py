@@ -4,8 +4,10 @@ An orientation filter fed a gyro in deg/s, an accelerometer in g or the accelero
 magnetometer swapped does not fail: it returns an orientation that is wrong by 15° to 180°,
 silently.  :func:`check_imu_plausible` looks at the whole recording (the medians of the vector
 norms over the received samples, so a few outliers or a fast movement cannot trip it) and raises
-``ValueError`` naming the likely cause.  The bounds are wide on purpose: they refuse only what no
-human-motion recording in the documented units can look like.
+``ValueError`` naming the likely cause; :func:`imu_unit_problems` returns every cause found as
+text instead (the recording health check, :mod:`wsnlib.io.health`, reports them).  The bounds are
+wide on purpose: they refuse only what no human-motion recording in the documented units can look
+like.
 
 * gyroscope (rad/s): the median ‖ω‖ of human motion is below ~3 rad/s (BROAD's fastest trials:
   ~2.5); above :data:`GYRO_MEDIAN_MAX_RAD_S` = 20 rad/s (1,150 °/s, all the time) the gyro is in
@@ -57,6 +59,41 @@ def _median_norm(vectors: np.ndarray, received: np.ndarray | None) -> float:
     return float(np.median(norms)) if norms.size else float("nan")
 
 
+def imu_unit_problems(gyr: np.ndarray | None, acc: np.ndarray, mag: np.ndarray | None = None,
+                      received: np.ndarray | None = None, *, gravity: float | None = None) -> list[str]:
+    """What makes a recording implausible as a whole, in words: one sentence per problem found,
+    naming the likely cause, in the order gyro units, acc and mag swapped, acc scale; ``[]`` when
+    it is plausible.
+
+    The arguments and the bounds are those of :func:`check_imu_plausible`, which raises on the
+    first of these; a health check (:mod:`wsnlib.io.health`) lists them all.
+    """
+    problems = []
+    gyr_median = float("nan") if gyr is None else _median_norm(gyr, received)
+    if gyr_median > GYRO_MEDIAN_MAX_RAD_S:
+        problems.append(f"gyr looks like deg/s, not rad/s: its median norm is {gyr_median:.3g} "
+                        f"(human motion: below ~3 rad/s); convert it with np.radians")
+    acc_median = _median_norm(acc, received)
+    if mag is not None:
+        mag_median = _median_norm(mag, received)
+        if (SWAPPED_ACC_RANGE[0] <= acc_median <= SWAPPED_ACC_RANGE[1]
+                and SWAPPED_MAG_RANGE[0] <= mag_median <= SWAPPED_MAG_RANGE[1]):
+            problems.append(f"acc and mag look swapped: median norm of acc {acc_median:.3g} (a magnetic "
+                            f"field in µT?), of mag {mag_median:.3g} (gravity in m/s²?)")
+    if gravity is not None and np.isfinite(acc_median):
+        ratio = acc_median / gravity
+        if not 1.0 / ACC_SCALE_FACTOR_MAX <= ratio <= ACC_SCALE_FACTOR_MAX:
+            if 0.5 <= acc_median <= 2.0:
+                hint = "the accelerometer in g? multiply it by 9.80665"
+            elif 7.0 <= acc_median <= 13.0:
+                hint = "the accelerometer reads m/s²: is the filter's gravity setting right?"
+            else:
+                hint = "acc in other units than m/s²?"
+            problems.append(f"acc's median norm is {acc_median:.3g} m/s² but the filter's gravity is "
+                            f"{gravity:.4g} m/s²: {hint} (or set gravity to what the data reads at rest)")
+    return problems
+
+
 def check_imu_plausible(gyr: np.ndarray | None, acc: np.ndarray, mag: np.ndarray | None = None,
                         received: np.ndarray | None = None, *, gravity: float | None = None,
                         where: str = "") -> None:
@@ -76,32 +113,13 @@ def check_imu_plausible(gyr: np.ndarray | None, acc: np.ndarray, mag: np.ndarray
     where : str
         Prefix of the message (the calling function's name).
 
-    The checks and their bounds are in the module docstring.  Nothing is checked when no sample
-    is received.
+    The checks and their bounds are in the module docstring; the message is the first of
+    :func:`imu_unit_problems`.  Nothing is checked when no sample is received.
     """
-    prefix = f"{where}: " if where else ""
-    gyr_median = float("nan") if gyr is None else _median_norm(gyr, received)
-    if gyr_median > GYRO_MEDIAN_MAX_RAD_S:
-        raise ValueError(f"{prefix}gyr looks like deg/s, not rad/s: its median norm is {gyr_median:.3g} "
-                         f"(human motion: below ~3 rad/s); convert it with np.radians")
-    acc_median = _median_norm(acc, received)
-    if mag is not None:
-        mag_median = _median_norm(mag, received)
-        if (SWAPPED_ACC_RANGE[0] <= acc_median <= SWAPPED_ACC_RANGE[1]
-                and SWAPPED_MAG_RANGE[0] <= mag_median <= SWAPPED_MAG_RANGE[1]):
-            raise ValueError(f"{prefix}acc and mag look swapped: median norm of acc {acc_median:.3g} (a magnetic "
-                             f"field in µT?), of mag {mag_median:.3g} (gravity in m/s²?)")
-    if gravity is not None and np.isfinite(acc_median):
-        ratio = acc_median / gravity
-        if not 1.0 / ACC_SCALE_FACTOR_MAX <= ratio <= ACC_SCALE_FACTOR_MAX:
-            if 0.5 <= acc_median <= 2.0:
-                hint = "the accelerometer in g? multiply it by 9.80665"
-            elif 7.0 <= acc_median <= 13.0:
-                hint = "the accelerometer reads m/s²: is the filter's gravity setting right?"
-            else:
-                hint = "acc in other units than m/s²?"
-            raise ValueError(f"{prefix}acc's median norm is {acc_median:.3g} m/s² but the filter's gravity is "
-                             f"{gravity:.4g} m/s²: {hint} (or set gravity to what the data reads at rest)")
+    problems = imu_unit_problems(gyr, acc, mag, received, gravity=gravity)
+    if problems:
+        prefix = f"{where}: " if where else ""
+        raise ValueError(prefix + problems[0])
 
 
 def implausible_samples(signals: dict) -> np.ndarray | None:

@@ -1,9 +1,9 @@
 """File formats and dataset loaders: the io layer, which imports no simulator.
 
 Every module here depends only on the core (numpy, pandas, scipy, :mod:`wsnlib.paths`,
-:mod:`wsnlib.quaternion`, :mod:`wsnlib.plausibility`, :mod:`wsnlib.testbed` and the private
-helpers), never on :mod:`wsnlib.sim`, :mod:`wsnlib.orientation` or the studies; the simulators
-import from here, not the other way round (``tests/test_layers.py`` checks it).
+:mod:`wsnlib.quaternion`, :mod:`wsnlib.frames`, :mod:`wsnlib.plausibility`, :mod:`wsnlib.testbed`
+and the private helpers), never on :mod:`wsnlib.sim`, :mod:`wsnlib.orientation` or the studies;
+the simulators import from here, not the other way round (``tests/test_layers.py`` checks it).
 
 * :mod:`wsnlib.io.recording`: IMU recordings (:class:`~wsnlib.io.recording.Recording`) and their
   CSV + JSON format;
@@ -20,9 +20,12 @@ import from here, not the other way round (``tests/test_layers.py`` checks it).
 * :mod:`wsnlib.io.resample`: rate conversion of recordings (e.g. BROAD's 285.7 Hz to 50 Hz), and
   resampling from time stamps (irregular, repeated, with gaps) to any rate;
 * :mod:`wsnlib.io.alignment`: aligning an optical reference from another lab to an IMU (time lag,
-  sensor-to-marker and lab-to-ENU rotations, from the sensors) and applying it.
+  sensor-to-marker and lab-to-ENU rotations, from the sensors) and applying it;
+* :mod:`wsnlib.io.health`: the health check to run on a recording before any study
+  (:func:`~wsnlib.io.health.recording_health`: time base, repeated samples, reference vs
+  gyroscope, magnetic field, units).
 """
 
-from wsnlib.io import accel, alignment, broad, download, pabr, recording, resample, rss, vectors
+from wsnlib.io import accel, alignment, broad, download, health, pabr, recording, resample, rss, vectors
 
-__all__ = ["accel", "alignment", "broad", "download", "pabr", "recording", "resample", "rss", "vectors"]
+__all__ = ["accel", "alignment", "broad", "download", "health", "pabr", "recording", "resample", "rss", "vectors"]
