@@ -22,7 +22,6 @@ from wsnlib import loto, stats
 from wsnlib.io.broad import broad_trial_numbers
 from wsnlib.orientation import fusion_orientation
 from wsnlib.sim import arm_extension, arm_kinematics
-from wsnlib.studies.loss_tolerance.registry import FS
 from wsnlib.studies.loss_tolerance.summary import trial_table
 from wsnlib.studies.loss_tolerance.tables import median_rate_deg_s
 
@@ -35,6 +34,8 @@ OUR_OPTIONS = ("hold_last", "dt_extension", "gyro_interpolation", "adaptive_beta
 #: The filters that differ without loss (every option of ours is plain Madgwick then, and each
 #: peer's hybrid is the peer).
 DISTINCT_WITHOUT_LOSS = ("hold_last", "single frame", "Fusion", "VQF")
+#: Paper 001's sampling rate (Hz, Section IV): the rate its movement is simulated at here.
+PAPER_FS = 50.0
 #: The burst profile and the measures of the error a burst adds (columns of the study's table).
 BURST = "paper burst"
 BURST_MEASURES = {"mean_increase_deg": "mean increase (°)", "peak_increase_deg": "peak increase (°)",
@@ -45,7 +46,7 @@ BURST_MEASURES = {"mean_increase_deg": "mean increase (°)", "peak_increase_deg"
 def library_defaults() -> dict[str, float]:
     """The peers' own defaults of the tuned setting: Fusion's gain and VQF's ``tauAcc`` (Madgwick's β has none)."""
     return {"Fusion": float(inspect.signature(fusion_orientation).parameters["gain"].default),
-            "VQF": float(vqf.VQF(1.0 / FS).params["tauAcc"])}
+            "VQF": float(vqf.VQF(1.0 / PAPER_FS).params["tauAcc"])}  # the defaults do not depend on the rate
 
 
 def tuning_summary(tuning: pd.DataFrame, choices: pd.DataFrame,
@@ -109,7 +110,7 @@ def trial_groups(names) -> dict[str, list[str]]:
 
 def _paper_rate_deg_s() -> float:
     """Median angular rate (°/s) while moving of the paper's movement, notebooks 01–02's 90° arm extension."""
-    extension = arm_kinematics(arm_extension(fs=FS, duration_s=8.0, start_s=1.0, rise_s=4.0))
+    extension = arm_kinematics(arm_extension(fs=PAPER_FS, duration_s=8.0, start_s=1.0, rise_s=4.0))
     rate = np.linalg.norm(extension.gyr[0], axis=-1)
     return float(np.degrees(np.median(rate[rate > 0.05 * rate.max()])))
 

@@ -1,0 +1,178 @@
+"""The loss-tolerance study on your own recordings (issue 24): recording files in, any node, any rate."""
+
+import dataclasses
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from wsnlib import metrics
+from wsnlib.io.recording import read_recording, write_recording
+from wsnlib.loss import LossProfile
+from wsnlib.orientation import estimate_orientation, vqf_orientation
+from wsnlib.sim import reach_and_flex, simulate_recording
+from wsnlib.studies import loss_tolerance as lt
+from wsnlib.studies.loss_tolerance import summary as lts
+
+LOSSLESS = (lt.PROFILES[0],)
+
+
+def _simulated(path, fs=50.0, seed=0, duration_s=10.0, **changes):
+    """A two-node arm recording (humerus, forearm) written to ``path``; returns it as read back."""
+    rec = simulate_recording(reach_and_flex(fs=fs, duration_s=duration_s), rng=np.random.default_rng(seed))
+    rec = dataclasses.replace(rec, **changes) if changes else rec
+    return read_recording(write_recording(rec, path))
+
+
+def _methods(*names, budget=1):
+    return lt.with_budget({name: lt.default_methods()[name] for name in names}, budget)
+
+
+def test_a_recording_file_becomes_one_unit_per_node_with_a_reference(tmp_path):
+    quat = simulate_recording(reach_and_flex(fs=50.0, duration_s=4.0), rng=np.random.default_rng(0)).quat_true.copy()
+    quat[1] = np.nan                    # the forearm has no reference at all: not a unit
+    quat[0, 10:20] = np.nan             # the humerus loses it for 10 samples
+    rec = _simulated(tmp_path / "walk.csv", duration_s=4.0, quat_true=quat)
+    units = lt.load_recordings([tmp_path / "walk.csv"], progress=False)
+    assert list(units) == ["walk/humerus"]
+    unit = units["walk/humerus"]
+    assert (unit.source, unit.node, unit.fs) == ("walk", "humerus", 50.0)
+    np.testing.assert_array_equal(unit.gyr, rec.gyr[0])
+    # Without a movement column, every sample with a reference is scored.
+    expected = np.ones(rec.n_samples, bool)
+    expected[10:20] = False
+    np.testing.assert_array_equal(unit.movement, expected)
+    np.testing.assert_array_equal(unit.reference_valid, expected)
+    # With one, the file's movement (per node) is scored.
+    movement = np.zeros((2, rec.n_samples), bool)
+    movement[:, 50:150] = True
+    _simulated(tmp_path / "run.csv", duration_s=4.0, movement=movement)
+    units = lt.load_recordings([str(tmp_path / "run.json")], progress=False)  # the sidecar names the CSV too
+    assert list(units) == ["run/humerus", "run/forearm"]
+    np.testing.assert_array_equal(units["run/forearm"].movement, movement[1])
+
+
+def test_the_loader_refuses_what_it_cannot_study(tmp_path):
+    rec = _simulated(tmp_path / "a.csv", duration_s=2.0)
+    (tmp_path / "b").mkdir()
+    _simulated(tmp_path / "b" / "a.csv", duration_s=2.0)
+    with pytest.raises(ValueError, match=r"\['a/forearm', 'a/humerus'\] twice"):
+        lt.load_recordings([tmp_path / "a.csv", tmp_path / "b" / "a.csv"], progress=False)
+    with pytest.raises(ValueError, match="no reference orientation"):
+        lt.from_recording(dataclasses.replace(rec, quat_true=None), "x")
+    with pytest.raises(ValueError, match="at least one"):
+        lt.load_recordings([], progress=False)
+
+
+def test_irregular_time_stamps_are_refused_with_a_pointer_to_resampling():
+    rec = simulate_recording(reach_and_flex(fs=50.0, duration_s=2.0), rng=np.random.default_rng(0))
+    time_s = rec.time_s.copy()
+    time_s[40:] += 0.02             # one sample dropped: a 40 ms step at sample 39
+    jittered = dataclasses.replace(rec, time_s=time_s)
+    with pytest.raises(ValueError, match=r"not regular at fs = 50 Hz: the step after sample 39 is 0\.04 s.*"
+                                         r"wsnlib\.io\.resample"):
+        lt.from_recording(jittered, "x")
+    time_s = rec.time_s * 1.01      # a clock 1 % fast: within the tolerance
+    assert list(lt.from_recording(dataclasses.replace(rec, time_s=time_s), "x")) == ["x/humerus", "x/forearm"]
+
+
+def test_at_40_hz_the_study_gives_what_the_method_gives_at_40_hz(tmp_path):
+    """Issue 24: the study's rate was a constant (50 Hz), so a 40 Hz recording ran with a wrong
+    time step and silently wrong errors.  Each recording now runs at its own rate."""
+    rec = _simulated(tmp_path / "slow.csv", fs=40.0, duration_s=12.0)
+    units = lt.load_recordings([tmp_path / "slow.csv"], progress=False)
+    assert {u.fs for u in units.values()} == {40.0}
+    result = lt.evaluate(units, rng=np.random.default_rng(0), methods=_methods("VQF (defaults)", "hold_last"),
+                         profiles=LOSSLESS, headline="lossless", n_jobs=1, progress=False)
+    got = result.per_trial.set_index(["method", "trial"])["rmse_total"]
+    everything = np.ones(rec.n_samples, bool)
+    for fs in (40.0, 50.0):
+        direct = {"VQF (defaults)": vqf_orientation(rec.gyr, rec.acc, rec.mag, fs=fs),
+                  "hold_last": estimate_orientation(rec.gyr, rec.acc, rec.mag, fs=fs, beta=lt.MADGWICK_BETA)}
+        for method, quat in direct.items():
+            for i, node in enumerate(rec.nodes):
+                want = metrics.broad_rmse_deg(quat[i], rec.quat_true[i], everything)["total"]
+                if fs == 40.0:
+                    assert got[(method, f"slow/{node}")] == pytest.approx(want, rel=1e-9)
+                else:  # the old code's answer: far off
+                    assert abs(got[(method, f"slow/{node}")] - want) > 2.0
+    assert result.traces["slow/humerus"]["fs"] == 40.0
+    np.testing.assert_allclose(np.diff(result.traces["slow/humerus"]["time_s"]), 1 / 40.0)
+
+
+def test_masks_and_latency_use_each_recordings_rate(tmp_path):
+    """Loss profiles are in seconds and packets of samples: the paper's burst (4 packets of 6
+    samples, every 8 s from 4 s on) starts at the first packet boundary from 4 s on, sample 162
+    at 40 Hz (4 s = sample 160), 204 at 50 Hz (sample 200), and lasts 24 samples."""
+    _simulated(tmp_path / "forty.csv", fs=40.0, duration_s=10.0, seed=1)
+    _simulated(tmp_path / "fifty.csv", fs=50.0, duration_s=10.0, seed=2)
+    units = lt.load_recordings([tmp_path / "forty.csv", tmp_path / "fifty.csv"], progress=False)
+    profiles = (lt.PROFILES[0], lt.PROFILES[1])
+    result = lt.evaluate(units, rng=np.random.default_rng(0), methods=_methods("smoother"), profiles=profiles,
+                         headline="paper burst", n_jobs=1, progress=False)
+    assert result.traces["forty/humerus"]["burst_ends"][0] == 162 + 24
+    assert result.traces["fifty/humerus"]["burst_ends"][0] == 204 + 24
+    latency = result.per_trial.set_index("trial")["latency_s"]  # the smoother waits for the whole recording
+    assert (latency.loc["forty/humerus"] == 400 / 40.0).all() and (latency.loc["fifty/humerus"] == 500 / 50.0).all()
+
+
+def test_leave_one_recording_out_holds_out_all_nodes_of_a_file(tmp_path):
+    for k in range(3):
+        _simulated(tmp_path / f"r{k}.csv", duration_s=6.0, seed=k)
+    units = lt.load_recordings(sorted(tmp_path.glob("*.csv")), progress=False)
+    methods = lt.with_budget({"hold_last": lt.default_methods()["hold_last"]}, 4)
+    result = lt.evaluate(units, rng=np.random.default_rng(0), methods=methods, profiles=LOSSLESS,
+                         headline="lossless", n_jobs=1, progress=False)
+    assert result.setting_source == "leave-one-recording-out"
+    scores = result.tuning.pivot(index="setting_index", columns="trial", values="rmse_total")[list(units)].to_numpy()
+    sources = [u.source for u in units.values()]
+    for j, name in enumerate(units):
+        others = [k for k, source in enumerate(sources) if source != sources[j]]
+        want = int(np.argmin(scores[:, others].mean(axis=1)))
+        chosen = result.choices.set_index("trial").loc[name, "setting_index"]
+        assert chosen == want
+    assert list(result.units.columns) == ["recording", "node", "fs_hz", "n_samples"]
+    assert list(result.units["recording"]) == sources
+
+
+def test_one_recording_runs_every_method_with_its_default_and_says_so(tmp_path):
+    _simulated(tmp_path / "only.csv", duration_s=6.0)
+    units = lt.load_recordings([tmp_path / "only.csv"], progress=False)
+    methods = lt.default_methods()
+    result = lt.evaluate(units, rng=np.random.default_rng(0), methods=methods, profiles=LOSSLESS, headline="lossless",
+                         n_jobs=1, progress=False)
+    assert result.setting_source == "defaults (one recording)" and result.tuning.empty
+    used = result.per_trial.drop_duplicates("method").set_index("method")["setting"]
+    assert used["hold_last"] == str({"beta": 0.041}) and used["Kalman"] == "{}" and used["VQF"] == "{}"
+    assert used["Fusion"] == str({"gain": 0.5})
+    assert used["hybrid (feedback)"] == str({"rho_tau": 18})   # notebook 03's ρ = 3 × τ = 6
+    assert used["VQF (defaults)"] == str(methods["VQF (defaults)"].grid[0])
+    table = lts.rmse_table(result)
+    assert (table["setting_source"] == "defaults (one recording)").all()
+    # Without a default, a method with several settings cannot run untuned.
+    bare = {"x": dataclasses.replace(methods["hold_last"], default=None)}
+    with pytest.raises(ValueError, match="'hold_last' has 8 settings and no default"):
+        lt.evaluate(units, rng=np.random.default_rng(0), methods=bare, profiles=LOSSLESS, headline="lossless",
+                    progress=False)
+
+
+def test_rmse_table_rows_and_columns(tmp_path):
+    for k in range(2):
+        _simulated(tmp_path / f"r{k}.csv", duration_s=6.0, seed=k)
+    units = lt.load_recordings(sorted(tmp_path.glob("*.csv")), progress=False)
+    profiles = (lt.PROFILES[0], LossProfile.gilbert_elliott(0.2))
+    result = lt.evaluate(units, rng=np.random.default_rng(0), methods=_methods("hold_last", "Kalman"),
+                         profiles=profiles, headline="GE 20 %", draws=2, n_jobs=1, progress=False)
+    table = lts.rmse_table(result)
+    assert list(table.columns) == list(lts.RMSE_TABLE_COLUMNS)
+    assert len(table) == 2 * 2 * 2 * (1 + 2)  # recordings × nodes × methods × (lossless + 2 draws)
+    assert set(table["recording"]) == {"r0", "r1"} and set(table["node"]) == {"humerus", "forearm"}
+    assert not table.duplicated(["recording", "node", "method", "profile", "draw"]).any()
+    row = table[(table["recording"] == "r1") & (table["node"] == "forearm") & (table["method"] == "Kalman")
+                & (table["profile"] == "GE 20 %") & (table["draw"] == 1)]
+    source = result.per_trial[(result.per_trial["trial"] == "r1/forearm") & (result.per_trial["method"] == "Kalman")
+                              & (result.per_trial["profile"] == "GE 20 %") & (result.per_trial["draw"] == 1)]
+    assert row["rmse_heading_deg"].item() == source["rmse_heading"].item()
+    assert np.isfinite(table[["rmse_total_deg", "rmse_inclination_deg", "rmse_heading_deg"]].to_numpy()).all()
+    assert (table["setting_source"] == "leave-one-recording-out").all()
+    pd.testing.assert_series_equal(table["rmse_total_deg"], result.per_trial["rmse_total"], check_names=False)
