@@ -12,7 +12,6 @@ from wsnlib.loss import LossProfile
 from wsnlib.orientation import estimate_orientation, vqf_orientation
 from wsnlib.sim import reach_and_flex, simulate_recording
 from wsnlib.studies import loss_tolerance as lt
-from wsnlib.studies.loss_tolerance import summary as lts
 
 LOSSLESS = (lt.PROFILES[0],)
 
@@ -147,7 +146,7 @@ def test_one_recording_runs_every_method_with_its_default_and_says_so(tmp_path):
     assert used["Fusion"] == str({"gain": 0.5})
     assert used["hybrid (feedback)"] == str({"rho_tau": 18})   # notebook 03's ρ = 3 × τ = 6
     assert used["VQF (defaults)"] == str(methods["VQF (defaults)"].grid[0])
-    table = lts.rmse_table(result)
+    table = result.rmse_table()
     assert (table["setting_source"] == "defaults (one recording)").all()
     # Without a default, a method with several settings cannot run untuned.
     bare = {"x": dataclasses.replace(methods["hold_last"], default=None)}
@@ -163,8 +162,8 @@ def test_rmse_table_rows_and_columns(tmp_path):
     profiles = (lt.PROFILES[0], LossProfile.gilbert_elliott(0.2))
     result = lt.evaluate(units, rng=np.random.default_rng(0), methods=_methods("hold_last", "Kalman"),
                          profiles=profiles, headline="GE 20 %", draws=2, n_jobs=1, progress=False)
-    table = lts.rmse_table(result)
-    assert list(table.columns) == list(lts.RMSE_TABLE_COLUMNS)
+    table = result.rmse_table()
+    assert list(table.columns) == list(lt.RMSE_TABLE_COLUMNS)
     assert len(table) == 2 * 2 * 2 * (1 + 2)  # recordings × nodes × methods × (lossless + 2 draws)
     assert set(table["recording"]) == {"r0", "r1"} and set(table["node"]) == {"humerus", "forearm"}
     assert not table.duplicated(["recording", "node", "method", "profile", "draw"]).any()
@@ -176,3 +175,59 @@ def test_rmse_table_rows_and_columns(tmp_path):
     assert np.isfinite(table[["rmse_total_deg", "rmse_inclination_deg", "rmse_heading_deg"]].to_numpy()).all()
     assert (table["setting_source"] == "leave-one-recording-out").all()
     pd.testing.assert_series_equal(table["rmse_total_deg"], result.per_trial["rmse_total"], check_names=False)
+
+
+# --- the command line ----------------------------------------------------------------------------------------------
+
+def test_loss_specs_of_the_command_line():
+    from wsnlib.studies.loss_tolerance.__main__ import loss_profile
+
+    ge = loss_profile("ge:0.10:3")
+    assert (ge.name, ge.model, ge.loss_rate, ge.mean_burst_packets, ge.samples_per_packet) == \
+        ("ge:0.10:3", "gilbert_elliott", 0.10, 3.0, 6)
+    assert loss_profile("ge:0.2").mean_burst_packets == 3.0 and loss_profile("ge:0.2:5:12").samples_per_packet == 12
+    paper = loss_profile("burst:4:4:8")  # paper 001's burst, every 8 s: the study's "paper burst"
+    np.testing.assert_array_equal(paper.mask(3000, 40.0, None), lt.PROFILES[1].mask(3000, 40.0, None))
+    assert loss_profile("burst:2:3").burst_period_s is None and loss_profile("none").model == "none"
+    import argparse
+    for bad in ("ge:1.5", "ge:0.1:0.5", "ge:0.1:3:2.5", "burst:4", "burst:4:0", "gilbert:0.1", "ge:ten"):
+        with pytest.raises(argparse.ArgumentTypeError, match=bad):
+            loss_profile(bad)
+
+
+def _cli(*args):
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-m", "wsnlib.studies.loss_tolerance", *map(str, args)],
+                          capture_output=True, text=True, timeout=600)
+
+
+def test_command_line_on_recording_files(tmp_path):
+    for k, name in enumerate(("walk", "run")):
+        _simulated(tmp_path / f"{name}.csv", fs=40.0 + 10 * k, duration_s=6.0, seed=k)
+    out = tmp_path / "results.csv"
+    run = _cli(tmp_path / "walk.csv", tmp_path / "run.json", "--loss", "ge:0.10:3", "--loss", "burst:2:4",
+               "--draws", "2", "--budget", "1", "--jobs", "1", "--out", out)
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert "2 recording(s), 4 node(s) with a reference, at 40, 50 Hz" in run.stdout
+    assert "tuned leave-one-recording-out at ge:0.10:3" in run.stdout
+    table = pd.read_csv(out)
+    assert list(table.columns) == list(lt.RMSE_TABLE_COLUMNS)
+    n_methods = len(lt.default_methods())
+    assert len(table) == 2 * 2 * n_methods * (1 + 2 + 1)  # lossless, 2 GE draws, the burst
+    assert list(dict.fromkeys(table["profile"])) == ["lossless", "ge:0.10:3", "burst:2:4"]
+    assert set(table["setting_source"]) == {"leave-one-recording-out"}
+    printed = run.stdout.splitlines()
+    header = next(i for i, line in enumerate(printed) if line.split()[:2] == ["recording", "node"])
+    assert len(printed[header + 1].split()) >= 9 and "Mean total RMSE" in run.stdout
+    # One file: nothing to tune on, and the table says so.
+    single = _cli(tmp_path / "walk.csv", "--loss", "ge:0.2", "--budget", "1", "--jobs", "1", "--out", out)
+    assert single.returncode == 0, single.stderr[-3000:]
+    assert "one recording: every method with its default setting" in single.stdout
+    assert set(pd.read_csv(out)["setting_source"]) == {"defaults (one recording)"}
+    # What the command line refuses.
+    both = _cli(tmp_path / "walk.csv", "--trials", "02_undisturbed_slow_rotation_B")
+    assert both.returncode != 0 and "not both" in both.stderr
+    assert "not a loss profile" in _cli(tmp_path / "walk.csv", "--loss", "gilbert:0.1").stderr
+    assert "--loss applies to recording files" in _cli("--loss", "ge:0.1").stderr

@@ -13,7 +13,7 @@ Your own recording, start to finish::
     from wsnlib.studies import loss_tolerance as study
     units = study.load_recordings(["walk.csv", "run.csv"])      # one unit per node with a reference
     result = study.evaluate(units, rng=np.random.default_rng(0))
-    print(study.summary.rmse_table(result))                     # recording, node, method, profile, draw, RMSEs
+    print(result.rmse_table())                                  # recording, node, method, profile, draw, RMSEs
 
 (the command line does the same: ``python -m wsnlib.studies.loss_tolerance walk.csv run.csv``).
 
@@ -94,6 +94,7 @@ command line.  This package's door gathers the names of the first three.
 from wsnlib.studies.loss_tolerance.evaluation import (
     AFTER_GAP_S,
     RECOVERY_THRESHOLD_DEG,
+    RMSE_TABLE_COLUMNS,
     SETTING_SOURCES,
     SETTINGS_PER_JOB,
     LossToleranceResult,
@@ -141,9 +142,9 @@ from wsnlib.studies.loss_tolerance.registry import (
 __all__ = [
     "AFTER_GAP_S", "BETA_GRID", "BROAD_FS", "DEFAULT_RHO_TAU", "FUSION_DEFAULT_GAIN", "FUSION_GRID",
     "FUSION_HYBRID_GRID", "GAP_PREDICTION_PAIRS", "GATING_PAIRS", "HEADLINE", "HYBRID_GRID", "KALMAN_GRID", "KINDS",
-    "LATENCY_RULES", "MADGWICK_BETA", "DEFAULT_BUDGET", "PROFILES", "RECOVERY_THRESHOLD_DEG", "REGULAR_STEP_TOLERANCE",
-    "SETTING_SOURCES", "SETTINGS_PER_JOB", "VQF_GRID", "VQF_HYBRID_GRID", "LossToleranceResult", "Method", "Choice",
-    "Range", "StudyRecording", "default_methods", "evaluate", "from_broad", "from_recording", "load_recordings",
-    "notebook_sources", "paper001_methods", "paper001_profiles", "response_window_s", "settings_grid",
-    "single_frame_trust", "with_budget",
+    "LATENCY_RULES", "MADGWICK_BETA", "DEFAULT_BUDGET", "PROFILES", "RECOVERY_THRESHOLD_DEG",
+    "REGULAR_STEP_TOLERANCE", "RMSE_TABLE_COLUMNS", "SETTING_SOURCES", "SETTINGS_PER_JOB", "VQF_GRID",
+    "VQF_HYBRID_GRID", "LossToleranceResult", "Method", "Choice", "Range", "StudyRecording", "default_methods",
+    "evaluate", "from_broad", "from_recording", "load_recordings", "notebook_sources", "paper001_methods",
+    "paper001_profiles", "response_window_s", "settings_grid", "single_frame_trust", "with_budget",
 ]

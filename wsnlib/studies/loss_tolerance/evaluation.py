@@ -28,6 +28,9 @@ BURST_RESPONSE_WINDOW_S, GAP_RESPONSE_WINDOW_S = 4.0, 2.0
 #: Where each recording's setting comes from (:attr:`LossToleranceResult.setting_source`): tuned on
 #: the other recordings, or, with a single recording, every method's default.
 SETTING_SOURCES = ("leave-one-recording-out", "defaults (one recording)")
+#: Columns of :meth:`LossToleranceResult.rmse_table`.
+RMSE_TABLE_COLUMNS = ("recording", "node", "method", "profile", "draw", "rmse_total_deg", "rmse_inclination_deg",
+                      "rmse_heading_deg", "setting_source", "setting")
 
 
 def response_window_s(profile) -> float:
@@ -77,6 +80,26 @@ class LossToleranceResult:
     profiles: tuple
     units: pd.DataFrame
     setting_source: str
+
+    def rmse_table(self) -> pd.DataFrame:
+        """One row per recording, node, method, profile and draw: BROAD's three RMSEs (°) and the setting.
+
+        Columns :data:`RMSE_TABLE_COLUMNS`: the recording (file stem or BROAD trial) and node of
+        each trial, method, profile, draw; rmse_total_deg, rmse_inclination_deg,
+        rmse_heading_deg (movement samples with a reference, :func:`wsnlib.metrics.broad_rmse_deg`);
+        setting_source (:attr:`setting_source`: ``"leave-one-recording-out"``, or ``"defaults
+        (one recording)"`` when there was nothing to tune on) and the setting used.  In the
+        order of :attr:`per_trial`'s rows.
+        """
+        rows = self.per_trial
+        units = self.units.loc[rows["trial"]]
+        return pd.DataFrame({"recording": units["recording"].to_numpy(), "node": units["node"].to_numpy(),
+                             "method": rows["method"].to_numpy(), "profile": rows["profile"].to_numpy(),
+                             "draw": rows["draw"].to_numpy(), "rmse_total_deg": rows["rmse_total"].to_numpy(),
+                             "rmse_inclination_deg": rows["rmse_inclination"].to_numpy(),
+                             "rmse_heading_deg": rows["rmse_heading"].to_numpy(),
+                             "setting_source": self.setting_source, "setting": rows["setting"].to_numpy()},
+                            columns=list(RMSE_TABLE_COLUMNS))
 
 
 def _gap_response(error, lossless, received, window_s, fs) -> dict:

@@ -268,35 +268,3 @@ def comparison_sentences(comparisons: pd.DataFrame, unit: str = "°") -> list[st
                    f"{words[row['verdict']]}, lower on {row['n_better']} of {row['n_trials']} trials.")
     return out
 
-
-#: Columns of :func:`rmse_table`.
-RMSE_TABLE_COLUMNS = ("recording", "node", "method", "profile", "draw", "rmse_total_deg", "rmse_inclination_deg",
-                      "rmse_heading_deg", "setting_source", "setting")
-
-
-def rmse_table(result) -> pd.DataFrame:
-    """One row per recording, node, method, profile and draw: BROAD's three RMSEs (°) and the setting used.
-
-    Parameters
-    ----------
-    result : LossToleranceResult
-        From :func:`wsnlib.studies.loss_tolerance.evaluate`.
-
-    Returns
-    -------
-    pandas.DataFrame
-        Columns :data:`RMSE_TABLE_COLUMNS`: the recording (file stem or BROAD trial) and node of
-        each trial, method, profile, draw; rmse_total_deg, rmse_inclination_deg,
-        rmse_heading_deg (movement samples with a reference); setting_source
-        (``"leave-one-recording-out"``, or ``"defaults (one recording)"`` when there was nothing
-        to tune on) and the setting.  In the order of the study's rows.
-    """
-    rows = result.per_trial
-    units = result.units.loc[rows["trial"]]
-    return pd.DataFrame({"recording": units["recording"].to_numpy(), "node": units["node"].to_numpy(),
-                         "method": rows["method"].to_numpy(), "profile": rows["profile"].to_numpy(),
-                         "draw": rows["draw"].to_numpy(), "rmse_total_deg": rows["rmse_total"].to_numpy(),
-                         "rmse_inclination_deg": rows["rmse_inclination"].to_numpy(),
-                         "rmse_heading_deg": rows["rmse_heading"].to_numpy(),
-                         "setting_source": result.setting_source, "setting": rows["setting"].to_numpy()},
-                        columns=list(RMSE_TABLE_COLUMNS))
