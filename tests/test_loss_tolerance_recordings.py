@@ -177,7 +177,44 @@ def test_rmse_table_rows_and_columns(tmp_path):
     pd.testing.assert_series_equal(table["rmse_total_deg"], result.per_trial["rmse_total"], check_names=False)
 
 
-# --- the command line ----------------------------------------------------------------------------------------------
+# --- from a recording file to the printed table; the command line ----------------------------------------------
+
+#: What a user writes to study their own recordings (issue 24: at most 20 lines, quick settings).
+USER_CODE = """
+import numpy as np
+from wsnlib.loss import LossProfile
+from wsnlib.studies import loss_tolerance as study
+
+units = study.load_recordings(["walk.csv", "run.csv"])       # one unit per node with a reference
+methods = study.with_budget(study.default_methods(), 1)       # quick: one setting per method
+profiles = [LossProfile.none("lossless"), LossProfile.gilbert_elliott(0.10)]
+result = study.evaluate(units, rng=np.random.default_rng(0), methods=methods, profiles=profiles,
+                        headline="GE 10 %", n_jobs=1)
+print(result.rmse_table().to_string(index=False))
+"""
+
+
+def test_from_a_recording_file_to_the_printed_table_in_at_most_20_lines(tmp_path, monkeypatch, capsys):
+    recordings = {name: _simulated(tmp_path / f"{name}.csv", duration_s=8.0, seed=k)
+                  for k, name in enumerate(("walk", "run"))}
+    lines = [line for line in USER_CODE.splitlines() if line.strip()]
+    assert len(lines) <= 20
+    monkeypatch.chdir(tmp_path)
+    exec(USER_CODE, {})
+    printed = capsys.readouterr().out.splitlines()
+    assert printed[0].split() == list(lt.RMSE_TABLE_COLUMNS)
+    assert len(printed) == 1 + 2 * 2 * len(lt.default_methods()) * 2  # recordings × nodes × methods × profiles
+    # The row of VQF with its authors' defaults, without loss, on run's forearm: what VQF gives directly.
+    run = recordings["run"]
+    quat = vqf_orientation(run.gyr[1], run.acc[1], run.mag[1], fs=run.fs)
+    want = metrics.broad_rmse_deg(quat, run.quat_true[1], np.ones(run.n_samples, bool))
+    row = next(line for line in map(" ".join, map(str.split, printed))
+               if line.startswith("run forearm VQF (defaults) lossless"))
+    values = row.split("lossless")[1].split()
+    assert int(values[0]) == 0 and values[4] == "leave-one-recording-out"
+    np.testing.assert_allclose([float(v) for v in values[1:4]], [want["total"], want["inclination"], want["heading"]],
+                               rtol=1e-5)
+
 
 def test_loss_specs_of_the_command_line():
     from wsnlib.studies.loss_tolerance.__main__ import loss_profile
