@@ -12,6 +12,7 @@ from wsnlib.loss import LossProfile
 from wsnlib.orientation import estimate_orientation, vqf_orientation
 from wsnlib.sim import reach_and_flex, simulate_recording
 from wsnlib.studies import loss_tolerance as lt
+from wsnlib.studies.loss_tolerance import summary as lts
 
 LOSSLESS = (lt.PROFILES[0],)
 
@@ -268,3 +269,79 @@ def test_command_line_on_recording_files(tmp_path):
     assert both.returncode != 0 and "not both" in both.stderr
     assert "not a loss profile" in _cli(tmp_path / "walk.csv", "--loss", "gilbert:0.1").stderr
     assert "--loss applies to recording files" in _cli("--loss", "ge:0.1").stderr
+
+
+def test_notebook_sources_take_trials_or_recordings_not_both():
+    assert lt.notebook_sources("all", ["a.csv", "b.json"], quick=True) == ["a.csv", "b.json"]  # files all kept
+    assert lt.notebook_sources(["02_undisturbed_slow_rotation_B", "07_undisturbed_fast_rotation_B", "x"],
+                               quick=True) == ["02_undisturbed_slow_rotation_B", "07_undisturbed_fast_rotation_B"]
+    with pytest.raises(ValueError, match="not both"):
+        lt.notebook_sources(["02_undisturbed_slow_rotation_B"], ["a.csv"])
+    for bad in ("a.csv", []):
+        with pytest.raises(ValueError, match="non-empty list of recording files"):
+            lt.notebook_sources("all", bad)
+
+
+def test_lost_share_band_matches_the_spread_of_gilbert_elliott_masks():
+    profile = LossProfile.gilbert_elliott(0.10, 3.0)
+    masks = profile.mask(6000, 50.0, np.random.default_rng(3), shape=(2000,))   # 1000 packets each
+    shares = 1 - masks.mean(axis=1)
+    low, high = lts.lost_share_band(profile, 6000, n_std=1.0)
+    assert (high - low) / 2 == pytest.approx(shares.std(), rel=0.15)   # the chain's spread, not Bernoulli's
+    assert (low + high) / 2 == pytest.approx(0.10)
+    low, high = lts.lost_share_band(profile, 6000)
+    assert ((shares > low) & (shares < high)).mean() > 0.99
+    with pytest.raises(ValueError, match="Gilbert-Elliott"):
+        lts.lost_share_band(lt.PROFILES[0], 6000)
+
+
+def test_sentences_on_other_recordings_name_no_broad_group():
+    from wsnlib.studies.loss_tolerance import paper001, tables
+
+    broad = ["02_undisturbed_slow_rotation_B", "30_disturbed_stationary_magnet_C"]
+    assert lt.all_broad(broad) and not lt.all_broad([*broad, "walk/wrist"]) and not lt.all_broad([])
+    assert paper001.listed(broad) == "02, 30"
+    assert paper001.listed(["walk/wrist", "run/wrist"]) == "`walk/wrist`, `run/wrist`"
+    assert paper001.trial_labels(broad) == ["undisturbed_slow_rotation_B", "disturbed_stationary_magnet_C"]
+    assert paper001.trial_labels(["walk/upper_arm"]) == ["walk/upper_arm"]
+    assert paper001.trial_groups(["walk/slow_rotation", "run/_fast_"]) == {"slow rotation": [], "fast": [],
+                                                                           "magnet": []}
+    rows = [{"profile": "paper burst", "metric": metric, "method": m, "mean": 1.0, "ci_low": 0.5, "ci_high": 1.5}
+            for m in ("hold_last", "hybrid (feedback)", "Kalman", "smoother", "VQF")
+            for metric in ("peak_increase_deg", "recovery_s")]
+    table = tables.paper_vs_ours(pd.DataFrame(rows), "VQF")
+    assert "On BROAD" in tables.paper_vs_ours_sentence(table) and "magnetic" in tables.paper_vs_ours_sentence(table)
+    other = tables.paper_vs_ours_sentence(table, broad=False)
+    assert "On these recordings" in other and "BROAD" not in other and "magnetic" not in other
+
+
+def test_notebook_05_reading_on_recording_files(tmp_path):
+    from wsnlib.studies.hybrid_tuning import RECOMMENDED_HYBRID
+    from wsnlib.studies.loss_tolerance import paper001
+
+    for k, name in enumerate(("walk", "run")):
+        _simulated(tmp_path / f"{name}.csv", duration_s=12.0, seed=k)
+    units = lt.load_recordings([tmp_path / "walk.csv", tmp_path / "run.csv"], progress=False)
+    methods = lt.paper001_methods(RECOMMENDED_HYBRID, [0.01, 0.1], [0.5, 1.0], [1.5, 3.0])
+    result = lt.evaluate(units, rng=np.random.default_rng(5), methods=methods,
+                         profiles=lt.paper001_profiles((0.1,), burst_period_s=4.0), headline="lossless", n_jobs=1,
+                         progress=False)
+    groups = result.units["recording"]
+    summary, _ = paper001.tuning_summary(result.tuning, result.choices, methods, groups=groups)
+    # The median leave-one-out RMSE holds out both nodes of a file: from the grid scores, by hand.
+    scores = result.tuning[result.tuning["method"] == "hold_last"].pivot(index="setting_index", columns="trial",
+                                                                       values="rmse_total")[list(units)].to_numpy()
+    held_out = [scores[np.argmin(scores[:, [k for k in range(4) if k // 2 != j // 2]].mean(axis=1)), j]
+                for j in range(4)]
+    assert summary.loc["Madgwick", "median RMSE, leave-one-trial-out (°)"] == pytest.approx(np.median(held_out))
+    found = paper001.findings(result.per_trial, units, {"Fusion": 1.0, "VQF": 2.0}, rng=np.random.default_rng(0),
+                              n_boot=200)
+    assert found["remedy pool"] == sorted(units) and found["closest trial"] in units
+    for text in (found["text"], paper001.summary_text(found, len(units))):
+        assert "BROAD" not in text and "magnet" not in text and "slow-rotation" not in text and "(none)" not in text
+    assert "Errors are per node" in found["text"] and f"`{found['closest trial']}` at" in found["text"]
+    one = lt.evaluate({k: v for k, v in units.items() if k.startswith("walk")}, rng=np.random.default_rng(5),
+                      methods=methods, profiles=lt.paper001_profiles((0.1,)), headline="lossless", n_jobs=1,
+                      progress=False)
+    with pytest.raises(ValueError, match="single recording"):
+        paper001.tuning_summary(one.tuning, one.choices, methods)

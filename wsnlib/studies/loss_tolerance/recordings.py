@@ -172,6 +172,14 @@ def from_recording(recording: Recording, name: str) -> dict[str, StudyRecording]
     return units
 
 
+def all_broad(names) -> bool:
+    """Whether every name is a BROAD trial's (:func:`wsnlib.io.broad.broad_trials`): the sentences
+    name BROAD's groups of trials and say "BROAD" only then."""
+    known = set(broad_trials())
+    names = [str(name) for name in names]
+    return bool(names) and all(name in known for name in names)
+
+
 def _is_file(source) -> bool:
     return isinstance(source, Path) or str(source).lower().endswith(RECORDING_SUFFIXES)
 

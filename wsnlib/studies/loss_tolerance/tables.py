@@ -229,18 +229,24 @@ def paper_vs_ours(means: pd.DataFrame, best_peer: str, profile: str = "paper bur
     return pd.DataFrame.from_dict(rows, orient="index").rename_axis("method")
 
 
-def paper_vs_ours_sentence(table: pd.DataFrame) -> str:
-    """The paper's hybrid after its loss against ours and our Kalman filter, from :func:`paper_vs_ours`."""
+def paper_vs_ours_sentence(table: pd.DataFrame, *, broad: bool = True) -> str:
+    """The paper's hybrid after its loss against ours and our Kalman filter, from :func:`paper_vs_ours`.
+
+    ``broad``: the trials are BROAD's (:func:`~wsnlib.studies.loss_tolerance.all_broad`), whose
+    kinds of motion the sentence names; otherwise it speaks of "these recordings".
+    """
     hybrid_paper = paper_values.PAPER001_SECTION4_AFTER_LOSS["hybrid"]
     hybrid, kalman = table.loc["hybrid (feedback)"], table.loc["Kalman"]
+    motion = ("the trials include fast rotations, translations and magnetic disturbances (the per-trial dots above)"
+              if broad else "the per-trial dots above show how these recordings differ from it")
     return (f"The paper's hybrid stays around {hybrid_paper['error_deg']:g}° for about "
-            f"{hybrid_paper['duration_s']:g} s after its loss. On BROAD, the burst adds a peak of "
+            f"{hybrid_paper['duration_s']:g} s after its loss. On {'BROAD' if broad else 'these recordings'}, "
+            f"the burst adds a peak of "
             f"{hybrid['ours: peak increase (°)']:.1f}° "
             f"[{hybrid['low']:.1f}, {hybrid['high']:.1f}] to the hybrid's error, back below 2° after "
             f"{hybrid['ours: recovery (s)']:.2f} s on average; our Kalman filter's peak is "
             f"{kalman['ours: peak increase (°)']:.1f}° [{kalman['low']:.1f}, {kalman['high']:.1f}] and its recovery "
-            f"{kalman['ours: recovery (s)']:.2f} s. The paper's arm raise is one slow, smooth movement; the trials "
-            f"include fast rotations, translations and magnetic disturbances (the per-trial dots above).")
+            f"{kalman['ours: recovery (s)']:.2f} s. The paper's arm raise is one slow, smooth movement; {motion}.")
 
 
 def why_missed_sentence(per_trial: pd.DataFrame, best: Mapping[str, str], values: pd.DataFrame) -> str:
