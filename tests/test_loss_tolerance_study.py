@@ -13,6 +13,9 @@ from wsnlib.orientation import KalmanSettings
 from wsnlib.studies import loss_tolerance as lt
 from wsnlib.studies.loss_tolerance import summary as lts
 
+#: Rate of the test recordings (Hz).
+FS = 50.0
+
 
 def _recording(seed, n=600):
     gyr, acc, mag, quat = turning_recording(n=n, seed=seed, noise=0.01)
@@ -20,7 +23,7 @@ def _recording(seed, n=600):
     ref[100:110] = np.nan  # optical markers lost for a moment
     movement = np.ones(n, bool)
     movement[:25] = False
-    return types.SimpleNamespace(gyr=gyr, acc=acc, mag=mag, quat_ref=ref, movement=movement, n_samples=n)
+    return types.SimpleNamespace(gyr=gyr, acc=acc, mag=mag, quat_ref=ref, movement=movement, n_samples=n, fs=FS)
 
 
 def _small_methods():
@@ -179,7 +182,7 @@ def test_registry_options_and_side_question_pairs():
 
 def test_gap_prediction_and_gate_change_nothing_without_loss_but_act_under_loss():
     rec = _recording(0, n=400)
-    masks = np.stack([np.ones(400, bool), lt.PROFILES[1].mask(400, lt.FS, None)])
+    masks = np.stack([np.ones(400, bool), lt.PROFILES[1].mask(400, FS, None)])
     methods = lt.default_methods()
     for without, with_ in lt.GAP_PREDICTION_PAIRS:
         setting = methods[without].grid[2]
@@ -198,27 +201,27 @@ def test_registry_runs_the_filters_with_the_loss_vocabulary():
     from wsnlib.orientation import estimate_orientation, fusion_orientation, kalman_orientation, madgwick
 
     rec = _recording(1, n=300)
-    masks = np.stack([lt.PROFILES[1].mask(300, lt.FS, None), np.arange(300) % 9 != 4])
+    masks = np.stack([lt.PROFILES[1].mask(300, FS, None), np.arange(300) % 9 != 4])
     methods = lt.default_methods()
     args = (rec.gyr, rec.acc, rec.mag)
     beta = {"beta": 0.041}
-    expected = {"hold_last": madgwick(*args, fs=lt.FS, beta=0.041, received=masks),
-                "constant_rate": estimate_orientation(*args, fs=lt.FS, beta=0.041, received=masks, gap="constant_rate"),
-                "gyro_interpolation": estimate_orientation(*args, fs=lt.FS, beta=0.041, received=masks, replay=True)}
+    expected = {"hold_last": madgwick(*args, fs=FS, beta=0.041, received=masks),
+                "constant_rate": estimate_orientation(*args, fs=FS, beta=0.041, received=masks, gap="constant_rate"),
+                "gyro_interpolation": estimate_orientation(*args, fs=FS, beta=0.041, received=masks, replay=True)}
     for name, quat in expected.items():
         np.testing.assert_array_equal(methods[name].run(rec, beta, masks), quat)
     for replay in (True, False):
         setting = {"replay": replay, "acc_disturbance_factor": 16.0}
         np.testing.assert_array_equal(
             methods["Kalman"].run(rec, setting, masks),
-            kalman_orientation(*args, fs=lt.FS, received=masks, settings=KalmanSettings(acc_disturbance_factor=16.0),
+            kalman_orientation(*args, fs=FS, received=masks, settings=KalmanSettings(acc_disturbance_factor=16.0),
                                replay=replay))
     assert not np.array_equal(methods["Kalman"].run(rec, {"replay": True}, masks),
                               methods["Kalman"].run(rec, {"replay": False}, masks))
     setting = {"gain": 0.5, "rho_tau": 6}
     signals = [np.broadcast_to(x, masks.shape + (3,)) for x in args]
     np.testing.assert_array_equal(methods["Fusion + hybrid (feedback)"].run(rec, setting, masks),
-                                  fusion_orientation(*signals, fs=lt.FS, received=masks, gain=0.5, blend="feedback",
+                                  fusion_orientation(*signals, fs=FS, received=masks, gain=0.5, blend="feedback",
                                                      rho=1.0, tau=6))
 
 
@@ -258,7 +261,7 @@ def test_paired_comparisons_verdicts_and_sentences():
 
 
 def test_profiles_masks():
-    n, fs = 3000, lt.FS
+    n, fs = 3000, FS
     by_name = {p.name: p for p in lt.PROFILES}
     assert by_name["lossless"].mask(n, fs, np.random.default_rng(0)).all()
     burst = by_name["paper burst"].mask(n, fs, None)
@@ -299,7 +302,7 @@ def test_evaluate_tables_and_tuning_never_on_the_scored_trial(small_study):
     headline = table[table["profile"] == lt.HEADLINE].pivot(index="trial", columns="method", values="rmse_total")
     assert (headline["constant_rate"] != headline["hold_last"]).all()
     latency = table.set_index("method")["latency_s"]
-    assert (latency.loc["Kalman"] == 0).all() and (latency.loc["smoother"] == 600 / lt.FS).all()
+    assert (latency.loc["Kalman"] == 0).all() and (latency.loc["smoother"] == 600 / FS).all()
     assert set(result.traces) == set(recordings) and set(result.traces["trial0"]["error"]) == set(result.methods)
 
 
@@ -307,8 +310,9 @@ def test_evaluate_is_reproducible_and_checks_its_inputs(small_study):
     recordings, result = small_study
     again = lt.evaluate(recordings, rng=np.random.default_rng(7), methods=_small_methods(), progress=False)
     pd.testing.assert_frame_equal(result.per_trial, again.per_trial)
-    with pytest.raises(ValueError, match="at least 2 trials"):
-        lt.evaluate({"one": recordings["trial0"]}, rng=np.random.default_rng(0), progress=False)
+    # One recording runs untuned (tests/test_loss_tolerance_recordings.py); none is refused.
+    with pytest.raises(ValueError, match="at least one recording"):
+        lt.evaluate({}, rng=np.random.default_rng(0), progress=False)
     with pytest.raises(ValueError, match="headline"):
         lt.evaluate(recordings, rng=np.random.default_rng(0), headline="GE 50 %", methods=_small_methods(),
                     progress=False)
@@ -488,12 +492,12 @@ def test_worst_burst_end_and_window():
     error[124:140] += 3.0   # the first burst adds 3°
     error[324:330] += 8.0   # the second 8°
     error[330] = np.nan     # NaN counts as no increase
-    trace = {"time_s": np.arange(n) / fs, "received": received, "burst_ends": np.array([124, 324]),
+    trace = {"fs": fs, "time_s": np.arange(n) / fs, "received": received, "burst_ends": np.array([124, 324]),
              "error": {"m": error}, "lossless": {"m": lossless}}
-    assert ltt.worst_burst_end(trace, "m", fs=fs) == 324
-    window = ltt.burst_window(trace, 324, before_s=1.5, after_s=4.0, fs=fs)
+    assert ltt.worst_burst_end(trace, "m") == 324
+    window = ltt.burst_window(trace, 324, before_s=1.5, after_s=4.0)
     assert (window.start, window.stop) == (300 - 75, n)  # clipped at the record's end
-    assert ltt.burst_window(trace, 124, before_s=4.0, after_s=1.0, fs=fs) == slice(0, 174)
+    assert ltt.burst_window(trace, 124, before_s=4.0, after_s=1.0) == slice(0, 174)
     with pytest.raises(ValueError, match="burst"):
         ltt.worst_burst_end({**trace, "burst_ends": np.array([], int)}, "m")
 
@@ -609,7 +613,7 @@ def test_paper001_registry_and_profiles():
     np.testing.assert_array_equal(methods["Fusion + hybrid (feedback)"].run(rec, {"gain": 0.5}, rx),
                                   methods["Fusion"].run(rec, {"gain": 0.5}, rx))
     # Under the paper's burst they differ.
-    burst = profiles[1].mask(300, lt.FS, None, shape=(1,))
+    burst = profiles[1].mask(300, FS, None, shape=(1,))
     assert not np.allclose(methods["hybrid"].run(rec, {"beta": 0.1}, burst), plain)
 
 

@@ -65,3 +65,18 @@ def test_bad_scores_raise(scores, message):
     for function in (leave_one_out_choice, leave_one_out_scores, in_sample_choice):
         with pytest.raises(ValueError, match=message):
             function(scores)
+
+
+def test_groups_are_held_out_together():
+    """Two nodes of one recording are not independent: the choice for one never sees the other."""
+    # Units 0 and 1 are the nodes of recording "a" and prefer setting 0; unit 2 (recording "b") prefers 1.
+    scores = np.array([[1.0, 1.0, 3.0],
+                       [4.0, 4.0, 1.0]])
+    np.testing.assert_array_equal(leave_one_out_choice(scores), [0, 0, 0])  # each node sees its twin
+    np.testing.assert_array_equal(leave_one_out_choice(scores, groups=["a", "a", "b"]), [1, 1, 0])
+    np.testing.assert_array_equal(leave_one_out_scores(scores, groups=["a", "a", "b"]), [4.0, 4.0, 3.0])
+    np.testing.assert_array_equal(leave_one_out_choice(scores, groups=[0, 1, 2]), leave_one_out_choice(scores))
+    with pytest.raises(ValueError, match="at least 2 distinct"):
+        leave_one_out_choice(scores, groups=["a", "a", "a"])
+    with pytest.raises(ValueError, match="one label per unit"):
+        leave_one_out_choice(scores, groups=["a", "b"])

@@ -196,3 +196,40 @@ def test_stated_quick_run_times_match_the_batch(quick_batch):
             off.append(f"{name}: states {seconds:g} s in quick mode (x{machine_speed:.2f} for this machine: "
                        f"{expected:.1f} s), the batch took {measured[name]:g} s")
     assert not off, "\n".join(off) + "\n(measure again: the manifest holds each notebook's seconds)"
+
+
+@pytest.mark.notebook
+def test_notebook_10_runs_on_recording_files(tmp_path, monkeypatch):
+    """Issue 24: notebook 10 takes ``recordings`` (files) instead of BROAD ``trials``; two simulated
+    two-node recordings at 50 and 40 Hz (one with a gap in its reference and a movement column)."""
+    import dataclasses
+
+    import numpy as np
+    import pandas as pd
+    import papermill
+
+    from wsnlib import reproduce
+    from wsnlib.io.recording import write_recording
+    from wsnlib.sim import pitch_ramp, simulate_recording
+
+    ramp = simulate_recording(pitch_ramp(fs=50.0, duration_s=20.0), rng=np.random.default_rng(1))
+    quat = ramp.quat_true.copy()
+    quat[:, 300:320] = np.nan
+    ramp = dataclasses.replace(ramp, quat_true=quat, movement=np.arange(ramp.n_samples)[None, :].repeat(2, 0) >= 50)
+    write_recording(ramp, tmp_path / "ramp.csv")
+    lift = simulate_recording(pitch_ramp(fs=40.0, duration_s=20.0, pitch_start_deg=-30.0, pitch_end_deg=80.0),
+                              rng=np.random.default_rng(2))
+    write_recording(lift, tmp_path / "lift.csv")
+    for name, value in {**reproduce.BATCH_ENV, paths.OUTPUT_ENV_VAR: str(tmp_path / "out")}.items():
+        monkeypatch.setenv(name, value)
+    notebook = next(nb for nb in NOTEBOOKS if nb.name.startswith("10_"))
+    executed = tmp_path / notebook.name
+    papermill.execute_notebook(str(notebook), str(executed), kernel_name=paths.KERNEL_NAME, cwd=str(notebook.parent),
+                               progress_bar=False, parameters={"quick": True, "recordings": [
+                                   str(tmp_path / "ramp.csv"), str(tmp_path / "lift.json")]})
+    per_trial = pd.read_csv(tmp_path / "out" / "data" / "processed" / "a10_per_trial.csv")
+    assert set(per_trial["trial"]) == {"ramp/humerus", "ramp/forearm", "lift/humerus", "lift/forearm"}
+    text = " ".join(output.get("data", {}).get("text/markdown", "") for cell in nbformat.read(executed, 4).cells
+                    for output in cell.get("outputs", []))
+    assert "at 40, 50 Hz" in text and "Settings: leave-one-recording-out" in text and "On these recordings" in text
+    assert "BROAD" not in text

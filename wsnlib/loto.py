@@ -12,6 +12,10 @@ recordings) gives every unit a setting chosen without it:
 setting ``i`` on trial ``j``).  The choice for unit ``j`` is the setting with the lowest mean
 score over the *other* units; ties go to the lowest setting index.
 
+Units that are not independent (the nodes of one recording: the same movement, the same
+session) are held out together: with ``groups`` (one label per unit), the choice for unit ``j``
+is tuned on the units of the *other* groups only (leave-one-group-out).
+
 Non-finite scores: ``+inf`` marks a setting that failed on a unit (diverged, undefined); its mean
 over any set of units that includes that unit is ``+inf``, so it is never chosen there unless
 every setting is ``+inf`` (a ValueError).  NaN and ``-inf`` are rejected with a ValueError: a
@@ -24,6 +28,19 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["in_sample_choice", "leave_one_out_choice", "leave_one_out_scores"]
+
+
+def _check_groups(groups, n_units: int) -> np.ndarray:
+    """``groups`` as an array of ``n_units`` labels with at least 2 distinct ones (None: every unit its own)."""
+    if groups is None:
+        return np.arange(n_units)
+    labels = np.asarray(groups)
+    if labels.shape != (n_units,):
+        raise ValueError(f"groups must hold one label per unit ({n_units}), got shape {labels.shape}")
+    distinct = sorted(set(labels.tolist()))
+    if len(distinct) < 2:
+        raise ValueError(f"groups must hold at least 2 distinct labels to leave one out, got {distinct}")
+    return labels
 
 
 def _check_scores(scores) -> np.ndarray:
@@ -72,7 +89,7 @@ def in_sample_choice(scores) -> int:
     return _best(arr.mean(axis=1), "all units")
 
 
-def leave_one_out_choice(scores) -> np.ndarray:
+def leave_one_out_choice(scores, groups=None) -> np.ndarray:
     """For each held-out unit, the setting with the lowest mean score over the other units.
 
     Parameters
@@ -80,6 +97,9 @@ def leave_one_out_choice(scores) -> np.ndarray:
     scores : array_like, shape (n_settings, n_units)
         Score of setting ``i`` on unit ``j`` (same unit for all, lower is better, e.g. RMSE in
         degrees); ``+inf`` allowed (module docstring), NaN not.
+    groups : array_like, shape (n_units,), optional
+        A label per unit (e.g. the recording a node belongs to): the units of the held-out
+        unit's group are left out together.  Default: every unit its own group.
 
     Returns
     -------
@@ -91,23 +111,27 @@ def leave_one_out_choice(scores) -> np.ndarray:
     ------
     ValueError
         ``scores`` not 2-D, fewer than 2 units (nothing is left to tune on), NaN or ``-inf`` in
-        ``scores``, or every setting ``+inf`` on the units left in for some held-out unit.
+        ``scores``, or every setting ``+inf`` on the units left in for some held-out unit;
+        ``groups`` not one label per unit or with fewer than 2 distinct labels.
     """
     arr = _check_scores(scores)
     n_units = arr.shape[1]
+    labels = _check_groups(groups, n_units)
     choice = np.empty(n_units, dtype=int)
     for held_out in range(n_units):
-        others = np.arange(n_units) != held_out
+        others = labels != labels[held_out]
         choice[held_out] = _best(arr[:, others].mean(axis=1), f"the units other than {held_out}")
     return choice
 
 
-def leave_one_out_scores(scores) -> np.ndarray:
+def leave_one_out_scores(scores, groups=None) -> np.ndarray:
     """Each unit's score under the setting chosen on the other units (:func:`leave_one_out_choice`).
 
     Parameters
     ----------
     scores : array_like, shape (n_settings, n_units)
+        As in :func:`leave_one_out_choice`.
+    groups : array_like, shape (n_units,), optional
         As in :func:`leave_one_out_choice`.
 
     Returns
@@ -117,5 +141,5 @@ def leave_one_out_scores(scores) -> np.ndarray:
         on the held-out unit.
     """
     arr = _check_scores(scores)
-    choice = leave_one_out_choice(arr)
+    choice = leave_one_out_choice(arr, groups)
     return arr[choice, np.arange(arr.shape[1])]

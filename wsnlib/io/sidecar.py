@@ -205,11 +205,14 @@ def check_order(frame: pd.DataFrame, orders: dict, where, duplicate: str) -> np.
     return same_block & ~np.any(step[:, 1:-1] != 0, axis=1)
 
 
-def load_sidecar(path: Path, format_name: str, format_version: int, *, required: bool, what: str) -> dict | None:
+def load_sidecar(path: Path, format_name: str, format_version: int, *, required: bool, what: str,
+                 older_versions: tuple[int, ...] = ()) -> dict | None:
     """Read and check the ``<name>.json`` sidecar of a recording file (format name and version).
 
-    Returns None when it is missing and not ``required``; raises ``ValueError`` naming the
-    sidecar otherwise (``what`` says which kind of file needs it).  When the sidecar records
+    The version must be ``format_version`` (the newest the reader knows) or one of
+    ``older_versions`` (those it still reads).  Returns None when it is missing and not
+    ``required``; raises ``ValueError`` naming the sidecar otherwise (``what`` says which kind of
+    file needs it).  When the sidecar records
     :data:`CSV_ROWS_KEY` and :data:`CSV_SHA256_KEY` (every file the writers produce), the CSV
     ``path`` must have that many data rows and that SHA-256, else ``ValueError`` naming the
     file (truncated or changed after writing).  A hand-made sidecar may leave both out.
@@ -227,9 +230,11 @@ def load_sidecar(path: Path, format_name: str, format_version: int, *, required:
         raise ValueError(f"{side}: must hold a JSON object")
     if meta.get("format") != format_name:
         raise ValueError(f"{side}: 'format' must be {format_name!r}, got {meta.get('format')!r}")
-    if meta.get("format_version") != format_version:
-        raise ValueError(f"{side}: unsupported 'format_version' {meta.get('format_version')!r} (this reader knows "
-                         f"{format_version})")
+    known = (*older_versions, format_version)
+    version = meta.get("format_version")
+    if isinstance(version, bool) or version not in known:
+        raise ValueError(f"{side}: unsupported 'format_version' {version!r} (this reader knows "
+                         f"{' and '.join(str(v) for v in known)})")
     _check_csv_integrity(Path(path), meta, side)
     return meta
 
@@ -246,10 +251,11 @@ def check_sidecar_units(meta: dict, units: dict, side: Path) -> None:
 
 
 def read_table(path, format_name: str, format_version: int, *, what: str, required: bool = True, keys=(),
-               units: dict | None = None, **csv_options) -> tuple[dict | None, pd.DataFrame]:
+               units: dict | None = None, older_versions: tuple[int, ...] = (),
+               **csv_options) -> tuple[dict | None, pd.DataFrame]:
     """Read the CSV ``path`` of a recording file and its checked sidecar: ``(sidecar or None, table)``.
 
-    The sidecar is checked by :func:`load_sidecar` (``required``, ``what``), must hold every
+    The sidecar is checked by :func:`load_sidecar` (``required``, ``what``, ``older_versions``), must hold every
     key of ``keys`` and, if given, the ``units`` (:func:`check_sidecar_units`); its
     ``metadata`` (default ``{}``) must be an object.  The CSV is read by :func:`pandas.read_csv`
     with ``csv_options`` (default: every column as text, no NA parsing, for the format's own
@@ -259,7 +265,8 @@ def read_table(path, format_name: str, format_version: int, *, what: str, requir
     path = Path(path)
     if not path.exists():
         raise ValueError(f"{path}: no such file")
-    meta = load_sidecar(path, format_name, format_version, required=required, what=what)
+    meta = load_sidecar(path, format_name, format_version, required=required, what=what,
+                        older_versions=older_versions)
     if meta is not None:
         side = sidecar_path(path)
         for key in keys:

@@ -1,11 +1,21 @@
 """Loss-tolerant orientation on real recordings: methods, loss profiles, fair tuning, metrics (issue 11).
 
 The study behind notebooks 05 and 10 and its command line (``python -m
-wsnlib.studies.loss_tolerance --help``).  Every recording given (BROAD trials resampled to
-:data:`FS`) is run through every method of a registry under every loss profile, and scored
-against the optical reference; :mod:`.summary` turns the tidy tables into means with bootstrap
-intervals, rankings and the issue's targets, :mod:`.tables` into the notebooks' tables and
-sentences.
+wsnlib.studies.loss_tolerance --help``).  Every recording given — BROAD trials (resampled to
+paper 001's 50 Hz, :data:`BROAD_FS`) or your own recording files (:mod:`wsnlib.io.recording`,
+any number of nodes, at their own rate) — is run through every method of a registry under
+every loss profile, at its own rate, and scored against its reference; :mod:`.summary` turns
+the tidy tables into means with bootstrap intervals, rankings and the issue's targets,
+:mod:`.tables` into the notebooks' tables and sentences.
+
+Your own recording, start to finish::
+
+    from wsnlib.studies import loss_tolerance as study
+    units = study.load_recordings(["walk.csv", "run.csv"])      # one unit per node with a reference
+    result = study.evaluate(units, rng=np.random.default_rng(0))
+    print(result.rmse_table())                                  # recording, node, method, profile, draw, RMSEs
+
+(the command line does the same: ``python -m wsnlib.studies.loss_tolerance walk.csv run.csv``).
 
 Fair tuning
 -----------
@@ -15,18 +25,23 @@ first and then quasi-random draws over the method's search space (``--budget 100
 command line).  Tuning happens **once**, at the headline profile (:data:`HEADLINE`,
 Gilbert–Elliott 10 %, mean burst 3 packets of 6 samples, for notebook 10; lossless for
 notebook 05): every setting is scored by the trial's total RMSE over movement samples (the
-mean over the headline's loss draws), and leave-one-trial-out
-(:func:`wsnlib.loto.leave_one_out_choice`) gives each trial the setting with the lowest mean
-score over the *other* trials.  Under every other profile, each trial is scored with the
-setting chosen for it at the headline profile — so a setting is never tuned on the trial it is
-scored on, and the other profiles show how a setting tuned for one loss pattern carries over.
+mean over the headline's loss draws), and leave-one-recording-out
+(:func:`wsnlib.loto.leave_one_out_choice` with groups) gives each trial the setting with the
+lowest mean score over the trials of the *other* recordings (a BROAD trial is one recording;
+the nodes of one recording file are held out together: they are not independent).  Under every
+other profile, each trial is scored with the setting chosen for it at the headline profile —
+so a setting is never tuned on the recording it is scored on, and the other profiles show how
+a setting tuned for one loss pattern carries over.  With a single recording there is nothing
+to tune on: every method runs with its documented default (:attr:`Method.default`), and the
+result says so (``setting_source``).
 
 Loss profiles
 -------------
 Lossless; the paper's burst (4 packets of 6 samples, :func:`wsnlib.loss.burst_train`, one
 burst every 8 s from 4 s on: no randomness); Gilbert–Elliott 5/10/20 % with a mean burst of 3
 packets of 6 samples; and GE 10 % with 1- and 12-sample packets (mean burst 3 *packets*, so the
-gaps scale with the packet).  Masks are drawn from a child of the ``rng`` passed in, one per
+gaps scale with the packet).  Profiles are in seconds and packets: at each recording's own rate
+a packet of 6 samples lasts 6 / fs seconds.  Masks are drawn from a child of the ``rng`` passed in, one per
 trial (:meth:`numpy.random.Generator.spawn`), so a trial's masks do not depend on how many
 trials run, and every method sees the same masks (paired comparison).  ``draws`` masks per
 trial for each random profile (one by default); every draw is a row of the results.
@@ -68,26 +83,40 @@ with one gain grid, tuned leave-one-trial-out without loss (``headline="lossless
 
 Modules
 -------
+:mod:`.recordings` is what the study runs on (:class:`StudyRecording`, one IMU at its own rate)
+and where it comes from (:func:`load_recordings`: BROAD trial names or recording files);
 :mod:`.registry` holds the methods (:func:`default_methods`, :func:`paper001_methods`, the
 grids) and the loss profiles (:data:`PROFILES`); :mod:`.evaluation` runs and scores them
 (:func:`evaluate`); :mod:`.summary` and :mod:`.tables` read the results; ``__main__`` is the
-command line.  This package's door gathers the names of the first two.
+command line.  This package's door gathers the names of the first three.
 """
 
 from wsnlib.studies.loss_tolerance.evaluation import (
     AFTER_GAP_S,
     RECOVERY_THRESHOLD_DEG,
+    RMSE_TABLE_COLUMNS,
+    SETTING_SOURCES,
     SETTINGS_PER_JOB,
     LossToleranceResult,
     evaluate,
-    load_recordings,
     response_window_s,
     single_frame_trust,
+)
+from wsnlib.studies.loss_tolerance.recordings import (
+    BROAD_FS,
+    REGULAR_STEP_TOLERANCE,
+    StudyRecording,
+    all_broad,
+    from_broad,
+    from_recording,
+    load_recordings,
+    notebook_sources,
 )
 from wsnlib.studies.loss_tolerance.registry import (
     BETA_GRID,
     DEFAULT_BUDGET,
-    FS,
+    DEFAULT_RHO_TAU,
+    FUSION_DEFAULT_GAIN,
     FUSION_GRID,
     FUSION_HYBRID_GRID,
     GAP_PREDICTION_PAIRS,
@@ -112,9 +141,12 @@ from wsnlib.studies.loss_tolerance.registry import (
 )
 
 __all__ = [
-    "AFTER_GAP_S", "BETA_GRID", "FS", "FUSION_GRID", "FUSION_HYBRID_GRID", "GAP_PREDICTION_PAIRS", "GATING_PAIRS",
-    "HEADLINE", "HYBRID_GRID", "KALMAN_GRID", "KINDS", "LATENCY_RULES", "MADGWICK_BETA", "DEFAULT_BUDGET", "PROFILES",
-    "RECOVERY_THRESHOLD_DEG", "SETTINGS_PER_JOB", "VQF_GRID", "VQF_HYBRID_GRID", "LossToleranceResult", "Method",
-    "Choice", "Range", "default_methods", "evaluate", "load_recordings", "paper001_methods", "paper001_profiles",
-    "response_window_s", "settings_grid", "single_frame_trust", "with_budget",
+    "AFTER_GAP_S", "BETA_GRID", "BROAD_FS", "DEFAULT_RHO_TAU", "FUSION_DEFAULT_GAIN", "FUSION_GRID",
+    "FUSION_HYBRID_GRID", "GAP_PREDICTION_PAIRS", "GATING_PAIRS", "HEADLINE", "HYBRID_GRID", "KALMAN_GRID", "KINDS",
+    "LATENCY_RULES", "MADGWICK_BETA", "DEFAULT_BUDGET", "PROFILES", "RECOVERY_THRESHOLD_DEG",
+    "REGULAR_STEP_TOLERANCE", "RMSE_TABLE_COLUMNS", "SETTING_SOURCES", "SETTINGS_PER_JOB", "VQF_GRID",
+    "VQF_HYBRID_GRID", "LossToleranceResult", "Method", "Choice", "Range", "StudyRecording", "all_broad",
+    "default_methods", "evaluate", "from_broad", "from_recording", "load_recordings", "notebook_sources",
+    "paper001_methods", "paper001_profiles", "response_window_s", "settings_grid", "single_frame_trust",
+    "with_budget",
 ]

@@ -1,6 +1,7 @@
-"""Running the loss-tolerance study: masks, leave-one-trial-out tuning, scoring (:func:`evaluate`).
+"""Running the loss-tolerance study: masks, leave-one-recording-out tuning, scoring (:func:`evaluate`).
 
-What is run and why: the package docstring (:mod:`wsnlib.studies.loss_tolerance`).
+What is run and why: the package docstring (:mod:`wsnlib.studies.loss_tolerance`).  Every
+recording is run, masked, scored and traced at its own rate (``recording.fs``).
 """
 
 from __future__ import annotations
@@ -11,14 +12,11 @@ from collections.abc import Mapping
 
 import numpy as np
 import pandas as pd
-from tqdm.auto import tqdm
 
 from wsnlib import loss, loto, metrics, parallel
-from wsnlib._validation import check_count, check_rng
-from wsnlib.io.broad import load_broad
-from wsnlib.io.resample import resample_broad
+from wsnlib._validation import check_count, check_positive, check_rng
 from wsnlib.orientation import SingleFrameGate, single_frame_trusted
-from wsnlib.studies.loss_tolerance.registry import FS, HEADLINE, PROFILES, Method, default_methods
+from wsnlib.studies.loss_tolerance.registry import HEADLINE, PROFILES, Method, default_methods
 
 #: Length of the "after a gap" phase of :func:`wsnlib.metrics.error_by_phase` (s).
 AFTER_GAP_S = 2.0
@@ -27,6 +25,12 @@ RECOVERY_THRESHOLD_DEG = 2.0
 #: Window after each gap in which the error increase and recovery are measured (s): the paper's
 #: bursts come every 8 s (4 s fit between them); random gaps come closer (2 s).
 BURST_RESPONSE_WINDOW_S, GAP_RESPONSE_WINDOW_S = 4.0, 2.0
+#: Where each recording's setting comes from (:attr:`LossToleranceResult.setting_source`): tuned on
+#: the other recordings, or, with a single recording, every method's default.
+SETTING_SOURCES = ("leave-one-recording-out", "defaults (one recording)")
+#: Columns of :meth:`LossToleranceResult.rmse_table`.
+RMSE_TABLE_COLUMNS = ("recording", "node", "method", "profile", "draw", "rmse_total_deg", "rmse_inclination_deg",
+                      "rmse_heading_deg", "setting_source", "setting")
 
 
 def response_window_s(profile) -> float:
@@ -41,21 +45,30 @@ class LossToleranceResult:
     Attributes
     ----------
     per_trial : pandas.DataFrame
-        One row per method × profile × trial (columns in :func:`evaluate`).
+        One row per method × profile × trial (columns in :func:`evaluate`); a "trial" is one
+        study unit (a BROAD trial, or one node of a recording file).
     tuning : pandas.DataFrame
         Headline RMSE (°, mean over the headline's draws) of every setting on every trial:
-        method, setting_index, setting, trial, rmse_total, rmse_heading, rmse_inclination.
+        method, setting_index, setting, trial, rmse_total, rmse_heading, rmse_inclination
+        (no rows without tuning, :attr:`setting_source` ``"defaults (one recording)"``).
     choices : pandas.DataFrame
-        Leave-one-trial-out choice per method and trial: method, trial, setting index, setting.
+        The setting each trial is scored with, per method: method, trial, setting_index (in
+        the method's grid; -1 for a default that is not in it), setting.
     traces : dict
-        ``traces[trial]``: ``time_s``, ``received`` and ``burst_ends`` of the paper-burst
-        profile, ``error`` (method → total error (°) per sample under it, NaN where the
-        reference is missing) and ``lossless`` (the same without loss).
+        ``traces[trial]``: ``fs`` (Hz, the trial's rate), ``time_s``, ``received`` and
+        ``burst_ends`` of the paper-burst profile, ``error`` (method → total error (°) per
+        sample under it, NaN where the reference is missing) and ``lossless`` (the same
+        without loss).
     seconds : pandas.Series
         Run time per method (s, tuning and scoring), summed over its jobs wherever they ran
         (compute time, not wall-clock time).
     methods : dict[str, Method]
     profiles : tuple of LossProfile
+    units : pandas.DataFrame
+        Index trial; columns recording (the source, held out together), node, fs_hz, n_samples.
+    setting_source : str
+        One of :data:`SETTING_SOURCES`: tuned leave-one-recording-out at the headline, or, with
+        a single recording, every method's default (:meth:`Method.untuned_setting`).
     """
 
     per_trial: pd.DataFrame
@@ -65,14 +78,36 @@ class LossToleranceResult:
     seconds: pd.Series
     methods: dict
     profiles: tuple
+    units: pd.DataFrame
+    setting_source: str
+
+    def rmse_table(self) -> pd.DataFrame:
+        """One row per recording, node, method, profile and draw: BROAD's three RMSEs (°) and the setting.
+
+        Columns :data:`RMSE_TABLE_COLUMNS`: the recording (file stem or BROAD trial) and node of
+        each trial, method, profile, draw; rmse_total_deg, rmse_inclination_deg,
+        rmse_heading_deg (movement samples with a reference, :func:`wsnlib.metrics.broad_rmse_deg`);
+        setting_source (:attr:`setting_source`: ``"leave-one-recording-out"``, or ``"defaults
+        (one recording)"`` when there was nothing to tune on) and the setting used.  In the
+        order of :attr:`per_trial`'s rows.
+        """
+        rows = self.per_trial
+        units = self.units.loc[rows["trial"]]
+        return pd.DataFrame({"recording": units["recording"].to_numpy(), "node": units["node"].to_numpy(),
+                             "method": rows["method"].to_numpy(), "profile": rows["profile"].to_numpy(),
+                             "draw": rows["draw"].to_numpy(), "rmse_total_deg": rows["rmse_total"].to_numpy(),
+                             "rmse_inclination_deg": rows["rmse_inclination"].to_numpy(),
+                             "rmse_heading_deg": rows["rmse_heading"].to_numpy(),
+                             "setting_source": self.setting_source, "setting": rows["setting"].to_numpy()},
+                            columns=list(RMSE_TABLE_COLUMNS))
 
 
-def _gap_response(error, lossless, received, window_s) -> dict:
+def _gap_response(error, lossless, received, window_s, fs) -> dict:
     """Result columns: medians over the gaps of the peak and mean error increase (°), of the recovery
     (s, censored at the window), the recovered share and the number of gaps scored (NaN and 0 without
-    a gap scored)."""
+    a gap scored); ``fs`` (Hz) the recording's rate."""
     ends = np.flatnonzero(metrics.gap_end_mask(received))
-    response = metrics.burst_response(error, lossless, ends, FS, window_s=window_s,
+    response = metrics.burst_response(error, lossless, ends, fs, window_s=window_s,
                                       threshold_deg=RECOVERY_THRESHOLD_DEG)
     recovery = response["recovery_s"]
     values = (np.nan, np.nan, np.nan, np.nan, 0) if response["kept"].size == 0 else (
@@ -88,19 +123,19 @@ def _score_rows(name, method, rows, setting, rec, masks, quat):
     rmse = metrics.broad_rmse_deg(quat, rec.quat_ref, rec.movement)
     total = metrics.broad_errors_deg(quat, rec.quat_ref)["total"]
     moving = np.where(rec.movement, total, np.nan)
-    phases = metrics.error_by_phase(moving, masks, FS, after_s=AFTER_GAP_S)
+    phases = metrics.error_by_phase(moving, masks, rec.fs, after_s=AFTER_GAP_S)
     steps = metrics.quat_gap_end_steps_deg(quat, masks)
-    jitter = metrics.angular_jerk_rms_deg(quat, FS, masks)
+    jitter = metrics.angular_jerk_rms_deg(quat, rec.fs, masks)
     out = []
     for k, (profile, draw) in enumerate(rows):
         longest_gap = int(loss.lost_run_length(masks[k]).max(initial=0))
-        latency = {"none": 0.0, "gap": longest_gap / FS, "offline": rec.n_samples / FS}[method.latency]
+        latency = {"none": 0.0, "gap": longest_gap / rec.fs, "offline": rec.n_samples / rec.fs}[method.latency]
         out.append({"trial": name, "method": method.name, "kind": method.kind, "profile": profile.name,
                     "draw": draw, "setting": str(setting), "lost_share": float(1.0 - masks[k].mean()),
                     **{f"rmse_{key}": float(v[k]) for key, v in rmse.items()},
                     **{f"rms_{ph}": float(phases[ph][k]) for ph in metrics.PHASES},
                     **{f"n_{ph}": int(phases[f"n_{ph}"][k]) for ph in metrics.PHASES},
-                    **_gap_response(moving[k], moving[0], masks[k], response_window_s(profile)),
+                    **_gap_response(moving[k], moving[0], masks[k], response_window_s(profile), rec.fs),
                     "gap_end_step_deg": float(steps["mean_deg"][k]) if steps["n_gaps"][k] else np.nan,
                     "jitter_deg_s3": float(jitter[k]),
                     "latency_s": latency, "latency_rule": method.latency})
@@ -131,12 +166,13 @@ def _scoring_job(name, method, rec, masks, rows, setting, burst):
     return new_rows, total[0], None if burst is None else total[burst], time.perf_counter() - start
 
 
-def _masks(profiles, n_samples: int, rng: np.random.Generator, draws: int):
-    """Masks ``(K, T)`` of every profile (``draws`` of each random one) and each row's (profile, draw)."""
+def _masks(profiles, n_samples: int, fs: float, rng: np.random.Generator, draws: int):
+    """Masks ``(K, T)`` of every profile (``draws`` of each random one) at ``fs`` (Hz), and each row's
+    (profile, draw)."""
     masks, rows = [], []
     for profile in profiles:
         n = draws if profile.model == "gilbert_elliott" else 1
-        masks.append(profile.mask(n_samples, FS, rng, shape=(n,)))
+        masks.append(profile.mask(n_samples, fs, rng, shape=(n,)))
         rows += [(profile, d) for d in range(n)]
     return np.concatenate(masks), rows
 
@@ -144,18 +180,26 @@ def _masks(profiles, n_samples: int, rng: np.random.Generator, draws: int):
 def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[str, Method] | None = None,
              profiles=PROFILES, headline: str = HEADLINE, draws: int = 1, n_jobs: int = -1, scheduler=None,
              progress: bool = True) -> LossToleranceResult:
-    """Tune every method leave-one-trial-out at ``headline`` and score it under every profile.
+    """Tune every method leave-one-recording-out at ``headline`` and score it under every profile.
 
-    Every run of a method on a trial is a job of :func:`wsnlib.parallel.run_jobs` (up to
-    :data:`SETTINGS_PER_JOB` settings per tuning job); the results do not depend on where
-    the jobs ran.
+    Each trial (study unit) is run, masked, scored and traced at its own rate ``fs``.  Its
+    setting is the one with the lowest mean headline score over the trials of the *other*
+    recordings (``source``: the nodes of one recording are held out together,
+    :func:`wsnlib.loto.leave_one_out_choice` with groups); with a single recording there is
+    nothing to tune on and every method runs with its default
+    (:meth:`~wsnlib.studies.loss_tolerance.Method.untuned_setting`), which the result's
+    ``setting_source`` says.  Every run of a method on a trial is a job of
+    :func:`wsnlib.parallel.run_jobs` (up to :data:`SETTINGS_PER_JOB` settings per tuning job);
+    the results do not depend on where the jobs ran.
 
     Parameters
     ----------
     recordings : mapping name → recording
-        At least 2 trials (leave-one-trial-out), each with ``gyr``, ``acc``, ``mag`` ``(T, 3)``
-        sampled at :data:`FS`, ``quat_ref`` ``(T, 4)`` (NaN rows allowed), ``movement``
-        ``(T,)`` bool and ``n_samples`` (e.g. :func:`load_recordings`).
+        At least one trial, each a :class:`~wsnlib.studies.loss_tolerance.StudyRecording` (e.g.
+        from :func:`~wsnlib.studies.loss_tolerance.load_recordings`) or any object with its
+        attributes: ``fs`` (Hz), ``gyr``, ``acc``, ``mag`` ``(T, 3)`` sampled at ``fs``,
+        ``quat_ref`` ``(T, 4)`` (NaN rows allowed), ``movement`` ``(T,)`` bool, ``n_samples``
+        and optionally ``source`` (the recording it belongs to; default: the trial's own name).
     rng : numpy.random.Generator
         Spawns one child per trial, which draws that trial's loss masks.
     methods : mapping name → Method, optional
@@ -198,17 +242,66 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
     methods = default_methods() if methods is None else dict(methods)
     profiles = tuple(profiles)
     names = list(recordings)
-    if len(names) < 2:
-        raise ValueError(f"recordings must hold at least 2 trials for leave-one-trial-out, got {len(names)}")
+    if not names:
+        raise ValueError("recordings must hold at least one recording")
     if profiles[0].model != "none":
         raise ValueError("the first profile must be lossless (model 'none'): it is the gap response's reference")
     profile_names = [p.name for p in profiles]
     if headline not in profile_names:
         raise ValueError(f"headline must be one of the profiles {profile_names}, got {headline!r}")
+    fs = {name: check_positive(getattr(recordings[name], "fs", None), f"recordings[{name!r}].fs") for name in names}
+    sources = [str(getattr(recordings[name], "source", name)) for name in names]
+    tuned = len(set(sources)) >= 2
+    setting_source = SETTING_SOURCES[0] if tuned else SETTING_SOURCES[1]
     masks, rows = {}, {}
     for name, trial_rng in zip(names, rng.spawn(len(names)), strict=True):
-        masks[name], rows[name] = _masks(profiles, recordings[name].n_samples, trial_rng, draws)
+        masks[name], rows[name] = _masks(profiles, recordings[name].n_samples, fs[name], trial_rng, draws)
     seconds = dict.fromkeys(methods, 0.0)
+    if tuned:
+        setting, tuning, choices = _tune(recordings, names, sources, methods, masks, rows, headline, seconds,
+                                         n_jobs=n_jobs, scheduler=scheduler, progress=progress)
+    else:
+        untuned = {m: method.untuned_setting() for m, method in methods.items()}
+        setting = {m: [untuned[m]] * len(names) for m in methods}
+        tuning = pd.DataFrame(columns=["method", "setting_index", "setting", "trial", "rmse_total", "rmse_heading",
+                                       "rmse_inclination"])
+        choices = pd.DataFrame([{"method": m, "trial": name,
+                                 "setting_index": next((i for i, s in enumerate(methods[m].grid) if s == untuned[m]),
+                                                       -1),
+                                 "setting": str(untuned[m])} for m in methods for name in names])
+    bursts = {name: next((k for k, (profile, _) in enumerate(rows[name]) if profile.model == "burst"), None)
+              for name in names}
+    jobs = [(name, method, recordings[name], masks[name], rows[name], setting[m][j], bursts[name])
+            for j, name in enumerate(names) for m, method in methods.items()]
+    done = iter(parallel.run_jobs(_scoring_job, jobs, n_jobs=n_jobs, scheduler=scheduler, progress=progress,
+                                  desc="scoring every profile"))
+    results, traces = [], {}
+    for name in names:
+        trace = {"fs": fs[name], "time_s": np.arange(recordings[name].n_samples) / fs[name], "error": {},
+                 "lossless": {}}
+        if bursts[name] is not None:
+            trace["received"] = masks[name][bursts[name]]
+            trace["burst_ends"] = np.flatnonzero(metrics.gap_end_mask(masks[name][bursts[name]]))
+        for m in methods:
+            new_rows, lossless, burst_error, elapsed = next(done)
+            results += new_rows
+            trace["lossless"][m] = lossless
+            if burst_error is not None:
+                trace["error"][m] = burst_error
+            seconds[m] += elapsed
+        traces[name] = trace
+    units = pd.DataFrame({"recording": sources, "node": [str(getattr(recordings[n], "node", "")) for n in names],
+                          "fs_hz": [fs[n] for n in names], "n_samples": [recordings[n].n_samples for n in names]},
+                         index=pd.Index(names, name="trial"))
+    return LossToleranceResult(per_trial=pd.DataFrame(results), tuning=tuning, choices=choices, traces=traces,
+                               seconds=pd.Series(seconds, name="seconds"), methods=methods, profiles=profiles,
+                               units=units, setting_source=setting_source)
+
+
+def _tune(recordings, names, sources, methods, masks, rows, headline, seconds, *, n_jobs, scheduler, progress):
+    """Leave-one-recording-out tuning at ``headline``: each trial's setting per method (``setting[m][j]``),
+    the tuning table and the choices table (see :class:`LossToleranceResult`); adds the run time to
+    ``seconds``."""
     # Tuning jobs, one per method, trial and SETTINGS_PER_JOB settings.  Without a cluster, each
     # method's first job runs in this process first: each kernel is compiled once, into numba's
     # on-disk cache, which the local workers then read.
@@ -226,7 +319,7 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
     for (m, j, first), (score, elapsed) in zip(where, done, strict=True):
         scores[m][first:first + len(score), j] = score
         seconds[m] += elapsed
-    choice = {m: loto.leave_one_out_choice(scores[m][..., 0]) for m in methods}
+    choice = {m: loto.leave_one_out_choice(scores[m][..., 0], groups=sources) for m in methods}
     tuning = pd.DataFrame([{"method": m, "setting_index": i, "setting": str(s), "trial": name,
                             "rmse_total": scores[m][i, j, 0], "rmse_heading": scores[m][i, j, 1],
                             "rmse_inclination": scores[m][i, j, 2]}
@@ -235,28 +328,8 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
     choices = pd.DataFrame([{"method": m, "trial": name, "setting_index": int(choice[m][j]),
                              "setting": str(methods[m].grid[choice[m][j]])}
                             for m in methods for j, name in enumerate(names)])
-    bursts = {name: next((k for k, (profile, _) in enumerate(rows[name]) if profile.model == "burst"), None)
-              for name in names}
-    jobs = [(name, method, recordings[name], masks[name], rows[name], method.grid[choice[m][j]], bursts[name])
-            for j, name in enumerate(names) for m, method in methods.items()]
-    done = iter(parallel.run_jobs(_scoring_job, jobs, n_jobs=n_jobs, scheduler=scheduler, progress=progress,
-                                  desc="scoring every profile"))
-    results, traces = [], {}
-    for name in names:
-        trace = {"time_s": np.arange(recordings[name].n_samples) / FS, "error": {}, "lossless": {}}
-        if bursts[name] is not None:
-            trace["received"] = masks[name][bursts[name]]
-            trace["burst_ends"] = np.flatnonzero(metrics.gap_end_mask(masks[name][bursts[name]]))
-        for m in methods:
-            new_rows, lossless, burst_error, elapsed = next(done)
-            results += new_rows
-            trace["lossless"][m] = lossless
-            if burst_error is not None:
-                trace["error"][m] = burst_error
-            seconds[m] += elapsed
-        traces[name] = trace
-    return LossToleranceResult(per_trial=pd.DataFrame(results), tuning=tuning, choices=choices, traces=traces,
-                               seconds=pd.Series(seconds, name="seconds"), methods=methods, profiles=profiles)
+    setting = {m: [methods[m].grid[i] for i in choice[m]] for m in methods}
+    return setting, tuning, choices
 
 
 def single_frame_trust(recordings: Mapping) -> pd.DataFrame:
@@ -276,16 +349,9 @@ def single_frame_trust(recordings: Mapping) -> pd.DataFrame:
     """
     rows = {}
     for name, rec in recordings.items():
-        trusted = single_frame_trusted(rec.gyr, rec.acc, rec.mag, fs=FS, single_frame_gate=SingleFrameGate())
+        trusted = single_frame_trusted(rec.gyr, rec.acc, rec.mag, fs=rec.fs, single_frame_gate=SingleFrameGate())
         movement = np.asarray(rec.movement, dtype=bool)
         if not movement.any():
             raise ValueError(f"recording {name!r} has no movement sample")
         rows[name] = {"trusted_share": float(trusted[movement].mean())}
     return pd.DataFrame.from_dict(rows, orient="index").rename_axis("trial")
-
-
-def load_recordings(names, *, fs: float = FS, download: bool = False, progress: bool = True) -> dict:
-    """BROAD trials by name, loaded (:func:`wsnlib.io.broad.load_broad`; from ``$WSNLIB_BROAD_DIR``,
-    downloaded and hash-checked only with ``download``) and resampled to ``fs`` (Hz)."""
-    return {name: resample_broad(load_broad(name, download=download), fs)
-            for name in tqdm(list(names), desc="load + resample", disable=not progress)}

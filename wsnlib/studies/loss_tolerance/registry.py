@@ -31,15 +31,18 @@ from wsnlib.orientation import (
     triad,
     vqf_orientation,
 )
-from wsnlib.studies.hybrid_tuning import hybrid_options, mu_options
+from wsnlib.studies.hybrid_tuning import RECOMMENDED_HYBRID, hybrid_options, mu_options
 
-#: Sampling rate of the study (Hz): the paper's 50 Hz; BROAD is resampled to it.
-FS = 50.0
 #: The default tuning budget: every hand-picked grid holds at most this many settings (the same
 #: for peers and ours); :func:`with_budget` sets another.
 DEFAULT_BUDGET = 8
 #: Madgwick's recommended β (rad/s), the data-fusion gain inside our hybrid.
 MADGWICK_BETA = 0.041
+#: ρτ (samples) of our hybrid without tuning: notebook 03's recommended ρ × τ (eq. (3) depends on
+#: their product only), so ρ = 1, τ = ρτ is the recommended weight μ(λ).
+DEFAULT_RHO_TAU = int(RECOMMENDED_HYBRID["rho"] * RECOMMENDED_HYBRID["tau"])
+#: Fusion's gain without tuning: its library's default.
+FUSION_DEFAULT_GAIN = 0.5
 #: Kinds of method: causal (ours), peer (other libraries), offline.
 KINDS = ("causal", "peer", "offline")
 #: Latency rules: name → what the method waits for before its estimate of a sample is final.
@@ -101,7 +104,8 @@ class Method:
         Settings tried by the tuning, in order (at least one).
     run : callable
         ``run(recording, setting, received) -> quat``: ``received`` ``(M, T)`` bool, ``quat``
-        ``(M, T, 4)`` ENU quaternions, signals of ``recording`` sampled at :data:`FS`.
+        ``(M, T, 4)`` ENU quaternions; ``recording`` has ``gyr``, ``acc``, ``mag`` ``(T, 3)``
+        sampled at its own ``recording.fs`` (Hz), which the method runs at.
         A module-level function or a ``functools.partial`` of one: it is pickled to the
         worker processes of the sweeps.
     latency : {"none", "gap", "offline"}
@@ -109,6 +113,10 @@ class Method:
     space : mapping setting name → Range or Choice
         Where :func:`with_budget` draws settings beyond ``grid``; empty (default): nothing to
         tune beyond the grid.
+    default : dict, optional
+        The setting used without tuning (a study of a single recording, where leave-one-out
+        has nothing to tune on): the method's documented default.  None (default): the grid's
+        only setting; a method with a longer grid and no default cannot run untuned.
     """
 
     name: str
@@ -117,6 +125,7 @@ class Method:
     run: Callable
     latency: str = "none"
     space: Mapping = dataclasses.field(default_factory=dict)
+    default: Mapping | None = None
 
     def __post_init__(self):
         if self.kind not in KINDS:
@@ -128,6 +137,20 @@ class Method:
         for key, dimension in dict(self.space).items():
             if not isinstance(dimension, Range | Choice):
                 raise ValueError(f"space[{key!r}] of {self.name!r} must be a Range or a Choice, got {dimension!r}")
+        if self.default is not None and not isinstance(self.default, Mapping):
+            raise ValueError(f"default of {self.name!r} must be a setting (dict) or None, got {self.default!r}")
+
+    def untuned_setting(self) -> dict:
+        """The setting used without tuning: :attr:`default`, else the grid's only setting.
+
+        Raises ``ValueError`` when there is no default and the grid holds several settings.
+        """
+        if self.default is not None:
+            return dict(self.default)
+        if len(self.grid) == 1:
+            return dict(self.grid[0])
+        raise ValueError(f"method {self.name!r} has {len(self.grid)} settings and no default: it cannot run "
+                         f"untuned (give Method(default=...))")
 
 
 def _used(setting, allowed, method: str) -> None:
@@ -139,13 +162,13 @@ def _used(setting, allowed, method: str) -> None:
 
 def _madgwick(rec, setting, received, **options):
     _used(setting, ("beta",), "Madgwick")
-    return estimate_orientation(rec.gyr, rec.acc, rec.mag, fs=FS, beta=setting["beta"], received=received,
+    return estimate_orientation(rec.gyr, rec.acc, rec.mag, fs=rec.fs, beta=setting["beta"], received=received,
                                 **options)
 
 
 def _hybrid(rec, setting, received, *, gated=False):
     _used(setting, ("rho_tau",), "the hybrid")
-    return estimate_orientation(rec.gyr, rec.acc, rec.mag, fs=FS, beta=MADGWICK_BETA, received=received,
+    return estimate_orientation(rec.gyr, rec.acc, rec.mag, fs=rec.fs, beta=MADGWICK_BETA, received=received,
                                 blend="feedback", rho=1.0, tau=setting["rho_tau"],
                                 single_frame_gate=SingleFrameGate() if gated else None)
 
@@ -163,9 +186,9 @@ def _peer(rec, setting, received, *, library, hybrid=False, gated=False, **optio
     if gated:
         options["single_frame_gate"] = SingleFrameGate()
     if library == "Fusion":
-        return fusion_orientation(*signals, fs=FS, received=received, gain=setting["gain"], **options)
+        return fusion_orientation(*signals, fs=rec.fs, received=received, gain=setting["gain"], **options)
     params = {key: setting[key] for key in ("tauAcc", "tauMag") if key in setting}
-    return vqf_orientation(*signals, fs=FS, received=received, params=params, **options)
+    return vqf_orientation(*signals, fs=rec.fs, received=received, params=params, **options)
 
 
 def _kalman(rec, setting, received, *, offline):
@@ -176,7 +199,7 @@ def _kalman(rec, setting, received, *, offline):
     setting = dict(setting)
     replay = setting.pop("replay", True)
     function = smooth_orientation if offline else kalman_orientation
-    return function(rec.gyr, rec.acc, rec.mag, fs=FS, received=received, settings=KalmanSettings(**setting),
+    return function(rec.gyr, rec.acc, rec.mag, fs=rec.fs, received=received, settings=KalmanSettings(**setting),
                     replay=replay)
 
 
@@ -233,10 +256,14 @@ def default_methods(grids: Mapping[str, tuple] | None = None) -> dict[str, Metho
 
     Names follow notebook 05 (and :data:`wsnlib.plotting.METHOD_COLORS`).  ``"VQF (defaults)"``
     is VQF with its authors' parameters (tuned by them on BROAD), the reference of the lossless
-    target.  The *gated* hybrids apply the single frame only where
-    :class:`wsnlib.orientation.SingleFrameGate` (its defaults) trusts it; the peers ``", constant
-    rate"`` keep turning at the last received rate in a gap (``gap="constant_rate"``, no decay)
-    instead of holding their output.
+    target.  Every method's :attr:`~Method.default` (its setting without tuning, e.g. on a single
+    recording) is its documented default: Madgwick's β = :data:`MADGWICK_BETA`; our hybrids'
+    ρτ = :data:`DEFAULT_RHO_TAU`; the Kalman filter's and smoother's
+    :class:`~wsnlib.orientation.KalmanSettings` () with gap replay; Fusion's gain
+    :data:`FUSION_DEFAULT_GAIN`; VQF's own parameters (its authors').  The *gated* hybrids apply
+    the single frame only where :class:`wsnlib.orientation.SingleFrameGate` (its defaults) trusts
+    it; the peers ``", constant rate"`` keep turning at the last received rate in a gap
+    (``gap="constant_rate"``, no decay) instead of holding their output.
 
     Parameters
     ----------
@@ -245,31 +272,36 @@ def default_methods(grids: Mapping[str, tuple] | None = None) -> dict[str, Metho
         methods named, e.g. ``{"Kalman": settings_grid(replay=(True, False))}``.  For the same
         number of settings for every method, see :func:`with_budget`.
     """
+    beta, rho_tau, gain = {"beta": MADGWICK_BETA}, {"rho_tau": DEFAULT_RHO_TAU}, {"gain": FUSION_DEFAULT_GAIN}
     entries = [
-        Method("hold_last", "causal", BETA_GRID, _madgwick, space=BETA_SPACE),
+        Method("hold_last", "causal", BETA_GRID, _madgwick, space=BETA_SPACE, default=beta),
         Method("constant_rate", "causal", BETA_GRID, functools.partial(_madgwick, gap="constant_rate"),
-               space=BETA_SPACE),
+               space=BETA_SPACE, default=beta),
         Method("gyro_interpolation", "causal", BETA_GRID, functools.partial(_madgwick, replay=True),
-               latency="gap", space=BETA_SPACE),
-        Method("hybrid (feedback)", "causal", HYBRID_GRID, _hybrid, space=HYBRID_SPACE),
+               latency="gap", space=BETA_SPACE, default=beta),
+        Method("hybrid (feedback)", "causal", HYBRID_GRID, _hybrid, space=HYBRID_SPACE, default=rho_tau),
         Method("gated hybrid (feedback)", "causal", HYBRID_GRID, functools.partial(_hybrid, gated=True),
-               space=HYBRID_SPACE),
-        Method("Kalman", "causal", KALMAN_GRID, functools.partial(_kalman, offline=False), space=KALMAN_SPACE),
+               space=HYBRID_SPACE, default=rho_tau),
+        Method("Kalman", "causal", KALMAN_GRID, functools.partial(_kalman, offline=False), space=KALMAN_SPACE,
+               default={}),
         Method("smoother", "offline", KALMAN_GRID, functools.partial(_kalman, offline=True), latency="offline",
-               space=KALMAN_SPACE),
-        Method("Fusion", "peer", FUSION_GRID, functools.partial(_peer, library="Fusion"), space=FUSION_SPACE),
+               space=KALMAN_SPACE, default={}),
+        Method("Fusion", "peer", FUSION_GRID, functools.partial(_peer, library="Fusion"), space=FUSION_SPACE,
+               default=gain),
         Method("Fusion, constant rate", "peer", FUSION_GRID,
-               functools.partial(_peer, library="Fusion", gap="constant_rate"), space=FUSION_SPACE),
+               functools.partial(_peer, library="Fusion", gap="constant_rate"), space=FUSION_SPACE, default=gain),
         Method("Fusion + hybrid (feedback)", "peer", FUSION_HYBRID_GRID,
-               functools.partial(_peer, library="Fusion", hybrid=True), space=FUSION_HYBRID_SPACE),
+               functools.partial(_peer, library="Fusion", hybrid=True), space=FUSION_HYBRID_SPACE,
+               default=gain | rho_tau),
         Method("Fusion + gated hybrid (feedback)", "peer", FUSION_HYBRID_GRID,
-               functools.partial(_peer, library="Fusion", hybrid=True, gated=True), space=FUSION_HYBRID_SPACE),
-        Method("VQF", "peer", VQF_GRID, functools.partial(_peer, library="VQF"), space=VQF_SPACE),
+               functools.partial(_peer, library="Fusion", hybrid=True, gated=True), space=FUSION_HYBRID_SPACE,
+               default=gain | rho_tau),
+        Method("VQF", "peer", VQF_GRID, functools.partial(_peer, library="VQF"), space=VQF_SPACE, default={}),
         Method("VQF, constant rate", "peer", VQF_GRID,
-               functools.partial(_peer, library="VQF", gap="constant_rate"), space=VQF_SPACE),
+               functools.partial(_peer, library="VQF", gap="constant_rate"), space=VQF_SPACE, default={}),
         Method("VQF (defaults)", "peer", ({"tauAcc": 3.0, "tauMag": 9.0},), functools.partial(_peer, library="VQF")),
         Method("VQF + hybrid (feedback)", "peer", VQF_HYBRID_GRID,
-               functools.partial(_peer, library="VQF", hybrid=True), space=VQF_HYBRID_SPACE),
+               functools.partial(_peer, library="VQF", hybrid=True), space=VQF_HYBRID_SPACE, default=rho_tau),
     ]
     methods = {m.name: m for m in entries}
     for name, grid in dict(grids or {}).items():
@@ -370,7 +402,8 @@ def paper001_methods(hybrid: Mapping, beta_grid, fusion_gain_grid, vqf_tau_acc_g
     tune); Fusion over ``fusion_gain_grid`` and VQF over ``vqf_tau_acc_grid`` (``tauAcc``, s; its
     other parameters its authors'), each plain and wrapped in the hybrid with output and with
     feedback blending (μ of ``hybrid``).  One grid per filter, the same size for each, as the
-    notebook's tuning budget.
+    notebook's tuning budget.  Defaults without tuning (:attr:`Method.default`): β =
+    :data:`MADGWICK_BETA`, Fusion's gain :data:`FUSION_DEFAULT_GAIN`, VQF's own parameters.
 
     Parameters
     ----------
@@ -384,13 +417,15 @@ def paper001_methods(hybrid: Mapping, beta_grid, fusion_gain_grid, vqf_tau_acc_g
     options = {"hold_last": {}, "dt_extension": {"method": "dt_extension"}, "gyro_interpolation": {"replay": True},
                "adaptive_beta": {"method": "adaptive_beta", **mu_options(hybrid)}, "hybrid": hybrid_options(hybrid)}
     entries = [Method(name, "causal", betas, functools.partial(_madgwick, **option),
-                      latency="gap" if name == "gyro_interpolation" else "none") for name, option in options.items()]
+                      latency="gap" if name == "gyro_interpolation" else "none", default={"beta": MADGWICK_BETA})
+               for name, option in options.items()]
     entries.append(Method("single frame", "causal", ({},), _single_frame))
-    for library, grid in (("Fusion", gains), ("VQF", taus)):
-        entries.append(Method(library, "peer", grid, functools.partial(_peer, library=library)))
+    for library, grid, default in (("Fusion", gains, {"gain": FUSION_DEFAULT_GAIN}), ("VQF", taus, {})):
+        entries.append(Method(library, "peer", grid, functools.partial(_peer, library=library), default=default))
         for blend in ("output", "feedback"):
             entries.append(Method(f"{library} + hybrid ({blend})", "peer", grid,
-                                  functools.partial(_peer, library=library, blend=blend, **mu_options(hybrid))))
+                                  functools.partial(_peer, library=library, blend=blend, **mu_options(hybrid)),
+                                  default=default))
     return {m.name: m for m in entries}
 
 

@@ -267,3 +267,21 @@ def comparison_sentences(comparisons: pd.DataFrame, unit: str = "°") -> list[st
                    f"{row['difference']:+.1f}{unit} [{row['ci_low']:+.1f}, {row['ci_high']:+.1f}]: "
                    f"{words[row['verdict']]}, lower on {row['n_better']} of {row['n_trials']} trials.")
     return out
+
+
+
+def lost_share_band(profile, n_samples: int, n_std: float = 4.0) -> tuple[float, float]:
+    """Where the mean lost share of a Gilbert–Elliott ``profile`` over ``n_samples`` samples (all
+    trials and draws together) falls but for a ``n_std``-standard-deviation fluke: ``(low, high)``.
+
+    A two-state chain with stationary loss rate ``p`` and mean burst ``b`` packets loses a share
+    of ``n`` packets whose variance is ``p (1 − p) (2 b (1 − p) − 1) / n`` (its lag correlation
+    sums to that factor); ``n = n_samples / samples_per_packet``.  A sanity check of the masks,
+    not a test of the channel model.
+    """
+    if profile.model != "gilbert_elliott":
+        raise ValueError(f"profile must be a Gilbert-Elliott profile, got model {profile.model!r}")
+    p, b = profile.loss_rate, profile.mean_burst_packets
+    n_packets = n_samples / profile.samples_per_packet
+    spread = n_std * float(np.sqrt(p * (1 - p) * max(2 * b * (1 - p) - 1, 1.0) / n_packets))
+    return p - spread, p + spread

@@ -17,14 +17,14 @@ import pandas as pd
 from wsnlib import paper_values
 from wsnlib.orientation import KalmanSettings, slerp_weight
 from wsnlib.studies.loss_tolerance.evaluation import AFTER_GAP_S
-from wsnlib.studies.loss_tolerance.registry import FS, HEADLINE, LATENCY_RULES, PROFILES
+from wsnlib.studies.loss_tolerance.registry import HEADLINE, LATENCY_RULES, PROFILES
 from wsnlib.studies.loss_tolerance.summary import comparison_sentences, diagnosis_sentence, error_budget
 
 #: Column of :func:`weight_vs_gap` holding the Kalman filter's 1 − K.
 KALMAN_WEIGHT_COLUMN = "Kalman: 1 − K (heading)"
 
 
-def weight_vs_gap(lost_samples, *, fs: float = FS, settings: KalmanSettings | None = None,
+def weight_vs_gap(lost_samples, *, fs: float = 50.0, settings: KalmanSettings | None = None,
                   prior_std_deg: float = 1.0, rho: float = 1.0, tau: float = 6.0) -> pd.DataFrame:
     """The paper's eq. (3) weight μ(λ) beside the Kalman filter's 1 − K for the heading after a gap.
 
@@ -38,7 +38,7 @@ def weight_vs_gap(lost_samples, *, fs: float = FS, settings: KalmanSettings | No
     lost_samples : array_like of int
         λ, samples lost in a row, >= 0.
     fs : float
-        Sample rate (Hz).
+        Sample rate (Hz); default paper 001's 50 Hz (an illustration: give the recordings' rate).
     settings : KalmanSettings, optional
         The filter's noise levels (``gap_rate_noise`` rad/s, ``mag_noise_density`` rad·√s); default
         :class:`~wsnlib.orientation.KalmanSettings` ().
@@ -136,31 +136,30 @@ def burst_figure_methods(best: Mapping[str, str]) -> list[str]:
     return list(dict.fromkeys(["hold_last", "hybrid (feedback)", best["peer"], "Kalman", "smoother"]))
 
 
-def worst_burst_end(trace: Mapping, method: str, *, fs: float = FS, window_s: float = AFTER_GAP_S) -> int:
+def worst_burst_end(trace: Mapping, method: str, *, window_s: float = AFTER_GAP_S) -> int:
     """Sample index ending the burst after which ``method``'s error grows most over its lossless run.
 
     Parameters
     ----------
     trace : mapping
-        One trial of :attr:`LossToleranceResult.traces`.
+        One trial of :attr:`LossToleranceResult.traces` (its ``fs``, Hz, the trial's rate).
     method : str
-    fs : float
-        Sample rate (Hz).
     window_s : float
         The increase is the largest one within this long after the burst (s); NaN counts as 0.
     """
     ends = np.asarray(trace["burst_ends"])
     if ends.size == 0:
         raise ValueError("trace has no burst end")
-    window = int(round(window_s * fs))
+    window = int(round(window_s * trace["fs"]))
     added = [np.max(np.nan_to_num(trace["error"][method][e:e + window] - trace["lossless"][method][e:e + window],
                                   nan=0.0)) for e in ends]
     return int(ends[int(np.argmax(added))])
 
 
-def burst_window(trace: Mapping, end: int, *, before_s: float, after_s: float, fs: float = FS) -> slice:
+def burst_window(trace: Mapping, end: int, *, before_s: float, after_s: float) -> slice:
     """Samples shown around the burst ending at ``end``: ``before_s`` (s) before the burst starts,
-    ``after_s`` (s) after it ends, clipped to the record."""
+    ``after_s`` (s) after it ends (at the trace's ``fs``), clipped to the record."""
+    fs = trace["fs"]
     received = np.asarray(trace["received"])
     start = end
     while start > 0 and not received[start - 1]:
@@ -230,18 +229,24 @@ def paper_vs_ours(means: pd.DataFrame, best_peer: str, profile: str = "paper bur
     return pd.DataFrame.from_dict(rows, orient="index").rename_axis("method")
 
 
-def paper_vs_ours_sentence(table: pd.DataFrame) -> str:
-    """The paper's hybrid after its loss against ours and our Kalman filter, from :func:`paper_vs_ours`."""
+def paper_vs_ours_sentence(table: pd.DataFrame, *, broad: bool = True) -> str:
+    """The paper's hybrid after its loss against ours and our Kalman filter, from :func:`paper_vs_ours`.
+
+    ``broad``: the trials are BROAD's (:func:`~wsnlib.studies.loss_tolerance.all_broad`), whose
+    kinds of motion the sentence names; otherwise it speaks of "these recordings".
+    """
     hybrid_paper = paper_values.PAPER001_SECTION4_AFTER_LOSS["hybrid"]
     hybrid, kalman = table.loc["hybrid (feedback)"], table.loc["Kalman"]
+    motion = ("the trials include fast rotations, translations and magnetic disturbances (the per-trial dots above)"
+              if broad else "the per-trial dots above show how these recordings differ from it")
     return (f"The paper's hybrid stays around {hybrid_paper['error_deg']:g}° for about "
-            f"{hybrid_paper['duration_s']:g} s after its loss. On BROAD, the burst adds a peak of "
+            f"{hybrid_paper['duration_s']:g} s after its loss. On {'BROAD' if broad else 'these recordings'}, "
+            f"the burst adds a peak of "
             f"{hybrid['ours: peak increase (°)']:.1f}° "
             f"[{hybrid['low']:.1f}, {hybrid['high']:.1f}] to the hybrid's error, back below 2° after "
             f"{hybrid['ours: recovery (s)']:.2f} s on average; our Kalman filter's peak is "
             f"{kalman['ours: peak increase (°)']:.1f}° [{kalman['low']:.1f}, {kalman['high']:.1f}] and its recovery "
-            f"{kalman['ours: recovery (s)']:.2f} s. The paper's arm raise is one slow, smooth movement; the trials "
-            f"include fast rotations, translations and magnetic disturbances (the per-trial dots above).")
+            f"{kalman['ours: recovery (s)']:.2f} s. The paper's arm raise is one slow, smooth movement; {motion}.")
 
 
 def why_missed_sentence(per_trial: pd.DataFrame, best: Mapping[str, str], values: pd.DataFrame) -> str:
