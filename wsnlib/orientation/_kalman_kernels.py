@@ -45,6 +45,7 @@ STATE_DTYPE = np.dtype([
     ("rate", "f8", (3,)), ("q_last", "f8", (4,)), ("gap_sigma", "f8"),
     ("mag_ref_norm", "f8"), ("mag_ref_dip", "f8"), ("mag_cand_norm", "f8"), ("mag_cand_dip", "f8"),
     ("mag_cand_time", "f8"), ("mag_reject_time", "f8"), ("mag_gate_norm", "f8"),
+    ("mag_ref_time", "f8"),
     ("hi_A", "f8", (6,)), ("hi_r", "f8", (3,)), ("hi_prev_mag", "f8", (3,)), ("hi_prev_rate", "f8", (3,)),
     ("hi_prev_ok", "?"), ("hard_iron", "f8", (3,)), ("lin_var", "f8"),
 ])
@@ -382,36 +383,6 @@ def hard_iron(st, c, mag, omega):
 
 
 @njit(**COMPILE)
-def first_mag_reference(st, work, c, m_e, m_norm, dip):
-    """Before the field has a reference: the candidate (norm, dip) must stay consistent for
-    ``mag_new_first_time_s`` (turning or not) to become it; meanwhile each field is used with the
-    variance of a rejected one (× ``mag_rejection_factor²``), so the heading converges from the
-    start without one sample (taken in motion, or in a disturbance) setting the gates."""
-    if st.mag_cand_norm > 0.0 and (abs(m_norm - st.mag_cand_norm) < c.mag_norm_gate * st.mag_cand_norm
-                                   and abs(dip - st.mag_cand_dip) < c.mag_dip_gate):
-        st.mag_cand_time += c.dt
-        st.mag_cand_norm += c.mag_ref_gain * (m_norm - st.mag_cand_norm)
-        st.mag_cand_dip += c.mag_ref_gain * (dip - st.mag_cand_dip)
-    else:
-        st.mag_cand_time = 0.0
-        st.mag_cand_norm, st.mag_cand_dip = m_norm, dip
-    r = c.mag_reject_var_factor * c.mag_var
-    if st.mag_cand_time >= c.mag_new_first_time:
-        st.mag_ref_norm, st.mag_ref_dip = st.mag_cand_norm, st.mag_cand_dip
-        st.mag_gate_norm = st.mag_cand_norm
-        st.mag_cand_time = 0.0
-        r = c.mag_var
-    P = st.P
-    tan_dip = math.tan(min(abs(dip), 1.5))
-    r += tan_dip * tan_dip * max(P[0, 0], P[1, 1])
-    if math.hypot(m_e[0], m_e[1]) > 0.0:
-        heading_update(P, work.dx, math.atan2(m_e[0], m_e[1]) - work.dx[2], r, work.K, work.rows[0])
-        inject(st, work.dx, c.bias_limit)
-        return True
-    return False
-
-
-@njit(**COMPILE)
 def correct_mag(st, work, c, mag, omega):
     """Heading update from the magnetometer, gated on its norm and dip; returns whether it was used."""
     dt = c.dt
@@ -420,8 +391,9 @@ def correct_mag(st, work, c, mag, omega):
     m_norm = vec_norm(mag)
     m_e = quat_rotate((st.q[0], st.q[1], st.q[2], st.q[3]), (mag[0], mag[1], mag[2]))
     dip = math.atan2(-m_e[2], math.hypot(m_e[0], m_e[1]))
-    if st.mag_ref_norm == 0.0:
-        return first_mag_reference(st, work, c, m_e, m_norm, dip)
+    if st.mag_ref_norm == 0.0:  # first sample: a provisional reference (see mag_new_first_time_s)
+        st.mag_ref_norm, st.mag_ref_dip, st.mag_gate_norm = m_norm, dip, m_norm
+        st.mag_cand_norm, st.mag_cand_dip = m_norm, dip
     # The dip is seen through the estimated tilt: its tolerance widens by the tilt's std
     # (× mag_dip_tilt_sigmas), so a tilt that is merely uncertain (after a gap, in fast
     # motion) does not reject an undisturbed field.
@@ -432,24 +404,29 @@ def correct_mag(st, work, c, mag, omega):
         # The gate's norm follows a field whose direction holds (a sensor's gain or the room's
         # field strength drifting): only a norm that changes faster than it follows is rejected.
         st.mag_gate_norm += c.mag_gate_norm_gain * (m_norm - st.mag_gate_norm)
+    # A reference not yet confirmed by mag_new_first_time_s of undisturbed fields (the first
+    # sample's, taken in motion or in a disturbance) gives way to a field consistent that long.
+    provisional = st.mag_ref_time < c.mag_new_first_time
     if undisturbed:
         st.mag_ref_norm += c.mag_ref_gain * (m_norm - st.mag_ref_norm)
         st.mag_ref_dip += c.mag_ref_gain * (dip - st.mag_ref_dip)
         st.mag_reject_time = 0.0
+        st.mag_ref_time += dt
     else:
         # A new field that stays consistent while the sensor turns becomes the reference.
         if (abs(m_norm - st.mag_cand_norm) < c.mag_norm_gate * st.mag_cand_norm
                 and abs(dip - st.mag_cand_dip) < c.mag_dip_gate):
-            if vec_norm(omega) >= c.mag_new_min_rate:
+            if provisional or vec_norm(omega) >= c.mag_new_min_rate:
                 st.mag_cand_time += dt
             st.mag_cand_norm += c.mag_ref_gain * (m_norm - st.mag_cand_norm)
             st.mag_cand_dip += c.mag_ref_gain * (dip - st.mag_cand_dip)
         else:
             st.mag_cand_time = 0.0
             st.mag_cand_norm, st.mag_cand_dip = m_norm, dip
-        if st.mag_cand_time >= c.mag_new_time:
+        if st.mag_cand_time >= (c.mag_new_first_time if provisional else c.mag_new_time):
             st.mag_ref_norm, st.mag_ref_dip = st.mag_cand_norm, st.mag_cand_dip
             st.mag_gate_norm = st.mag_cand_norm
+            st.mag_ref_time = 0.0
             st.mag_cand_time = 0.0
             st.mag_reject_time = 0.0
             undisturbed = True

@@ -100,13 +100,13 @@ Gates (where they come from)
   ``mag_dip_gate + mag_dip_tilt_sigmas · σ_tilt`` (``σ_tilt² = max(P_00, P_11)``: the dip is
   seen through the estimated tilt, so an uncertain tilt, e.g. after a gap, must not reject an
   undisturbed field; VQF has no tilt covariance and uses the fixed threshold) of a reference
-  that is learned online: before it exists, a candidate (norm, dip) that stays consistent
-  for ``mag_new_first_time_s`` becomes it, and meanwhile each field is used with the variance
-  of a rejected one (so a recording that starts in motion or in a disturbance does not set its
-  gates from one sample); then it is low-pass filtered on accepted samples, and the norm gate's
-  own reference follows every field whose dip passes (``mag_norm_tau_s``); a new field that
-  stays consistent for ``mag_new_time_s`` while the sensor turns faster than
-  ``mag_new_min_rate`` becomes the new reference; after
+  that is learned online: set from the first received sample, then low-pass filtered on
+  accepted samples, and the norm gate's own reference follows every field whose dip passes
+  (``mag_norm_tau_s``); a new field that stays consistent for ``mag_new_time_s`` while the
+  sensor turns faster than ``mag_new_min_rate`` becomes the new reference — or for
+  ``mag_new_first_time_s``, turning or not, while the reference has not yet been confirmed by
+  that long of undisturbed fields (so a recording that starts in motion or in a disturbance
+  does not keep the gates of its first sample); after
   ``mag_max_rejection_s`` of rejection the field is used again with its variance multiplied
   by ``mag_rejection_factor²`` (VQF divides its gain by the factor).  Timers count received
   samples (time the sensor was observed).  The heading measured through a tilt error ε is
@@ -606,7 +606,7 @@ class KalmanReference:
         self.q_last = self.q.copy()
         self.last_rate = self.rates[0] if self.rates else np.zeros(3)
         self.ref = None  # the magnetometer's reference norm and dip
-        self.candidate, self.candidate_time, self.gate_norm = None, 0.0, 0.0
+        self.gate_norm = 0.0
         self.coef, self.largest = None, 0.0
 
     @staticmethod
@@ -739,21 +739,8 @@ class KalmanReference:
         m_norm, dip = np.linalg.norm(mag), np.arctan2(-m_e[2], np.hypot(m_e[0], m_e[1]))
         tilt_var = max(self.P[0, 0], self.P[1, 1])
         gain = -np.expm1(-dt / s.mag_reference_tau_s)  # the reference follows accepted fields
-        if self.ref is None:  # no reference yet: a candidate consistent for mag_new_first_time_s
-            cand = self.candidate
-            if cand is not None and (abs(m_norm - cand[0]) < s.mag_norm_gate * cand[0]
-                                     and abs(dip - cand[1]) < s.mag_dip_gate):
-                self.candidate_time += dt
-                self.candidate = [cand[0] + gain * (m_norm - cand[0]), cand[1] + gain * (dip - cand[1])]
-            else:
-                self.candidate_time, self.candidate = 0.0, [m_norm, dip]
-            r = s.mag_rejection_factor**2 * s.mag_noise_density**2 / dt
-            if self.candidate_time >= s.mag_new_first_time_s:
-                self.ref, self.gate_norm = list(self.candidate), self.candidate[0]
-                r = s.mag_noise_density**2 / dt
-            r += np.tan(min(abs(dip), 1.5)) ** 2 * tilt_var
-            self._correct(np.eye(9)[2:3], np.array([np.arctan2(m_e[0], m_e[1])]), r, heading_only=True)
-            return
+        if self.ref is None:
+            self.ref, self.gate_norm = [m_norm, dip], m_norm
         dip_consistent = abs(dip - self.ref[1]) < s.mag_dip_gate + s.mag_dip_tilt_sigmas * np.sqrt(tilt_var)
         if not (dip_consistent and abs(m_norm - self.gate_norm) < s.mag_norm_gate * self.gate_norm):
             raise ValueError("the field looks disturbed: the reference covers undisturbed fields only")

@@ -118,10 +118,10 @@ class KalmanSettings:
         Consistent time (s) after which a new field becomes the reference, VQF's
         ``magNewTime`` = 20 s.
     mag_new_first_time_s : float
-        Before the field has a reference, a candidate (norm, dip) consistent for this long (s),
-        turning or not, becomes it; until then every field is used with the variance of a rejected
-        one (× ``mag_rejection_factor²``).  So no single first sample (in motion, in a
-        disturbance) sets the gates.  VQF's ``magNewFirstTime`` = 5 s.
+        The first sample's field is the reference only provisionally: until it has been confirmed
+        by this long (s) of undisturbed fields, a new field consistent for this long, turning or
+        not, replaces it (so a recording that starts in motion or in a disturbance does not keep
+        the gates of its first sample).  VQF's ``magNewFirstTime`` = 5 s.
     mag_new_min_rate : float
         Only time spent turning faster than this (rad/s) counts for ``mag_new_time_s``, VQF's
         ``magNewMinGyr`` = 20 °/s.
