@@ -110,9 +110,9 @@ class KalmanSettings:
         passes the dip gate (the field's direction holds, its strength may drift: a sensor's gain,
         a room's field).  Default 20 s, as ``mag_reference_tau_s``: on the 17 BROAD trials at
         50 Hz, 1 s follows a magnetometer scaled by a slow factor 0.4–1.2 without losing the
-        heading when nothing is lost, but costs +0.1° lossless and +0.2° at GE 10 % (the
-        attached-magnet trials), and does not hold under loss either
-        (``benchmarks/eval_rates_and_starts.py``).  ``inf``: the gate's norm stays where the
+        heading when nothing is lost, but cost +0.1° lossless and +0.2° at GE 10 % (the
+        attached-magnet trials) and did not hold under loss (one development run, November 2026;
+        ``benchmarks/eval_rates_and_starts.py`` measures the defaults).  ``inf``: the gate's norm stays where the
         reference was set.
     mag_new_time_s : float
         Consistent time (s) after which a new field becomes the reference, VQF's
