@@ -108,16 +108,13 @@ def check_type(value, cls: type, name: str):
     return value
 
 
-def check_settings_fields(settings, *, may_be_zero=(), may_be_infinite=None, integers=None,
-                          largest: float = 1e100) -> None:
+def check_settings_fields(settings, *, may_be_zero=(), may_be_infinite=None, largest: float = 1e100) -> None:
     """Check and normalise, in place, every field of a frozen settings dataclass: a number > 0.
 
     ``may_be_zero``: fields that may be 0 (a feature off); ``may_be_infinite``: fields that may
-    be ``inf`` (None: every field); ``integers``: field → largest whole value allowed; finite
-    values above ``largest`` are refused (they would overflow when squared).  Each error names
-    ``Class.field``.
+    be ``inf`` (None: every field); finite values above ``largest`` are refused (they would
+    overflow when squared).  Each error names ``Class.field``.
     """
-    integers = integers or {}
     for f in dataclasses.fields(settings):
         name, value = f"{type(settings).__name__}.{f.name}", getattr(settings, f.name)
         try:
@@ -131,8 +128,4 @@ def check_settings_fields(settings, *, may_be_zero=(), may_be_infinite=None, int
                 raise ValueError(f"{name} must be finite, got {value!r}")
             if largest < number < math.inf:
                 raise ValueError(f"{name} = {value!r} is too large (> {largest:g})")
-            if f.name in integers:
-                if number != round(number) or number > integers[f.name]:
-                    raise ValueError(f"{name} must be a whole number in [1, {integers[f.name]}], got {value!r}")
-                number = int(number)
         object.__setattr__(settings, f.name, number)
