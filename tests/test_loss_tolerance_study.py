@@ -46,7 +46,7 @@ def test_registry_grids_kinds_and_colours():
         assert 1 <= len(method.grid) <= lt.DEFAULT_BUDGET
         assert method.kind in lt.KINDS and method.latency in lt.LATENCY_RULES
         plotting.method_style(name)  # every method has a colour and marker
-    assert methods["gyro_interpolation"].latency == "gap" and methods["smoother"].kind == "offline"
+    assert methods["gyro_interpolation"].latency == "none" and methods["smoother"].kind == "offline"
     with pytest.raises(ValueError, match="grid"):
         lt.Method("x", "causal", (), print)
     with pytest.raises(ValueError, match="Range or a Choice"):
@@ -599,7 +599,7 @@ def test_paper001_registry_and_profiles():
 
     methods = lt.paper001_methods(RECOMMENDED_HYBRID, [0.01, 0.1], [0.5, 1.0], [1.5, 3.0])
     assert list(methods)[:6] == [*paper001.OUR_OPTIONS, "single frame"]
-    assert methods["gyro_interpolation"].latency == "gap" and methods["VQF + hybrid (output)"].kind == "peer"
+    assert methods["gyro_interpolation"].latency == "none" and methods["VQF + hybrid (output)"].kind == "peer"
     for name in methods:
         plotting.method_style(name)
     profiles = lt.paper001_profiles((0.1,), burst_packets=4, burst_period_s=8.0)

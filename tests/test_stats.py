@@ -144,3 +144,64 @@ def test_bad_rankings_are_rejected():
         stats.rank_intervals(pd.DataFrame({"estimate": [1.0], "ci_low": [2.0], "ci_high": [3.0]}))
     with pytest.raises(ValueError, match="rank_with_ties"):
         stats.describe_ranking(pd.DataFrame({"estimate": [1.0]}))
+
+
+def _clustered(rng, n_groups=7, sizes=(3, 2, 2, 1, 2, 3, 4), n_draws=5, truth=10.0):
+    labels = np.repeat(np.arange(n_groups), sizes)
+    group_effect = rng.normal(0.0, 2.0, n_groups)[labels]
+    return labels, truth + group_effect[:, None] + rng.normal(0.0, 1.0, (labels.size, n_draws))
+
+
+def test_grouped_interval_covers_clustered_truth_better_than_a_trial_bootstrap():
+    # Trials of one group share an effect: resampling trials as if independent is too narrow.
+    rng = np.random.default_rng(1)
+    grouped = naive = 0
+    for _ in range(200):
+        labels, values = _clustered(rng)
+        ci = stats.grouped_bootstrap_ci(values, labels, rng=rng, n_boot=400)
+        grouped += bool(ci.low <= 10.0 <= ci.high)
+        flat = stats.bootstrap_ci(values.mean(axis=1), rng=rng, n_boot=400, method="percentile")
+        naive += bool(flat.low <= 10.0 <= flat.high)
+    assert grouped / 200 >= 0.8 and naive / 200 <= 0.75
+
+
+def test_grouped_interval_estimate_and_draw_spread():
+    rng = np.random.default_rng(2)
+    values = np.zeros((4, 3, 2))
+    values[..., 1] = np.array([1.0, 2.0, 3.0])  # method 1: only the draws differ, identical on every unit
+    ci = stats.grouped_bootstrap_ci(values, ["a", "a", "b", "c"], rng=rng, n_boot=500)
+    assert ci.estimate.shape == (2,) and ci.estimate[1] == 2.0 and ci.n_units == 3
+    assert ci.low[0] == ci.high[0] == 0.0          # no spread at all: the estimate itself
+    assert ci.low[1] < 2.0 < ci.high[1]            # spread from the draws alone is resampled
+
+
+def test_grouped_ratio_of_proportional_methods_is_exact():
+    rng = np.random.default_rng(3)
+    labels, values = _clustered(rng)
+    ci = stats.grouped_ratio_ci(values, 2.0 * values, labels, rng=rng, n_boot=300)
+    assert np.isclose(ci.estimate, 0.5) and np.isclose(ci.low, 0.5) and np.isclose(ci.high, 0.5)
+
+
+@pytest.mark.parametrize(("values", "groups", "match"), [
+    (np.ones(4), [0, 0, 1, 1], "n_units, n_draws"),
+    (np.ones((4, 2)), [0, 0, 1], "one label per unit"),
+    (np.ones((4, 2)), [0, 0, 0, 0], "2 distinct"),
+    (np.array([[1.0, np.nan], [1.0, 1.0]]), [0, 1], "NaN"),
+])
+def test_grouped_interval_refuses_bad_input(values, groups, match):
+    with pytest.raises(ValueError, match=match):
+        stats.grouped_bootstrap_ci(values, groups, rng=np.random.default_rng(0))
+
+
+def test_grouped_ranking_ties_what_the_groups_cannot_separate():
+    rng = np.random.default_rng(4)
+    labels, base = _clustered(rng)
+    # "b" is "a" + 3 on every unit and draw (separated whatever the groups); "c" is "a" plus
+    # one shared offset per group of ±1 (no consistent difference: a tie).
+    offsets = np.where(np.unique(labels) % 2 == 0, 1.0, -1.0)[labels]
+    samples = {"a": base, "b": base + 3.0, "c": base + offsets[:, None] - offsets.mean()}
+    table = stats.rank_with_ties(samples, rng=rng, groups=labels, n_boot=500)
+    assert table.loc["b", "tie_group"] > table.loc["a", "tie_group"]
+    assert table.loc["c", "tie_group"] == table.loc["a", "tie_group"]
+    assert (table["n_units"] == 7).all()
+    assert "over 7 groups" in stats.describe_ranking(table)

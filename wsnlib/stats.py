@@ -8,6 +8,9 @@ module gives
 * :func:`paired_difference_ci`: the same for the difference of two methods scored on the
   *same* units (paired: the unit-to-unit spread cancels, so the interval is narrower than
   what two separate intervals suggest);
+* :func:`grouped_bootstrap_ci` and :func:`grouped_ratio_ci`: intervals over *groups of units
+  and repeated draws* (e.g. near-duplicate trials grouped by their kind of motion, each scored
+  under several random loss masks), by a two-stage bootstrap;
 * :func:`rank_intervals` and :func:`rank_with_ties`: a ranking table in which methods that
   cannot be told apart share a tie group, and :func:`describe_ranking`, a sentence generated
   from such a table (so that a notebook's claim follows from its numbers).
@@ -24,6 +27,17 @@ from the ``rng`` passed in).  Two intervals are offered:
   ``z0 = Φ⁻¹(fraction of resamples below the estimate)`` and the acceleration ``a`` from the
   jackknife, ``a = Σ (θ̄ − θ_(i))³ / (6 [Σ (θ̄ − θ_(i))²]^{3/2})``.  It is second-order
   accurate and copes with skewed statistics (errors are positive and skewed).
+
+Groups and draws
+----------------
+When units come in groups that are not independent (BROAD's near-duplicate trials of one kind
+of motion) and each unit is scored several times (loss draws), :func:`grouped_bootstrap_ci`
+resamples in two stages (Davison & Hinkley, *Bootstrap Methods and their Application*, 1997,
+Sec. 3.8): the groups with replacement, then, for every unit of every group drawn, its draws
+with replacement; the statistic is the mean over the drawn units of the mean over their drawn
+draws.  Percentile intervals.  A group drawn twice gets two independent draw-resamples, so its
+draws' counts are one multinomial of ``times drawn × n_draws`` — which is how it is computed,
+without a loop over resamples.
 
 With very few units (five users) no bootstrap interval reaches its nominal coverage — the
 resampled mean's spread is ``(n − 1)/n`` of the sample's and the shape is that of the few
@@ -295,7 +309,7 @@ def _as_samples(samples) -> tuple[list[str], list[np.ndarray]]:
 
 
 def rank_with_ties(samples, *, rng: np.random.Generator, level: float = 0.95, n_boot: int = 2000, method: str = "bca",
-                   statistic: str = "mean", paired: bool = True, lower_is_better: bool = True):
+                   statistic: str = "mean", paired: bool = True, lower_is_better: bool = True, groups=None):
     """Rank methods by their per-unit values with bootstrap intervals; overlapping → tie.
 
     Parameters
@@ -312,6 +326,10 @@ def rank_with_ties(samples, *, rng: np.random.Generator, level: float = 0.95, n_
         (method − leader) contains 0 (the sharper test, for methods scored on the same units).
         False: when the two methods' own intervals overlap (:func:`rank_intervals`).
     lower_is_better : bool
+    groups : array_like, shape (n_units,), optional
+        Each unit's group: every method's sample is then ``(n_units, n_draws)`` and every
+        interval is :func:`grouped_bootstrap_ci`'s (groups, then draws; percentile, mean; needs
+        ``paired``); ``n_units`` is the number of groups.
 
     Returns
     -------
@@ -325,6 +343,9 @@ def rank_with_ties(samples, *, rng: np.random.Generator, level: float = 0.95, n_
 
     rng = check_rng(rng)
     _check_options(level, n_boot, method, statistic)
+    if groups is not None:
+        return _rank_grouped(samples, groups, rng=rng, level=level, n_boot=n_boot, paired=paired,
+                             lower_is_better=lower_is_better)
     names, arrays = _as_samples(samples)
     sizes = {arr.size for arr in arrays}
     if paired and len(sizes) != 1:
@@ -369,6 +390,50 @@ def rank_with_ties(samples, *, rng: np.random.Generator, level: float = 0.95, n_
     return out
 
 
+def _rank_grouped(samples, groups, *, rng, level, n_boot, paired, lower_is_better):
+    """:func:`rank_with_ties` with ``groups``: samples ``method → (n_units, n_draws)``."""
+    import pandas as pd
+
+    if not paired:
+        raise ValueError("groups need paired=True (every method scored on the same units and draws)")
+    if not isinstance(samples, Mapping):
+        raise ValueError(f"with groups, samples must map each method to an (n_units, n_draws) array, got "
+                         f"{type(samples).__name__}")
+    arrays = {str(name): as_float_array(values, f"samples[{name!r}]") for name, values in samples.items()}
+    shapes = {arr.shape for arr in arrays.values()}
+    if len(arrays) < 1 or len(shapes) != 1 or len(next(iter(shapes))) != 2:
+        raise ValueError(f"with groups, every method needs the same (n_units, n_draws) shape, got {shapes}")
+    cis = {name: grouped_bootstrap_ci(arr, groups, rng=rng, level=level, n_boot=n_boot)
+           for name, arr in arrays.items()}
+    table = pd.DataFrame({name: {"estimate": float(ci.estimate), "ci_low": float(ci.low), "ci_high": float(ci.high),
+                                 "n_units": ci.n_units} for name, ci in cis.items()}).T
+    table["n_units"] = table["n_units"].astype(int)
+    table.index.name = "method"
+    sign = 1.0 if lower_is_better else -1.0
+    order = list(table.index[np.argsort(sign * table["estimate"].to_numpy(), kind="stable")])
+    out = table.loc[order].copy()
+    tie_groups, diffs, lows, highs = [], [], [], []
+    group, leader = 0, None
+    for name in order:
+        if leader is not None:
+            diff = grouped_bootstrap_ci(arrays[name] - arrays[leader], groups, rng=rng, level=level, n_boot=n_boot)
+            d, lo, hi = float(diff.estimate), float(diff.low), float(diff.high)
+        if leader is None or not lo <= 0.0 <= hi:
+            group += 1
+            leader = name
+            d = lo = hi = 0.0
+        tie_groups.append(group)
+        diffs.append(d)
+        lows.append(lo)
+        highs.append(hi)
+    out["rank"] = np.arange(1, len(out) + 1)
+    out["tie_group"] = tie_groups
+    out["tied"] = out.groupby("tie_group")["tie_group"].transform("size").to_numpy() > 1
+    out["diff_to_leader"], out["diff_low"], out["diff_high"] = diffs, lows, highs
+    out.attrs.update(level=float(level), units="groups (resampled with their loss draws)")
+    return out
+
+
 def describe_ranking(ranking, *, what: str = "error", unit: str = "", decimals: int = 1) -> str:
     """One sentence on the best method(s) of a :func:`rank_with_ties` / :func:`rank_intervals` table.
 
@@ -395,7 +460,8 @@ def describe_ranking(ranking, *, what: str = "error", unit: str = "", decimals: 
         return f"{name} {text}{(' ' + unit) if unit else ''}"
 
     first = ranking[ranking["tie_group"] == ranking["tie_group"].iloc[0]]
-    units = f" over {int(ranking['n_units'].iloc[0])} units" if "n_units" in ranking.columns else ""
+    unit_name = ranking.attrs.get("units", "units")
+    units = f" over {int(ranking['n_units'].iloc[0])} {unit_name}" if "n_units" in ranking.columns else ""
     level = ranking.attrs.get("level")
     scope = f"({round(100 * level)} % intervals{units})" if level is not None else f"(intervals{units})"
     if len(first) > 1:
@@ -441,3 +507,86 @@ def ratio_of_means_ci(a, b, *, rng: np.random.Generator, level: float = 0.95, n_
     low, high = np.quantile(ratios, [(1.0 - level) / 2.0, (1.0 + level) / 2.0])
     return BootstrapInterval(estimate=estimate, low=np.minimum(low, estimate), high=np.maximum(high, estimate),
                              level=level, method="percentile", statistic="mean", n_units=a.shape[0], n_boot=n_boot)
+
+
+def _grouped_means(values: np.ndarray, labels: np.ndarray, rng: np.random.Generator, n_boot: int) -> np.ndarray:
+    """Two-stage resampled means (module docstring) of ``values`` ``(n_units, n_draws, k)``: ``(n_boot, k)``."""
+    n_units, n_draws = values.shape[:2]
+    distinct, member = np.unique(labels, return_inverse=True)
+    group_counts = rng.multinomial(len(distinct), np.full(len(distinct), 1.0 / len(distinct)), size=n_boot)
+    draw_counts = rng.multinomial(group_counts[:, member] * n_draws, np.full(n_draws, 1.0 / n_draws))
+    weights = draw_counts.reshape(n_boot, n_units * n_draws).astype(float)
+    flat = values.reshape(n_units * n_draws, -1)
+    return (weights @ flat) / weights.sum(axis=1, keepdims=True)
+
+
+def _grouped_values(values, groups, name: str) -> tuple[np.ndarray, np.ndarray]:
+    arr = as_float_array(values, name)
+    if arr.ndim < 2:
+        raise ValueError(f"{name} must have shape (n_units, n_draws, ...), got {arr.shape}")
+    labels = np.asarray(groups)
+    if labels.shape != arr.shape[:1]:
+        raise ValueError(f"groups must hold one label per unit ({arr.shape[0]}), got shape {labels.shape}")
+    if len(np.unique(labels)) < 2:
+        raise ValueError("groups must hold at least 2 distinct labels to resample groups")
+    return arr, labels
+
+
+def grouped_bootstrap_ci(values, groups, *, rng: np.random.Generator, level: float = 0.95,
+                         n_boot: int = 2000) -> BootstrapInterval:
+    """Percentile interval of the mean over units and draws, resampling groups, then draws.
+
+    Parameters
+    ----------
+    values : array_like, shape (n_units, n_draws, ...)
+        Each unit's value under each of its draws (e.g. RMSE per trial and loss mask); trailing
+        axes are independent quantities (methods), resampled together (paired).  Finite.
+    groups : array_like, shape (n_units,)
+        Each unit's group (resampled whole); at least 2 distinct labels.
+    rng, level, n_boot
+        As in :func:`bootstrap_ci`.
+
+    Returns
+    -------
+    BootstrapInterval
+        ``estimate`` the mean over units of the mean over draws, shape ``values.shape[2:]``;
+        ``method="percentile"``; ``n_units`` the number of groups.
+    """
+    rng = check_rng(rng)
+    level, n_boot = _check_options(level, n_boot, "percentile", "mean")
+    arr, labels = _grouped_values(values, groups, "values")
+    tail = arr.shape[2:]
+    estimate = arr.mean(axis=(0, 1))
+    boot = _grouped_means(arr.reshape(arr.shape[:2] + (-1,)), labels, rng, n_boot)
+    low, high = np.quantile(boot, [(1.0 - level) / 2.0, (1.0 + level) / 2.0], axis=0)
+    return BootstrapInterval(estimate=estimate, low=np.minimum(low.reshape(tail), estimate),
+                             high=np.maximum(high.reshape(tail), estimate), level=level, method="percentile",
+                             statistic="mean", n_units=len(np.unique(labels)), n_boot=n_boot)
+
+
+def grouped_ratio_ci(a, b, groups, *, rng: np.random.Generator, level: float = 0.95,
+                     n_boot: int = 2000) -> BootstrapInterval:
+    """Percentile interval of ``mean(a) / mean(b)`` with :func:`grouped_bootstrap_ci`'s two-stage resampling.
+
+    Parameters
+    ----------
+    a, b : array_like, shape (n_units, n_draws)
+        The same units and draws scored by two methods; ``b`` > 0.
+    groups, rng, level, n_boot
+        As in :func:`grouped_bootstrap_ci`.
+    """
+    rng = check_rng(rng)
+    level, n_boot = _check_options(level, n_boot, "percentile", "mean")
+    a, labels = _grouped_values(a, groups, "a")
+    b, _ = _grouped_values(b, groups, "b")
+    if a.ndim != 2 or a.shape != b.shape:
+        raise ValueError(f"a and b must have the same shape (n_units, n_draws), got {a.shape} and {b.shape}")
+    if np.any(b <= 0):
+        raise ValueError("b must be > 0 on every unit and draw (the ratio's denominator)")
+    boot = _grouped_means(np.stack([a, b], axis=2), labels, rng, n_boot)
+    ratios = boot[:, 0] / boot[:, 1]
+    estimate = np.asarray(a.mean() / b.mean())
+    low, high = np.quantile(ratios, [(1.0 - level) / 2.0, (1.0 + level) / 2.0])
+    return BootstrapInterval(estimate=estimate, low=np.minimum(low, estimate), high=np.maximum(high, estimate),
+                             level=level, method="percentile", statistic="mean", n_units=len(np.unique(labels)),
+                             n_boot=n_boot)

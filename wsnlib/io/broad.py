@@ -92,6 +92,38 @@ def broad_trial_numbers(trials) -> str:
     return ", ".join(numbers) or "none"
 
 
+#: Kinds of motion whose trials are held out together although BROAD names them apart: both
+#: shake the sensor at high frequency (tapping, a vibrating phone) without moving its field.
+_MERGED_MOTION_GROUPS = {"tapping": "tapping and vibration", "phone vibration": "tapping and vibration"}
+
+
+def broad_motion_group(trial) -> str:
+    """The kind of motion of a BROAD trial, the unit that leave-one-group-out holds out together.
+
+    BROAD repeats each kind of motion in near-duplicate trials (variants A–D, "with breaks", the
+    magnet's distance, the duration): ``"02_undisturbed_slow_rotation_B"`` and
+    ``"05_undisturbed_slow_rotation_with_breaks_B"`` are both ``"slow rotation"``, the attached
+    magnet at 2–5 cm ``"attached magnet"``; tapping and phone vibration form one group.  On the
+    17 trials of ``../shared/data/broad`` this gives issue 25's seven groups.
+
+    Parameters
+    ----------
+    trial : str or int
+        A BROAD trial name (with or without ``.mat``) or number.
+
+    Raises
+    ------
+    ValueError
+        Not a BROAD trial.
+    """
+    words = _broad_trial_name(trial).split("_")[1:]
+    words = [w for w in words if w not in ("undisturbed", "disturbed")]
+    if words and (len(words[-1]) == 1 or words[-1].endswith(("cm", "s")) and words[-1][0].isdigit()):
+        words = words[:-1]  # the variant: A–D, a distance, a duration
+    kind = " ".join(words).replace(" with breaks", "")
+    return _MERGED_MOTION_GROUPS.get(kind, kind)
+
+
 def broad_dir(data_dir=None) -> Path:
     """Folder of the BROAD files: ``data_dir``, else ``$WSNLIB_BROAD_DIR``, else ``<ROOT>/data/raw/broad``.
 

@@ -69,10 +69,11 @@ wherever the jobs ran.
 
 Latency
 -------
-Causal filters output each sample when it arrives (0 s).  Gyro interpolation fills a gap's
-angular rate with the first sample *after* it, so its state for the gap is final only then:
-latency up to the gap's length (reported as the trial's longest gap; its output on lost
-samples is the held estimate).  The smoother needs the whole recording (latency = duration).
+One rule: a method's latency is how long after a sample arrives its output for that sample is
+final.  Causal filters output each sample when it arrives (0 s) — also gyro interpolation and
+the Kalman filter's replay, which re-run a gap with the first sample *after* it but change only
+the state from there on, never an output already given (the lost samples keep the estimate
+given at the time).  The smoother needs the whole recording (latency = duration).
 
 Paper 001 on real data
 ----------------------
@@ -109,6 +110,7 @@ from wsnlib.studies.loss_tolerance.recordings import (
     all_broad,
     from_broad,
     from_recording,
+    holdout_groups,
     load_recordings,
     notebook_sources,
 )
@@ -146,7 +148,8 @@ __all__ = [
     "LATENCY_RULES", "MADGWICK_BETA", "DEFAULT_BUDGET", "PROFILES", "RECOVERY_THRESHOLD_DEG",
     "REGULAR_STEP_TOLERANCE", "RMSE_TABLE_COLUMNS", "SETTING_SOURCES", "SETTINGS_PER_JOB", "VQF_GRID",
     "VQF_HYBRID_GRID", "LossToleranceResult", "Method", "Choice", "Range", "StudyRecording", "all_broad",
-    "default_methods", "evaluate", "from_broad", "from_recording", "load_recordings", "notebook_sources",
+    "default_methods", "evaluate", "from_broad", "from_recording", "holdout_groups", "load_recordings",
+    "notebook_sources",
     "paper001_methods", "paper001_profiles", "response_window_s", "settings_grid", "single_frame_trust",
     "with_budget",
 ]

@@ -13,7 +13,7 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
-from wsnlib import loss, loto, metrics, parallel
+from wsnlib import loto, metrics, parallel
 from wsnlib._validation import check_count, check_positive, check_rng
 from wsnlib.orientation import SingleFrameGate, single_frame_trusted
 from wsnlib.studies.loss_tolerance.registry import HEADLINE, PROFILES, Method, default_methods
@@ -26,8 +26,9 @@ RECOVERY_THRESHOLD_DEG = 2.0
 #: bursts come every 8 s (4 s fit between them); random gaps come closer (2 s).
 BURST_RESPONSE_WINDOW_S, GAP_RESPONSE_WINDOW_S = 4.0, 2.0
 #: Where each recording's setting comes from (:attr:`LossToleranceResult.setting_source`): tuned on
-#: the other recordings, or, with a single recording, every method's default.
-SETTING_SOURCES = ("leave-one-recording-out", "defaults (one recording)")
+#: the other recordings, or on the other groups (``groups`` of :func:`evaluate`), or, with a
+#: single recording, every method's default.
+SETTING_SOURCES = ("leave-one-recording-out", "defaults (one recording)", "leave-one-group-out")
 #: Columns of :meth:`LossToleranceResult.rmse_table`.
 RMSE_TABLE_COLUMNS = ("recording", "node", "method", "profile", "draw", "rmse_total_deg", "rmse_inclination_deg",
                       "rmse_heading_deg", "setting_source", "setting")
@@ -65,10 +66,12 @@ class LossToleranceResult:
     methods : dict[str, Method]
     profiles : tuple of LossProfile
     units : pandas.DataFrame
-        Index trial; columns recording (the source, held out together), node, fs_hz, n_samples.
+        Index trial; columns recording (the source), group (held out together: the recording,
+        or ``groups`` of :func:`evaluate`), node, fs_hz, n_samples.
     setting_source : str
-        One of :data:`SETTING_SOURCES`: tuned leave-one-recording-out at the headline, or, with
-        a single recording, every method's default (:meth:`Method.untuned_setting`).
+        One of :data:`SETTING_SOURCES`: tuned leave-one-recording-out or leave-one-group-out at
+        the headline, or, with a single recording, every method's default
+        (:meth:`Method.untuned_setting`).
     """
 
     per_trial: pd.DataFrame
@@ -87,8 +90,9 @@ class LossToleranceResult:
         Columns :data:`RMSE_TABLE_COLUMNS`: the recording (file stem or BROAD trial) and node of
         each trial, method, profile, draw; rmse_total_deg, rmse_inclination_deg,
         rmse_heading_deg (movement samples with a reference, :func:`wsnlib.metrics.broad_rmse_deg`);
-        setting_source (:attr:`setting_source`: ``"leave-one-recording-out"``, or ``"defaults
-        (one recording)"`` when there was nothing to tune on) and the setting used.  In the
+        setting_source (:attr:`setting_source`: ``"leave-one-recording-out"``,
+        ``"leave-one-group-out"``, or ``"defaults (one recording)"`` when there was nothing to
+        tune on) and the setting used.  In the
         order of :attr:`per_trial`'s rows.
         """
         rows = self.per_trial
@@ -128,8 +132,7 @@ def _score_rows(name, method, rows, setting, rec, masks, quat):
     jitter = metrics.angular_jerk_rms_deg(quat, rec.fs, masks)
     out = []
     for k, (profile, draw) in enumerate(rows):
-        longest_gap = int(loss.lost_run_length(masks[k]).max(initial=0))
-        latency = {"none": 0.0, "gap": longest_gap / rec.fs, "offline": rec.n_samples / rec.fs}[method.latency]
+        latency = {"none": 0.0, "offline": rec.n_samples / rec.fs}[method.latency]
         out.append({"trial": name, "method": method.name, "kind": method.kind, "profile": profile.name,
                     "draw": draw, "setting": str(setting), "lost_share": float(1.0 - masks[k].mean()),
                     **{f"rmse_{key}": float(v[k]) for key, v in rmse.items()},
@@ -178,14 +181,14 @@ def _masks(profiles, n_samples: int, fs: float, rng: np.random.Generator, draws:
 
 
 def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[str, Method] | None = None,
-             profiles=PROFILES, headline: str = HEADLINE, draws: int = 1, n_jobs: int = -1, scheduler=None,
-             progress: bool = True) -> LossToleranceResult:
-    """Tune every method leave-one-recording-out at ``headline`` and score it under every profile.
+             profiles=PROFILES, headline: str = HEADLINE, draws: int = 1, groups: Mapping | None = None,
+             n_jobs: int = -1, scheduler=None, progress: bool = True) -> LossToleranceResult:
+    """Tune every method leave-one-group-out at ``headline`` and score it under every profile.
 
     Each trial (study unit) is run, masked, scored and traced at its own rate ``fs``.  Its
     setting is the one with the lowest mean headline score over the trials of the *other*
-    recordings (``source``: the nodes of one recording are held out together,
-    :func:`wsnlib.loto.leave_one_out_choice` with groups); with a single recording there is
+    groups (``groups``, by default the recordings: the nodes of one recording are held out
+    together, :func:`wsnlib.loto.leave_one_out_choice` with groups); with a single recording there is
     nothing to tune on and every method runs with its default
     (:meth:`~wsnlib.studies.loss_tolerance.Method.untuned_setting`), which the result's
     ``setting_source`` says.  Every run of a method on a trial is a job of
@@ -210,6 +213,12 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
         Profile at which the settings are tuned.
     draws : int
         Masks drawn per trial for each random (Gilbert–Elliott) profile, ≥ 1.
+    groups : mapping name → str, optional
+        The group each trial is held out with (leave-one-group-out: a trial's setting is tuned
+        on the trials of the *other* groups), e.g.
+        :func:`~wsnlib.studies.loss_tolerance.holdout_groups` (BROAD's kinds of motion).  A
+        group holds whole recordings (the nodes of one recording never straddle a fold).
+        Default: each trial's recording (``source``).
     n_jobs : int
         Local worker processes (-1, default: one per core; 1: none, everything in this process).
     scheduler : str or distributed.Client, optional
@@ -251,14 +260,15 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
         raise ValueError(f"headline must be one of the profiles {profile_names}, got {headline!r}")
     fs = {name: check_positive(getattr(recordings[name], "fs", None), f"recordings[{name!r}].fs") for name in names}
     sources = [str(getattr(recordings[name], "source", name)) for name in names]
-    tuned = len(set(sources)) >= 2
-    setting_source = SETTING_SOURCES[0] if tuned else SETTING_SOURCES[1]
+    folds = sources if groups is None else _check_groups(groups, names, sources)
+    tuned = len(set(folds)) >= 2
+    setting_source = SETTING_SOURCES[1] if not tuned else SETTING_SOURCES[0 if groups is None else 2]
     masks, rows = {}, {}
     for name, trial_rng in zip(names, rng.spawn(len(names)), strict=True):
         masks[name], rows[name] = _masks(profiles, recordings[name].n_samples, fs[name], trial_rng, draws)
     seconds = dict.fromkeys(methods, 0.0)
     if tuned:
-        setting, tuning, choices = _tune(recordings, names, sources, methods, masks, rows, headline, seconds,
+        setting, tuning, choices = _tune(recordings, names, folds, methods, masks, rows, headline, seconds,
                                          n_jobs=n_jobs, scheduler=scheduler, progress=progress)
     else:
         untuned = {m: method.untuned_setting() for m, method in methods.items()}
@@ -290,7 +300,8 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
                 trace["error"][m] = burst_error
             seconds[m] += elapsed
         traces[name] = trace
-    units = pd.DataFrame({"recording": sources, "node": [str(getattr(recordings[n], "node", "")) for n in names],
+    units = pd.DataFrame({"recording": sources, "group": folds,
+                          "node": [str(getattr(recordings[n], "node", "")) for n in names],
                           "fs_hz": [fs[n] for n in names], "n_samples": [recordings[n].n_samples for n in names]},
                          index=pd.Index(names, name="trial"))
     return LossToleranceResult(per_trial=pd.DataFrame(results), tuning=tuning, choices=choices, traces=traces,
@@ -298,10 +309,26 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
                                units=units, setting_source=setting_source)
 
 
-def _tune(recordings, names, sources, methods, masks, rows, headline, seconds, *, n_jobs, scheduler, progress):
-    """Leave-one-recording-out tuning at ``headline``: each trial's setting per method (``setting[m][j]``),
-    the tuning table and the choices table (see :class:`LossToleranceResult`); adds the run time to
-    ``seconds``."""
+def _check_groups(groups, names, sources) -> list[str]:
+    """``groups`` (mapping name → label) as one label per trial, in ``names``' order; ``ValueError`` if a
+    trial has no label or one recording's trials are in two groups."""
+    if not isinstance(groups, Mapping):
+        raise ValueError(f"groups must map each trial name to a group label, got {type(groups).__name__}")
+    missing = [name for name in names if name not in groups]
+    if missing:
+        raise ValueError(f"groups has no label for trial(s) {missing}")
+    labels = [str(groups[name]) for name in names]
+    split = sorted({s for s in sources if len({g for g, t in zip(labels, sources, strict=True) if t == s}) > 1})
+    if split:
+        raise ValueError(f"groups put the nodes of recording(s) {split} in different groups: a recording is held "
+                         "out whole")
+    return labels
+
+
+def _tune(recordings, names, folds, methods, masks, rows, headline, seconds, *, n_jobs, scheduler, progress):
+    """Leave-one-group-out tuning at ``headline`` (``folds``: each trial's group): each trial's setting
+    per method (``setting[m][j]``), the tuning table and the choices table (see
+    :class:`LossToleranceResult`); adds the run time to ``seconds``."""
     # Tuning jobs, one per method, trial and SETTINGS_PER_JOB settings.  Without a cluster, each
     # method's first job runs in this process first: each kernel is compiled once, into numba's
     # on-disk cache, which the local workers then read.
@@ -319,7 +346,7 @@ def _tune(recordings, names, sources, methods, masks, rows, headline, seconds, *
     for (m, j, first), (score, elapsed) in zip(where, done, strict=True):
         scores[m][first:first + len(score), j] = score
         seconds[m] += elapsed
-    choice = {m: loto.leave_one_out_choice(scores[m][..., 0], groups=sources) for m in methods}
+    choice = {m: loto.leave_one_out_choice(scores[m][..., 0], groups=folds) for m in methods}
     tuning = pd.DataFrame([{"method": m, "setting_index": i, "setting": str(s), "trial": name,
                             "rmse_total": scores[m][i, j, 0], "rmse_heading": scores[m][i, j, 1],
                             "rmse_inclination": scores[m][i, j, 2]}

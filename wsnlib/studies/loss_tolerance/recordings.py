@@ -30,7 +30,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from wsnlib._validation import as_float_array, check_positive
-from wsnlib.io.broad import BroadTrial, broad_trials, load_broad
+from wsnlib.io.broad import BroadTrial, broad_motion_group, broad_trials, load_broad
 from wsnlib.io.recording import Recording, read_recording
 from wsnlib.io.resample import resample_broad
 from wsnlib.quaternion import as_quat_with_gaps
@@ -178,6 +178,26 @@ def all_broad(names) -> bool:
     known = set(broad_trials())
     names = [str(name) for name in names]
     return bool(names) and all(name in known for name in names)
+
+
+def holdout_groups(units) -> dict[str, str]:
+    """Which units leave-one-group-out holds out together: unit name → group label.
+
+    BROAD trials (all units BROAD's, :func:`all_broad`): their kind of motion
+    (:func:`wsnlib.io.broad.broad_motion_group`), so that near-duplicate trials never sit on both
+    sides of a fold.  Otherwise each unit's recording (``source``): the nodes of one recording
+    are held out together.
+
+    Parameters
+    ----------
+    units : mapping name → recording
+        As :func:`load_recordings` returns (objects with ``source``; a name is its own source
+        otherwise).
+    """
+    names = [str(name) for name in units]
+    if all_broad(names):
+        return {name: broad_motion_group(name) for name in names}
+    return {name: str(getattr(unit, "source", name)) for name, unit in zip(names, units.values(), strict=True)}
 
 
 def _is_file(source) -> bool:

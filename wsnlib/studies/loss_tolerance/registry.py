@@ -46,8 +46,7 @@ FUSION_DEFAULT_GAIN = 0.5
 #: Kinds of method: causal (ours), peer (other libraries), offline.
 KINDS = ("causal", "peer", "offline")
 #: Latency rules: name → what the method waits for before its estimate of a sample is final.
-LATENCY_RULES = {"none": "0 s: causal, each sample on arrival",
-                 "gap": "up to the gap's length: waits for the first sample after a gap",
+LATENCY_RULES = {"none": "0 s: causal, each sample final on arrival",
                  "offline": "the whole recording (offline)"}
 
 
@@ -108,7 +107,7 @@ class Method:
         sampled at its own ``recording.fs`` (Hz), which the method runs at.
         A module-level function or a ``functools.partial`` of one: it is pickled to the
         worker processes of the sweeps.
-    latency : {"none", "gap", "offline"}
+    latency : {"none", "offline"}
         Key of :data:`LATENCY_RULES`.
     space : mapping setting name → Range or Choice
         Where :func:`with_budget` draws settings beyond ``grid``; empty (default): nothing to
@@ -278,7 +277,7 @@ def default_methods(grids: Mapping[str, tuple] | None = None) -> dict[str, Metho
         Method("constant_rate", "causal", BETA_GRID, functools.partial(_madgwick, gap="constant_rate"),
                space=BETA_SPACE, default=beta),
         Method("gyro_interpolation", "causal", BETA_GRID, functools.partial(_madgwick, replay=True),
-               latency="gap", space=BETA_SPACE, default=beta),
+               space=BETA_SPACE, default=beta),
         Method("hybrid (feedback)", "causal", HYBRID_GRID, _hybrid, space=HYBRID_SPACE, default=rho_tau),
         Method("gated hybrid (feedback)", "causal", HYBRID_GRID, functools.partial(_hybrid, gated=True),
                space=HYBRID_SPACE, default=rho_tau),
@@ -397,7 +396,7 @@ def paper001_methods(hybrid: Mapping, beta_grid, fusion_gain_grid, vqf_tau_acc_g
 
     Paper 001's options (:data:`wsnlib.orientation.loss_handling.PAPER_OPTIONS`) on Madgwick's
     filter, each over ``beta_grid`` (rad/s): ``hold_last``, ``dt_extension``,
-    ``gyro_interpolation`` (latency rule "gap"), ``adaptive_beta`` (μ of ``hybrid``) and
+    ``gyro_interpolation``, ``adaptive_beta`` (μ of ``hybrid``) and
     ``hybrid`` (``hybrid``'s blend and μ); ``single frame`` (TRIAD held over gaps, nothing to
     tune); Fusion over ``fusion_gain_grid`` and VQF over ``vqf_tau_acc_grid`` (``tauAcc``, s; its
     other parameters its authors'), each plain and wrapped in the hybrid with output and with
@@ -416,8 +415,7 @@ def paper001_methods(hybrid: Mapping, beta_grid, fusion_gain_grid, vqf_tau_acc_g
                           settings_grid(tauAcc=vqf_tau_acc_grid))
     options = {"hold_last": {}, "dt_extension": {"method": "dt_extension"}, "gyro_interpolation": {"replay": True},
                "adaptive_beta": {"method": "adaptive_beta", **mu_options(hybrid)}, "hybrid": hybrid_options(hybrid)}
-    entries = [Method(name, "causal", betas, functools.partial(_madgwick, **option),
-                      latency="gap" if name == "gyro_interpolation" else "none", default={"beta": MADGWICK_BETA})
+    entries = [Method(name, "causal", betas, functools.partial(_madgwick, **option), default={"beta": MADGWICK_BETA})
                for name, option in options.items()]
     entries.append(Method("single frame", "causal", ({},), _single_frame))
     for library, grid, default in (("Fusion", gains, {"gain": FUSION_DEFAULT_GAIN}), ("VQF", taus, {})):

@@ -2,8 +2,10 @@
 
 Inputs are the tidy ``per_trial`` table of :func:`wsnlib.studies.loss_tolerance.evaluate`; a
 trial's value under a profile is the mean over its loss draws.  Every interval is a bootstrap
-over trials from :mod:`wsnlib.stats` (paired: all methods are resampled with the same trials),
-and every sentence is generated from the numbers.
+from :mod:`wsnlib.stats` (paired: all methods are resampled with the same units): over trials,
+or, with ``groups`` (trial → group, e.g. BROAD's kinds of motion), over groups *and* loss draws
+(:func:`wsnlib.stats.grouped_bootstrap_ci`: near-duplicate trials are not independent units).
+Every sentence is generated from the numbers.
 
 Targets (issue 11, at the headline profile, GE 10 %)
 ----------------------------------------------------
@@ -48,14 +50,41 @@ def trial_table(per_trial: pd.DataFrame, profile: str, metric: str) -> pd.DataFr
     return rows.groupby(["trial", "method"])[metric].mean().unstack("method")[order]
 
 
+def draw_values(per_trial: pd.DataFrame, profile: str, metric: str, trials=None) -> tuple[list[str], np.ndarray]:
+    """``metric`` at ``profile`` as an array ``(n_trials, n_draws, n_methods)`` (trials sorted, or in
+    the order of ``trials``), and the methods' names (in the table's order)."""
+    rows = per_trial[per_trial["profile"] == profile]
+    if rows.empty:
+        raise ValueError(f"no rows at profile {profile!r}")
+    methods = list(dict.fromkeys(rows["method"]))
+    table = rows.pivot_table(index=["trial", "draw"], columns="method", values=metric, aggfunc="first",
+                             dropna=False)[methods]
+    trials = sorted(set(rows["trial"])) if trials is None else list(trials)
+    draws = table.groupby(level="trial").size()
+    if draws.nunique() != 1:
+        raise ValueError(f"every trial needs the same number of draws at {profile!r}, got {draws.to_dict()}")
+    table = table.loc[trials]
+    return methods, table.to_numpy().reshape(len(trials), int(draws.iloc[0]), len(methods))
+
+
+def _group_labels(groups, trials) -> np.ndarray:
+    missing = [t for t in trials if t not in groups]
+    if missing:
+        raise ValueError(f"groups has no label for trial(s) {missing}")
+    return np.array([str(groups[t]) for t in trials])
+
+
 def summary_table(per_trial: pd.DataFrame, *, rng: np.random.Generator, metrics=SUMMARY_METRICS,
-                  n_boot: int = 2000) -> pd.DataFrame:
+                  n_boot: int = 2000, groups=None) -> pd.DataFrame:
     """Mean over trials with a 95 % bootstrap interval, per metric, profile and method.
 
     Undefined values (NaN) are handled explicitly: a trial on which the metric is undefined for
     every method (e.g. no gap whose response could be scored) is left out, then a method still
     undefined on some trial is left out of that profile and metric (e.g. error on lost samples
     without loss); a profile left with fewer than 2 trials has no row.
+
+    With ``groups`` (mapping trial → group), the intervals are over groups and loss draws
+    (:func:`wsnlib.stats.grouped_bootstrap_ci`, percentile).
 
     Returns
     -------
@@ -70,7 +99,17 @@ def summary_table(per_trial: pd.DataFrame, *, rng: np.random.Generator, metrics=
             table = trial_table(per_trial, profile, metric).dropna(axis=0, how="all").dropna(axis=1)
             if table.shape[0] < 2 or table.shape[1] == 0:
                 continue
-            ci = stats.bootstrap_ci(table.to_numpy(), rng=rng, n_boot=n_boot)
+            if groups is None:
+                ci = stats.bootstrap_ci(table.to_numpy(), rng=rng, n_boot=n_boot)
+            else:
+                labels = _group_labels(groups, table.index)
+                if len(set(labels)) < 2:
+                    continue
+                names, values = draw_values(per_trial, profile, metric, trials=table.index)
+                values = values[..., [names.index(m) for m in table.columns]]
+                if not np.isfinite(values).all():  # a draw without the metric (e.g. no gap in it)
+                    continue
+                ci = stats.grouped_bootstrap_ci(values, labels, rng=rng, n_boot=n_boot)
             for k, method in enumerate(table.columns):
                 rows.append({"metric": metric, "profile": profile, "method": method, "kind": kinds[method],
                              "mean": float(ci.estimate[k]), "ci_low": float(ci.low[k]), "ci_high": float(ci.high[k]),
@@ -79,9 +118,15 @@ def summary_table(per_trial: pd.DataFrame, *, rng: np.random.Generator, metrics=
 
 
 def ranking(per_trial: pd.DataFrame, *, rng: np.random.Generator, profile: str = HEADLINE,
-            metric: str = "rmse_total", n_boot: int = 2000) -> pd.DataFrame:
-    """Methods ranked by mean ``metric`` at ``profile``; a tie where the paired difference's interval holds 0."""
-    return stats.rank_with_ties(trial_table(per_trial, profile, metric), rng=rng, n_boot=n_boot)
+            metric: str = "rmse_total", n_boot: int = 2000, groups=None) -> pd.DataFrame:
+    """Methods ranked by mean ``metric`` at ``profile``; a tie where the paired difference's interval holds 0
+    (over trials, or with ``groups`` over groups and loss draws)."""
+    if groups is None:
+        return stats.rank_with_ties(trial_table(per_trial, profile, metric), rng=rng, n_boot=n_boot)
+    names, values = draw_values(per_trial, profile, metric)
+    labels = _group_labels(groups, sorted(set(per_trial.loc[per_trial["profile"] == profile, "trial"])))
+    return stats.rank_with_ties({m: values[..., k] for k, m in enumerate(names)}, rng=rng, n_boot=n_boot,
+                                groups=labels)
 
 
 def best_methods(per_trial: pd.DataFrame, profile: str = HEADLINE) -> dict[str, str]:
@@ -97,8 +142,11 @@ def best_methods(per_trial: pd.DataFrame, profile: str = HEADLINE) -> dict[str, 
     return {kind: str(means[pool].idxmin()) for kind, pool in pools.items()}
 
 
-def targets_table(per_trial: pd.DataFrame, *, rng: np.random.Generator, n_boot: int = 2000) -> pd.DataFrame:
+def targets_table(per_trial: pd.DataFrame, *, rng: np.random.Generator, n_boot: int = 2000,
+                  groups=None) -> pd.DataFrame:
     """The issue's three targets: measured value with a 95 % paired bootstrap interval, PASS/MISS, margin.
+
+    With ``groups`` (mapping trial → group) the intervals are over groups and loss draws.
 
     Returns
     -------
@@ -115,9 +163,18 @@ def targets_table(per_trial: pd.DataFrame, *, rng: np.random.Generator, n_boot: 
     pairs = [(headline[best["causal"]], headline[best["peer"]], f"{best['causal']} / {best['peer']}"),
              (headline[best["offline"]], headline[best["peer"]], f"{best['offline']} / {best['peer']}"),
              (lossless[best["causal"]], lossless[LOSSLESS_REFERENCE], f"{best['causal']} − {LOSSLESS_REFERENCE}")]
+    if groups is not None:
+        trials = list(headline.index)
+        labels = _group_labels(groups, trials)
     rows = {}
     for (name, (comparison, target)), (a, b, compares) in zip(TARGETS.items(), pairs, strict=True):
-        if comparison == "ratio":
+        if groups is not None:
+            profile = "lossless" if comparison == "difference" else HEADLINE
+            names, values = draw_values(per_trial, profile, "rmse_total", trials=trials)
+            va, vb = (values[..., names.index(m)] for m in (a.name, b.name))
+            ci = (stats.grouped_ratio_ci(va, vb, labels, rng=rng, n_boot=n_boot) if comparison == "ratio" else
+                  stats.grouped_bootstrap_ci(va - vb, labels, rng=rng, n_boot=n_boot))
+        elif comparison == "ratio":
             ci = stats.ratio_of_means_ci(a.to_numpy(), b.to_numpy(), rng=rng, n_boot=n_boot)
         else:
             ci = stats.paired_difference_ci(a.to_numpy(), b.to_numpy(), rng=rng, n_boot=n_boot)
