@@ -1,5 +1,5 @@
 """Orientation estimators: Madgwick's filter and a gap-aware Kalman filter (data fusion), TRIAD,
-Davenport, SVD and QUEST (single frame), an offline smoother, and two peer filters.
+Davenport, SVD and QUEST (single frame), an offline smoother, two peer filters and a neural peer.
 
 All take body-frame signals ``(..., T, 3)`` and return ENU quaternions ``(..., T, 4)``
 (see :mod:`wsnlib` for the conventions), with packet loss given as a boolean ``received``
@@ -16,6 +16,8 @@ mask ``(..., T)``.  One door each:
   (:mod:`.smoothing`);
 * :func:`fusion_orientation`, :func:`vqf_orientation` — x-io Fusion and VQF as peers with the
   same loss semantics (:mod:`.peers`);
+* :func:`riann_orientation` — RIANN, a recurrent network for inclination (no magnetometer), fed
+  the received samples with the actual time since the last one (:mod:`.neural_peers`);
 * :func:`triad`, :func:`tilt_quaternion`, :func:`davenport`, :func:`quest`,
   :func:`svd_single_frame` — single-frame solvers (no memory, nothing to lose).
 
@@ -77,6 +79,7 @@ with _numba_cache.caching_into_this_version():
     from wsnlib.orientation.loss_handling import estimate_orientation
     from wsnlib.orientation.lost_run import effective_lost_run, slerp_weight
     from wsnlib.orientation.madgwick import madgwick, madgwick_step
+    from wsnlib.orientation.neural_peers import riann_orientation
     from wsnlib.orientation.peers import fusion_orientation, vqf_orientation
     from wsnlib.orientation.single_frame import davenport, quest, svd_single_frame
     from wsnlib.orientation.smoothing import smooth_orientation
@@ -98,6 +101,7 @@ __all__ = [
     "madgwick",
     "madgwick_step",
     "quest",
+    "riann_orientation",
     "single_frame_trusted",
     "slerp_weight",
     "smooth_orientation",
