@@ -1,5 +1,5 @@
 """Orientation estimators: Madgwick's filter and a gap-aware Kalman filter (data fusion), TRIAD,
-Davenport, SVD and QUEST (single frame), an offline smoother, and two peer filters.
+Davenport, SVD and QUEST (single frame), an offline smoother, two peer filters and their offline variants.
 
 All take body-frame signals ``(..., T, 3)`` and return ENU quaternions ``(..., T, 4)``
 (see :mod:`wsnlib` for the conventions), with packet loss given as a boolean ``received``
@@ -16,6 +16,9 @@ mask ``(..., T)``.  One door each:
   (:mod:`.smoothing`);
 * :func:`fusion_orientation`, :func:`vqf_orientation` — x-io Fusion and VQF as peers with the
   same loss semantics (:mod:`.peers`);
+* :func:`offline_vqf_orientation`, :func:`forward_backward_orientation` — the smoother's
+  offline peers: VQF's acausal variant on a gap-filled recording, and any causal estimator
+  averaged with its run on the time-reversed recording (:mod:`.offline_peers`);
 * :func:`triad`, :func:`tilt_quaternion`, :func:`davenport`, :func:`quest`,
   :func:`svd_single_frame` — single-frame solvers (no memory, nothing to lose).
 
@@ -77,6 +80,7 @@ with _numba_cache.caching_into_this_version():
     from wsnlib.orientation.loss_handling import estimate_orientation
     from wsnlib.orientation.lost_run import effective_lost_run, slerp_weight
     from wsnlib.orientation.madgwick import madgwick, madgwick_step
+    from wsnlib.orientation.offline_peers import forward_backward_orientation, offline_vqf_orientation
     from wsnlib.orientation.peers import fusion_orientation, vqf_orientation
     from wsnlib.orientation.single_frame import davenport, quest, svd_single_frame
     from wsnlib.orientation.smoothing import smooth_orientation
@@ -91,12 +95,14 @@ __all__ = [
     "davenport",
     "effective_lost_run",
     "estimate_orientation",
+    "forward_backward_orientation",
     "fusion_orientation",
     "kalman_initial_state",
     "kalman_orientation",
     "kalman_step",
     "madgwick",
     "madgwick_step",
+    "offline_vqf_orientation",
     "quest",
     "single_frame_trusted",
     "slerp_weight",
