@@ -51,8 +51,12 @@ before (at or after) ``t``, plus 1, and ``w_f = d_b / (d_f + d_b)``.  On receive
 ``d_f = d_b = 1`` and ``w_f = 1/2`` (the plain midpoint); inside a gap the weight moves
 linearly from the forward run at the gap's start to the backward run at its end; before the
 first received sample only the backward run (``w_f = 0``), after the last only the forward
-run (``w_f = 1``).  Each run's start-up transient (a filter converging from its initial
-state) is *not* weighted down: it enters the average at half weight.
+run (``w_f = 1``).  Why weighted: with ``gap="constant_rate"`` each run extrapolates from its
+own side of a gap and is worst at the far side, where the other run is best; on a 1-s gap
+over a swing's turning point (``tests/test_offline_peers.py``) the plain midpoint is no
+better than the forward run, the weighted average halves its error.  Each run's start-up
+transient (a filter converging from its initial state) is *not* weighted down: it enters the
+average at half weight.
 """
 
 from __future__ import annotations
