@@ -1,5 +1,6 @@
 """Orientation estimators: Madgwick's filter and a gap-aware Kalman filter (data fusion), TRIAD,
-Davenport, SVD and QUEST (single frame), an offline smoother, two peer filters and a neural peer.
+Davenport, SVD and QUEST (single frame), an offline smoother, two peer filters, their offline
+variants and a neural peer.
 
 All take body-frame signals ``(..., T, 3)`` and return ENU quaternions ``(..., T, 4)``
 (see :mod:`wsnlib` for the conventions), with packet loss given as a boolean ``received``
@@ -18,6 +19,9 @@ mask ``(..., T)``.  One door each:
   same loss semantics (:mod:`.peers`);
 * :func:`riann_orientation` — RIANN, a recurrent network for inclination (no magnetometer), fed
   the received samples with the actual time since the last one (:mod:`.neural_peers`);
+* :func:`offline_vqf_orientation`, :func:`forward_backward_orientation` — the smoother's
+  offline peers: VQF's acausal variant on a gap-filled recording, and any causal estimator
+  averaged with its run on the time-reversed recording (:mod:`.offline_peers`);
 * :func:`triad`, :func:`tilt_quaternion`, :func:`davenport`, :func:`quest`,
   :func:`svd_single_frame` — single-frame solvers (no memory, nothing to lose).
 
@@ -80,6 +84,7 @@ with _numba_cache.caching_into_this_version():
     from wsnlib.orientation.lost_run import effective_lost_run, slerp_weight
     from wsnlib.orientation.madgwick import madgwick, madgwick_step
     from wsnlib.orientation.neural_peers import riann_orientation
+    from wsnlib.orientation.offline_peers import forward_backward_orientation, offline_vqf_orientation
     from wsnlib.orientation.peers import fusion_orientation, vqf_orientation
     from wsnlib.orientation.single_frame import davenport, quest, svd_single_frame
     from wsnlib.orientation.smoothing import smooth_orientation
@@ -94,12 +99,14 @@ __all__ = [
     "davenport",
     "effective_lost_run",
     "estimate_orientation",
+    "forward_backward_orientation",
     "fusion_orientation",
     "kalman_initial_state",
     "kalman_orientation",
     "kalman_step",
     "madgwick",
     "madgwick_step",
+    "offline_vqf_orientation",
     "quest",
     "riann_orientation",
     "single_frame_trusted",
