@@ -131,7 +131,7 @@ def test_leave_one_recording_out_holds_out_all_nodes_of_a_file(tmp_path):
         want = int(np.argmin(scores[:, others].mean(axis=1)))
         chosen = result.choices.set_index("trial").loc[name, "setting_index"]
         assert chosen == want
-    assert list(result.units.columns) == ["recording", "node", "fs_hz", "n_samples"]
+    assert list(result.units.columns) == ["recording", "group", "node", "fs_hz", "n_samples"]
     assert list(result.units["recording"]) == sources
 
 

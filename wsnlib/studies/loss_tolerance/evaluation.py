@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+import zlib
 from collections.abc import Mapping
 
 import numpy as np
@@ -49,7 +50,8 @@ class LossToleranceResult:
         One row per method × profile × trial (columns in :func:`evaluate`); a "trial" is one
         study unit (a BROAD trial, or one node of a recording file).
     tuning : pandas.DataFrame
-        Headline RMSE (°, mean over the headline's draws) of every setting on every trial:
+        Headline RMSE (°, mean over the headline's draws) of every setting on every trial, for
+        the methods with more than one setting:
         method, setting_index, setting, trial, rmse_total, rmse_heading, rmse_inclination
         (no rows without tuning, :attr:`setting_source` ``"defaults (one recording)"``).
     choices : pandas.DataFrame
@@ -171,11 +173,18 @@ def _scoring_job(name, method, rec, masks, rows, setting, burst):
 
 def _masks(profiles, n_samples: int, fs: float, rng: np.random.Generator, draws: int):
     """Masks ``(K, T)`` of every profile (``draws`` of each random one) at ``fs`` (Hz), and each row's
-    (profile, draw)."""
+    (profile, draw).  Each profile draws from its own generator, keyed by ``rng``'s seed and the
+    profile's name, so a profile's masks do not depend on which other profiles are run (a second
+    study of a subset of the methods and profiles sees the same masks)."""
+    seed = rng.bit_generator.seed_seq
+    if not isinstance(seed, np.random.SeedSequence):
+        raise ValueError("rng must be a numpy.random.Generator seeded from a SeedSequence (np.random.default_rng(...))")
     masks, rows = [], []
     for profile in profiles:
         n = draws if profile.model == "gilbert_elliott" else 1
-        masks.append(profile.mask(n_samples, fs, rng, shape=(n,)))
+        key = zlib.crc32(profile.name.encode())
+        profile_rng = np.random.default_rng(np.random.SeedSequence(seed.entropy, spawn_key=(*seed.spawn_key, key)))
+        masks.append(profile.mask(n_samples, fs, profile_rng, shape=(n,)))
         rows += [(profile, d) for d in range(n)]
     return np.concatenate(masks), rows
 
@@ -331,27 +340,32 @@ def _tune(recordings, names, folds, methods, masks, rows, headline, seconds, *, 
     :class:`LossToleranceResult`); adds the run time to ``seconds``."""
     # Tuning jobs, one per method, trial and SETTINGS_PER_JOB settings.  Without a cluster, each
     # method's first job runs in this process first: each kernel is compiled once, into numba's
-    # on-disk cache, which the local workers then read.
-    where = [(m, j, first) for j in range(len(names)) for m, method in methods.items()
+    # on-disk cache, which the local workers then read.  A method with a single setting has
+    # nothing to choose: it is not run here (no rows in the tuning table).
+    tuned = {m: method for m, method in methods.items() if len(method.grid) > 1}
+    where = [(m, j, first) for j in range(len(names)) for m, method in tuned.items()
              for first in range(0, len(method.grid), SETTINGS_PER_JOB)]
     where.sort(key=lambda job: (job[1], job[2]) != (0, 0))
     at_headline = {name: [k for k, (profile, _) in enumerate(rows[name]) if profile.name == headline]
                    for name in names}
     jobs = [(methods[m], recordings[names[j]], masks[names[j]][at_headline[names[j]]],
              methods[m].grid[first:first + SETTINGS_PER_JOB]) for m, j, first in where]
-    scores = {m: np.empty((len(methods[m].grid), len(names), 3)) for m in methods}  # total, heading, inclination
-    warm_up = len(methods) if scheduler is None else 0
+    scores = {m: np.empty((len(tuned[m].grid), len(names), 3)) for m in tuned}  # total, heading, inclination
+    warm_up = len(tuned) if scheduler is None else 0
     done = parallel.run_jobs(_tuning_job, jobs, n_jobs=n_jobs, scheduler=scheduler, in_process_first=warm_up,
                              progress=progress, desc=f"tuning at {headline}")
     for (m, j, first), (score, elapsed) in zip(where, done, strict=True):
         scores[m][first:first + len(score), j] = score
         seconds[m] += elapsed
-    choice = {m: loto.leave_one_out_choice(scores[m][..., 0], groups=folds) for m in methods}
+    choice = {m: loto.leave_one_out_choice(scores[m][..., 0], groups=folds) if m in tuned
+              else np.zeros(len(names), dtype=int) for m in methods}
     tuning = pd.DataFrame([{"method": m, "setting_index": i, "setting": str(s), "trial": name,
                             "rmse_total": scores[m][i, j, 0], "rmse_heading": scores[m][i, j, 1],
                             "rmse_inclination": scores[m][i, j, 2]}
-                           for m, method in methods.items() for i, s in enumerate(method.grid)
-                           for j, name in enumerate(names)])
+                           for m, method in tuned.items() for i, s in enumerate(method.grid)
+                           for j, name in enumerate(names)],
+                          columns=["method", "setting_index", "setting", "trial", "rmse_total", "rmse_heading",
+                                   "rmse_inclination"])
     choices = pd.DataFrame([{"method": m, "trial": name, "setting_index": int(choice[m][j]),
                              "setting": str(methods[m].grid[choice[m][j]])}
                             for m in methods for j, name in enumerate(names)])

@@ -25,8 +25,11 @@ from wsnlib.orientation import (
     KalmanSettings,
     SingleFrameGate,
     estimate_orientation,
+    forward_backward_orientation,
     fusion_orientation,
     kalman_orientation,
+    offline_vqf_orientation,
+    riann_orientation,
     smooth_orientation,
     triad,
     vqf_orientation,
@@ -202,6 +205,27 @@ def _kalman(rec, setting, received, *, offline):
                     replay=replay)
 
 
+def _offline_vqf(rec, setting, received):
+    """VQF's offline variant on the gap-filled recording (``setting``: ``tauAcc``, ``tauMag``)."""
+    _used(setting, ("tauAcc", "tauMag"), "offline VQF")
+    signals = [np.broadcast_to(x, received.shape + (3,)) for x in (rec.gyr, rec.acc, rec.mag)]
+    return offline_vqf_orientation(*signals, fs=rec.fs, received=received, params=dict(setting))
+
+
+def _forward_backward_vqf(rec, setting, received):
+    """VQF (holding in a gap) run forwards and on the time-reversed recording, averaged."""
+    _used(setting, ("tauAcc", "tauMag"), "VQF forward-backward")
+    signals = [np.broadcast_to(x, received.shape + (3,)) for x in (rec.gyr, rec.acc, rec.mag)]
+    return forward_backward_orientation(vqf_orientation, *signals, fs=rec.fs, received=received,
+                                        params=dict(setting))
+
+
+def _riann(rec, setting, received):
+    _used(setting, (), "RIANN")
+    return riann_orientation(np.broadcast_to(rec.gyr, received.shape + (3,)),
+                             np.broadcast_to(rec.acc, received.shape + (3,)), fs=rec.fs, received=received)
+
+
 def settings_grid(fixed: Mapping | None = None, **axes) -> tuple[dict, ...]:
     """Every combination of the values of ``axes`` (the first axis varies slowest), plus ``fixed``.
 
@@ -262,7 +286,11 @@ def default_methods(grids: Mapping[str, tuple] | None = None) -> dict[str, Metho
     :data:`FUSION_DEFAULT_GAIN`; VQF's own parameters (its authors').  The *gated* hybrids apply
     the single frame only where :class:`wsnlib.orientation.SingleFrameGate` (its defaults) trusts
     it; the peers ``", constant rate"`` keep turning at the last received rate in a gap
-    (``gap="constant_rate"``, no decay) instead of holding their output.
+    (``gap="constant_rate"``, no decay) instead of holding their output.  The smoother's offline
+    peers: ``"offline VQF"`` (:func:`wsnlib.orientation.offline_vqf_orientation`, the gaps filled
+    by linear interpolation) and ``"VQF forward-backward"`` (VQF holding in a gap, run forwards
+    and backwards and averaged, :func:`wsnlib.orientation.forward_backward_orientation`), over
+    VQF's grid.
 
     Parameters
     ----------
@@ -301,6 +329,9 @@ def default_methods(grids: Mapping[str, tuple] | None = None) -> dict[str, Metho
         Method("VQF (defaults)", "peer", ({"tauAcc": 3.0, "tauMag": 9.0},), functools.partial(_peer, library="VQF")),
         Method("VQF + hybrid (feedback)", "peer", VQF_HYBRID_GRID,
                functools.partial(_peer, library="VQF", hybrid=True), space=VQF_HYBRID_SPACE, default=rho_tau),
+        Method("offline VQF", "offline", VQF_GRID, _offline_vqf, latency="offline", space=VQF_SPACE, default={}),
+        Method("VQF forward-backward", "offline", VQF_GRID, _forward_backward_vqf, latency="offline",
+               space=VQF_SPACE, default={}),
     ]
     methods = {m.name: m for m in entries}
     for name, grid in dict(grids or {}).items():
@@ -358,6 +389,14 @@ def with_budget(methods: Mapping[str, Method], budget: int, *, rng: np.random.Ge
             grid = grid + tuple(_space_draws(method, budget - len(grid), seed))
         out[name] = dataclasses.replace(method, grid=grid)
     return out
+
+
+def inclination_methods() -> dict[str, Method]:
+    """Peers without a magnetometer, scored on inclination only (their heading is arbitrary):
+    ``"RIANN"`` (:func:`wsnlib.orientation.riann_orientation`, nothing to tune).  Run as a
+    second study on the same masks (:func:`~wsnlib.studies.loss_tolerance.evaluate` draws each
+    profile's masks from its own generator) and compared on ``rmse_inclination``."""
+    return {"RIANN": Method("RIANN", "peer", ({},), _riann)}
 
 
 #: Pairs (without, with) of the study's two side questions: does gating the single frame

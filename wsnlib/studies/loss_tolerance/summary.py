@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from wsnlib import stats
+from wsnlib import loto, stats
 from wsnlib.studies.loss_tolerance.evaluation import AFTER_GAP_S
 from wsnlib.studies.loss_tolerance.registry import HEADLINE
 
@@ -342,3 +342,73 @@ def lost_share_band(profile, n_samples: int, n_std: float = 4.0) -> tuple[float,
     n_packets = n_samples / profile.samples_per_packet
     spread = n_std * float(np.sqrt(p * (1 - p) * max(2 * b * (1 - p) - 1, 1.0) / n_packets))
     return p - spread, p + spread
+
+
+def optimism_table(tuning: pd.DataFrame, choices: pd.DataFrame) -> pd.DataFrame:
+    """What choosing on the trials that are scored would have claimed: held-out vs in-sample tuning.
+
+    Per method with a choice to make (rows of ``tuning``): the mean headline RMSE over trials
+    when each trial is scored with the setting chosen without its group (``choices``, the
+    outer folds: the honest number), and when every trial is scored with the one setting best
+    on *all* trials (the design on all trials, :func:`wsnlib.loto.in_sample_choice`).  Their
+    difference is the optimism of tuning on the scored trials.
+
+    Parameters
+    ----------
+    tuning, choices : pandas.DataFrame
+        :attr:`~wsnlib.studies.loss_tolerance.LossToleranceResult.tuning` and ``.choices``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Index method; columns held_out (°), in_sample (°), optimism (°, held_out − in_sample),
+        in_sample_setting, n_settings.
+    """
+    rows = {}
+    for method, scores in tuning.groupby("method", sort=False):
+        table = scores.pivot(index="setting_index", columns="trial", values="rmse_total")
+        chosen = choices[choices["method"] == method].set_index("trial")["setting_index"]
+        held_out = float(np.mean([table.loc[chosen[t], t] for t in table.columns]))
+        best = int(loto.in_sample_choice(table.to_numpy()))
+        in_sample = float(table.iloc[best].mean())
+        setting = scores.loc[scores["setting_index"] == table.index[best], "setting"].iloc[0]
+        rows[method] = {"held_out": held_out, "in_sample": in_sample, "optimism": held_out - in_sample,
+                        "in_sample_setting": setting, "n_settings": table.shape[0]}
+    return pd.DataFrame.from_dict(rows, orient="index").rename_axis("method")
+
+
+def edge_picks(methods, choices: pd.DataFrame) -> pd.DataFrame:
+    """Chosen values at the edge of their grid: at a bound of the search space, or a grid too narrow.
+
+    For every method and numeric setting that varies over its grid: on how many trials the
+    chosen value is the grid's lowest or highest, and whether that edge is a bound of the
+    method's search space (:attr:`~wsnlib.studies.loss_tolerance.Method.space`, written beside
+    each grid: not to be chased past) or lies inside it (then the grid is too narrow: widen it).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns method, setting, edge ("low" or "high"), value, n_trials (chosen there),
+        n_total, verdict ("at a bound of the space", "grid too narrow" or "no space declared").
+    """
+    rows = []
+    for name, method in methods.items():
+        chosen = choices[choices["method"] == name]["setting_index"].to_numpy()
+        for key in dict.fromkeys(k for setting in method.grid for k in setting):
+            values = [setting.get(key) for setting in method.grid]
+            if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values) or len(set(values)) < 2:
+                continue
+            picked = np.array([values[i] for i in chosen if i >= 0])
+            for edge, value in (("low", min(values)), ("high", max(values))):
+                n = int(np.sum(picked == value))
+                if n == 0:
+                    continue
+                space = method.space.get(key)
+                if space is None or not hasattr(space, "low"):
+                    verdict = "no space declared"
+                else:
+                    bound = space.low if edge == "low" else space.high
+                    verdict = "at a bound of the space" if np.isclose(value, bound, rtol=0.02) else "grid too narrow"
+                rows.append({"method": name, "setting": key, "edge": edge, "value": value, "n_trials": n,
+                             "n_total": len(chosen), "verdict": verdict})
+    return pd.DataFrame(rows, columns=["method", "setting", "edge", "value", "n_trials", "n_total", "verdict"])
