@@ -108,11 +108,14 @@ METHOD_COLORS.update({"constant_rate": OKABE_ITO["sky blue"], "hybrid (feedback)
 # Variants keep their base method's colour and differ in marker.
 METHOD_COLORS.update({"gated hybrid (feedback)": METHOD_COLORS["hybrid (feedback)"],
                       "Fusion + gated hybrid (feedback)": METHOD_COLORS["Fusion + hybrid (feedback)"],
-                      "Fusion, constant rate": METHOD_COLORS["Fusion"], "VQF, constant rate": METHOD_COLORS["VQF"]})
+                      "Fusion, constant rate": METHOD_COLORS["Fusion"], "VQF, constant rate": METHOD_COLORS["VQF"],
+                      "offline VQF": METHOD_COLORS["VQF"], "VQF forward-backward": METHOD_COLORS["VQF"],
+                      "RIANN": OKABE_ITO["yellow"]})
 METHOD_MARKERS.update({"constant_rate": ">", "hybrid (feedback)": "D", "Kalman": "*", "smoother": "P",
                        "VQF (defaults)": "X"})
 METHOD_MARKERS.update({"gated hybrid (feedback)": "d", "Fusion + gated hybrid (feedback)": "H",
-                       "Fusion, constant rate": "1", "VQF, constant rate": "2"})
+                       "Fusion, constant rate": "1", "VQF, constant rate": "2", "offline VQF": "<",
+                       "VQF forward-backward": "8", "RIANN": "p"})
 
 
 def method_style(name: str, **overrides) -> dict:

@@ -183,10 +183,10 @@ def all_broad(names) -> bool:
 def holdout_groups(units) -> dict[str, str]:
     """Which units leave-one-group-out holds out together: unit name → group label.
 
-    BROAD trials (all units BROAD's, :func:`all_broad`): their kind of motion
-    (:func:`wsnlib.io.broad.broad_motion_group`), so that near-duplicate trials never sit on both
-    sides of a fold.  Otherwise each unit's recording (``source``): the nodes of one recording
-    are held out together.
+    BROAD trials (all units BROAD's, :func:`all_broad`, of at least two kinds): their kind of
+    motion (:func:`wsnlib.io.broad.broad_motion_group`), so that near-duplicate trials never sit
+    on both sides of a fold.  Otherwise each unit's recording (``source``): the nodes of one
+    recording are held out together.
 
     Parameters
     ----------
@@ -196,7 +196,9 @@ def holdout_groups(units) -> dict[str, str]:
     """
     names = [str(name) for name in units]
     if all_broad(names):
-        return {name: broad_motion_group(name) for name in names}
+        kinds = {name: broad_motion_group(name) for name in names}
+        if len(set(kinds.values())) >= 2:
+            return kinds
     return {name: str(getattr(unit, "source", name)) for name, unit in zip(names, units.values(), strict=True)}
 
 

@@ -4,7 +4,8 @@ Inputs are the tidy ``per_trial`` table of :func:`wsnlib.studies.loss_tolerance.
 trial's value under a profile is the mean over its loss draws.  Every interval is a bootstrap
 from :mod:`wsnlib.stats` (paired: all methods are resampled with the same units): over trials,
 or, with ``groups`` (trial → group, e.g. BROAD's kinds of motion), over groups *and* loss draws
-(:func:`wsnlib.stats.grouped_bootstrap_ci`: near-duplicate trials are not independent units).
+(:func:`wsnlib.stats.grouped_bootstrap_ci`: near-duplicate trials are not independent units;
+with fewer than 2 groups, e.g. the nodes of a single recording, over trials).
 Every sentence is generated from the numbers.
 
 Targets (issue 11, at the headline profile, GE 10 %)
@@ -67,11 +68,16 @@ def draw_values(per_trial: pd.DataFrame, profile: str, metric: str, trials=None)
     return methods, table.to_numpy().reshape(len(trials), int(draws.iloc[0]), len(methods))
 
 
-def _group_labels(groups, trials) -> np.ndarray:
+def _group_labels(groups, trials) -> np.ndarray | None:
+    """One label per trial; None when ``groups`` is None or gives fewer than 2 groups (a single
+    recording's nodes): the intervals are then over trials."""
+    if groups is None:
+        return None
     missing = [t for t in trials if t not in groups]
     if missing:
         raise ValueError(f"groups has no label for trial(s) {missing}")
-    return np.array([str(groups[t]) for t in trials])
+    labels = np.array([str(groups[t]) for t in trials])
+    return labels if len(set(labels)) >= 2 else None
 
 
 def summary_table(per_trial: pd.DataFrame, *, rng: np.random.Generator, metrics=SUMMARY_METRICS,
@@ -99,12 +105,10 @@ def summary_table(per_trial: pd.DataFrame, *, rng: np.random.Generator, metrics=
             table = trial_table(per_trial, profile, metric).dropna(axis=0, how="all").dropna(axis=1)
             if table.shape[0] < 2 or table.shape[1] == 0:
                 continue
-            if groups is None:
+            labels = _group_labels(groups, table.index)
+            if labels is None:
                 ci = stats.bootstrap_ci(table.to_numpy(), rng=rng, n_boot=n_boot)
             else:
-                labels = _group_labels(groups, table.index)
-                if len(set(labels)) < 2:
-                    continue
                 names, values = draw_values(per_trial, profile, metric, trials=table.index)
                 values = values[..., [names.index(m) for m in table.columns]]
                 if not np.isfinite(values).all():  # a draw without the metric (e.g. no gap in it)
@@ -121,10 +125,10 @@ def ranking(per_trial: pd.DataFrame, *, rng: np.random.Generator, profile: str =
             metric: str = "rmse_total", n_boot: int = 2000, groups=None) -> pd.DataFrame:
     """Methods ranked by mean ``metric`` at ``profile``; a tie where the paired difference's interval holds 0
     (over trials, or with ``groups`` over groups and loss draws)."""
-    if groups is None:
+    labels = _group_labels(groups, sorted(set(per_trial.loc[per_trial["profile"] == profile, "trial"])))
+    if labels is None:
         return stats.rank_with_ties(trial_table(per_trial, profile, metric), rng=rng, n_boot=n_boot)
     names, values = draw_values(per_trial, profile, metric)
-    labels = _group_labels(groups, sorted(set(per_trial.loc[per_trial["profile"] == profile, "trial"])))
     return stats.rank_with_ties({m: values[..., k] for k, m in enumerate(names)}, rng=rng, n_boot=n_boot,
                                 groups=labels)
 
@@ -163,12 +167,11 @@ def targets_table(per_trial: pd.DataFrame, *, rng: np.random.Generator, n_boot: 
     pairs = [(headline[best["causal"]], headline[best["peer"]], f"{best['causal']} / {best['peer']}"),
              (headline[best["offline"]], headline[best["peer"]], f"{best['offline']} / {best['peer']}"),
              (lossless[best["causal"]], lossless[LOSSLESS_REFERENCE], f"{best['causal']} − {LOSSLESS_REFERENCE}")]
-    if groups is not None:
-        trials = list(headline.index)
-        labels = _group_labels(groups, trials)
+    trials = list(headline.index)
+    labels = _group_labels(groups, trials)
     rows = {}
     for (name, (comparison, target)), (a, b, compares) in zip(TARGETS.items(), pairs, strict=True):
-        if groups is not None:
+        if labels is not None:
             profile = "lossless" if comparison == "difference" else HEADLINE
             names, values = draw_values(per_trial, profile, "rmse_total", trials=trials)
             va, vb = (values[..., names.index(m)] for m in (a.name, b.name))

@@ -285,3 +285,51 @@ def summary_bullets(per_trial: pd.DataFrame, *, ranking_sentence: str, targets: 
              + diagnosis_sentence(per_trial, best["causal"])]
             + [f"* **{question}** " + " ".join(comparison_sentences(table[table["metric"] == "rmse_total"]))
                for question, table in comparisons.items()])
+
+
+def optimism_sentence(optimism: pd.DataFrame, edges: pd.DataFrame) -> str:
+    """What tuning on the scored trials would have claimed, and which grids are too narrow.
+
+    ``optimism``: :func:`~wsnlib.studies.loss_tolerance.summary.optimism_table`; ``edges``:
+    :func:`~wsnlib.studies.loss_tolerance.summary.edge_picks`.
+    """
+    if optimism.empty:
+        return "No method had settings to choose from: nothing was tuned, so there is no optimism to measure."
+    largest = optimism["optimism"].idxmax()
+    text = (f"Choosing each method's setting on all trials would have reported a mean headline RMSE "
+            f"{optimism['optimism'].mean():.2f}° lower on average over the {len(optimism)} tuned methods "
+            f"(most for {largest}: {optimism.loc[largest, 'held_out']:.2f}° held out against "
+            f"{optimism.loc[largest, 'in_sample']:.2f}° chosen on all trials).")
+    narrow = edges[edges["verdict"] == "grid too narrow"]
+    bound = edges[edges["verdict"] == "at a bound of the space"]
+    if narrow.empty:
+        text += " No chosen value sits at a grid edge inside its search space."
+    else:
+        listed = "; ".join(f"{r.method} {r.setting} = {r.value:g} ({r.edge} edge, {r.n_trials} of {r.n_total} trials)"
+                           for r in narrow.itertuples())
+        text += f" **At a grid edge inside the search space (the grid is too narrow there):** {listed}."
+    if not bound.empty:
+        text += (f" {len(bound)} chosen value(s) sit at a bound of their search space "
+                 f"({', '.join(sorted(set(bound['method'])))}): flagged, not chased past it.")
+    return text
+
+
+def inclination_sentence(means: pd.DataFrame, neural: str, best: Mapping[str, str]) -> str:
+    """The neural peer's inclination RMSE beside the best causal method's and the best peer's, at the
+    headline and lossless (``means``: :func:`~wsnlib.studies.loss_tolerance.summary.summary_table` of
+    ``rmse_inclination``)."""
+    table = means.set_index(["profile", "method"])
+    parts = []
+    for profile in (HEADLINE, "lossless"):
+        if (profile, neural) not in table.index:
+            continue
+
+        def cell(method, profile=profile):
+            row = table.loc[(profile, method)]
+            return f"{method} {row['mean']:.1f}° [{row['ci_low']:.1f}, {row['ci_high']:.1f}]"
+
+        parts.append(f"{profile}: " + ", ".join(cell(m) for m in (neural, best["causal"], best["peer"])
+                                                if (profile, m) in table.index))
+    if not parts:
+        raise ValueError(f"means has no row of {neural!r}")
+    return "Mean inclination RMSE (95 % intervals) — " + "; ".join(parts) + "."
