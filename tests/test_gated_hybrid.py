@@ -300,8 +300,8 @@ def test_gap_argument_errors(wrapper):
     _, gyr, acc, mag = rotation(n=20)
     with pytest.raises(ValueError, match="gap"):
         wrapper(gyr, acc, mag, fs=FS, gap="linear")
-    with pytest.raises(ValueError, match="gap='ar' is not available for " + wrapper.__name__):
-        wrapper(gyr, acc, mag, fs=FS, gap="ar")
+    with pytest.raises(ValueError, match="gap_rate_prediction_window_s only apply to gap='ar' in " + wrapper.__name__):
+        wrapper(gyr, acc, mag, fs=FS, gap="constant_rate", gap_rate_prediction_window_s=2.0)
     with pytest.raises(ValueError, match="gap_time_constant.*gap='hold'"):
         wrapper(gyr, acc, mag, fs=FS, gap_time_constant=0.2)
     with pytest.raises(ValueError, match="gap_time_constant"):

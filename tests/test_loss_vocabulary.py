@@ -50,8 +50,11 @@ PEERS = [fusion_orientation, vqf_orientation]
 FILTERS = [MADGWICK, KALMAN, SMOOTHER, *PEERS]
 #: Filters, by the ``gap`` values they support.
 GAP_SUPPORT = {"estimate_orientation": ("hold", "constant_rate"), "kalman_orientation": ("hold", "constant_rate", "ar"),
-               "smooth_orientation": ("hold", "constant_rate", "ar"), "fusion_orientation": ("hold", "constant_rate"),
-               "vqf_orientation": ("hold", "constant_rate")}
+               "smooth_orientation": ("hold", "constant_rate", "ar"),
+               "fusion_orientation": ("hold", "constant_rate", "ar"),
+               "vqf_orientation": ("hold", "constant_rate", "ar")}
+#: The peers' linear prediction on the Kalman filter's short span and window (see KALMAN).
+PEER_AR = {"gap": "ar", "gap_rate_prediction_span_s": 0.16, "gap_rate_prediction_window_s": 1.0}
 
 
 def _ids(value):
@@ -124,9 +127,9 @@ NO_LOSS_OPTIONS = {
     KALMAN: [{"gap": "constant_rate"}, {"gap": "hold"}, {"replay": False}, {"output_on_lost": "hold"}],
     SMOOTHER: [{"gap": "constant_rate"}, {"gap": "hold"}, {"interpolate_gaps": False}],
     fusion_orientation: [{"gap": "constant_rate"}, {"output_on_lost": "hold"}, {"blend": "feedback"},
-                         {"blend": "output"}],
+                         {"blend": "output"}, {**PEER_AR, "replay": True}],
     vqf_orientation: [{"gap": "constant_rate"}, {"output_on_lost": "hold"}, {"blend": "feedback"},
-                      {"blend": "output"}],
+                      {"blend": "output"}, {**PEER_AR, "replay": True}],
 }
 
 
@@ -180,6 +183,8 @@ REPLAY_CASES = [
     (KALMAN, {}),
     (KALMAN, {"gap": "constant_rate"}),
     (KALMAN, {"gap": "hold"}),
+    *[(peer, options) for peer in PEERS for options in ({}, {"gap": "constant_rate"}, PEER_AR,
+                                                         {**PEER_AR, "blend": "feedback"})],
 ]
 
 

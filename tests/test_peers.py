@@ -372,7 +372,10 @@ COMMON_BAD = [
     (lambda a: {"rho": 2.0}, "rho is not used by .* without blend"),
     (lambda a: {"schedule": "decay", "hold_window": 5}, "schedule, hold_window are not used by .* without blend"),
     (lambda a: {"gap": "freeze"}, "gap"),
-    (lambda a: {"gap": "ar"}, "gap='ar' is not available"),
+    (lambda a: {"gap_rate_prediction_span_s": 0.5}, "gap_rate_prediction_span_s only apply to gap='ar'"),
+    (lambda a: {"gap": "ar", "gap_rate_prediction_window_s": -1.0}, "gap_rate_prediction_window_s"),
+    (lambda a: {"gap": "ar", "gap_rate_prediction_span_s": np.nan}, "gap_rate_prediction_span_s"),
+    (lambda a: {"replay": 1}, "replay must be True or False"),
     (lambda a: {"gap": "constant_rate", "gap_time_constant": 0.0}, "gap_time_constant"),
     (lambda a: {"output_on_lost": "last"}, "output_on_lost"),
 ]

@@ -3,7 +3,9 @@
 The loss vocabulary of :mod:`wsnlib.orientation` (``gap``, ``replay``) for any filter that runs
 sample by sample with a step that turns its state by an angular rate: Madgwick's filter
 (:mod:`._kernels`) and the Kalman filter (:mod:`._kalman_kernels`) call these compiled
-functions from their loops, and the same functions serve a live receiver one packet at a time.
+functions from their loops, and the same functions serve a live receiver one packet at a time;
+the peer filters driven from Python (:mod:`wsnlib.orientation.peers`) get a whole gap's rates
+from them at once (:func:`gap_rates`).
 A filter gives the gap module the rate it used on every received sample (raw for Madgwick,
 bias-corrected for the Kalman filter) and asks it, on every lost sample, for the rate to turn
 by; at the first received sample after a gap, with ``replay``, it restores the state it had at
@@ -314,3 +316,49 @@ def ar_end_weights(coef, axis, order, n, h, weights):
         for i in range(1, k + 1):
             cov += h[k - i] * h[n - i]
         weights[k - 1] = cov / den
+
+
+# ------------------------------------------------------------------------------------------
+# A whole gap at once (filters driven from Python: the peers of :mod:`wsnlib.orientation.peers`)
+# ------------------------------------------------------------------------------------------
+
+
+@njit(**COMPILE)
+def gap_rates(rates, n_lost, measured, mode, factor, order, window):
+    """The rates of a gap of ``n_lost`` samples: ``(predicted, replayed)``, each ``(n_lost, 3)`` (rad/s).
+
+    ``rates`` ``(n, 3)``: the stream's rate history from its start to the gap's last received
+    sample (the rates the filter used on received samples, and on earlier gaps' lost samples
+    the rates this module gave), ``n ≥ 1``; ``measured`` (3,): the rate of the first received
+    sample after the gap (any value when the gap ends the recording: ``replayed`` is then
+    unused).  ``predicted`` are :func:`gap_lost`'s rates, ``replayed`` :func:`replay_rate`'s,
+    for the settings ``mode`` (a code), ``factor``, ``order``, ``window`` (:func:`new_gap_state`):
+    exactly what a compiled filter's loop gets sample by sample.
+    """
+    n = rates.shape[0]
+    records = np.zeros(1, GAP_DTYPE)
+    gs = records[0]
+    gs.mode, gs.factor, gs.order, gs.window = mode, factor, order, window
+    history = np.zeros((window + n_lost + 2, 3))  # history_length's rows (plain Python, not callable here)
+    for k in range(max(0, n - history.shape[0]), n):  # the ring's rows of the last samples
+        row = _row(history, k)
+        for a in range(3):
+            row[a] = rates[k, a]
+    gs.n = n - 1
+    gap_received(gs, history, (rates[n - 1, 0], rates[n - 1, 1], rates[n - 1, 2]))
+    work_A = np.empty((MAX_ORDER, MAX_ORDER))
+    work_r = np.empty(MAX_ORDER + 1)
+    predicted = np.empty((n_lost, 3))
+    for k in range(n_lost):
+        predicted[k, 0], predicted[k, 1], predicted[k, 2] = gap_lost(gs, history, work_A, work_r)
+    replayed = np.empty((n_lost, 3))
+    if n_lost > 0:
+        weights = np.empty((3, n_lost + 1))
+        impulse = np.empty(n_lost + 1)
+        ahead = np.empty(3)
+        use_ar = replay_weights(gs, history, measured, weights, impulse, ahead)
+        for k in range(1, n_lost + 1):
+            replayed[k - 1, 0], replayed[k - 1, 1], replayed[k - 1, 2] = replay_rate(gs, history, k, measured,
+                                                                                     use_ar, weights, ahead)
+    records[0] = gs  # keep the record's array alive to here
+    return predicted, replayed

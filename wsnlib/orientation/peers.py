@@ -41,10 +41,13 @@ Frames (established by static tests at several orientations, ``tests/test_peers.
 
 Loss options
 ------------
-The vocabulary of every filter of :mod:`wsnlib.orientation`: ``gap`` ("hold" or
-"constant_rate"), ``output_on_lost``, ``gap_time_constant``, and the hybrid as ``blend`` with
-ρ, τ, ``schedule``, ``hold_window`` and ``single_frame_gate``.  (``gap="ar"`` and ``replay``
-are the Kalman filter's only.)
+The vocabulary of every filter of :mod:`wsnlib.orientation`: ``gap`` ("hold",
+"constant_rate" or "ar"), ``replay``, ``output_on_lost``, ``gap_time_constant``, the AR
+predictor's ``gap_rate_prediction_span_s`` and ``gap_rate_prediction_window_s`` (the fields of
+:class:`wsnlib.orientation.KalmanSettings`, keywords here), and the hybrid as ``blend`` with
+ρ, τ, ``schedule``, ``hold_window`` and ``single_frame_gate``.  The defaults differ from the
+Kalman filter's: ``gap="hold"``, ``replay=False`` (the libraries as published) and
+``gap_time_constant=None`` = a constant rate.
 
 Hybrid
 ------
@@ -70,20 +73,54 @@ whose TRIAD looks untrustworthy (:class:`wsnlib.orientation.SingleFrameGate`).
 
 Gap prediction
 --------------
-``gap="constant_rate"`` (as in :func:`wsnlib.orientation.estimate_orientation`): on a lost
-sample the estimate is the last received output turned on by the last received angular rate
-(raw gyroscope, body frame), ``q_k = q_last ⊗ Exp(ω Δt Σ_{j≤k} f^j)`` with ``f = 1`` or
-``f = exp(−Δt/τ)`` (``gap_time_constant`` τ); the rotation is about one body axis, so this is
-exact for that rate.  At the next received sample the filter's orientation is set to the last
-prediction (Fusion: ``set_quaternion``; VQF: ``gyrQuat``, as for the feedback hybrid) and
-the library updates from there.  ``gap="hold"`` (default) holds the output.  A gap before the
-first received sample is held either way (the filter has not started).  With
+The rates of a gap come from :mod:`wsnlib.orientation.gaps` (the Kalman filter's and
+Madgwick's gap module; one call of :func:`~wsnlib.orientation.gaps.gap_rates` per gap, the
+same compiled functions their loops call per sample).  The rate a peer "used" on a received
+sample is its **raw gyroscope** (body frame, rad/s), for both peers: Fusion's AHRS has no bias
+estimate, and VQF's ``updateGyr`` subtracts its own bias estimate from whatever rate it is
+given, so gap rates on the raw scale are what it expects (a bias-corrected history would have
+to get the bias added back, and would make the two peers' histories differ).  The rate
+history holds these from the first received sample on, and on lost samples the rates the gap
+module gave (the prediction, not the replay).
+
+* ``gap="hold"`` (default): the output is held.
+* ``gap="constant_rate"`` (as in :func:`wsnlib.orientation.estimate_orientation`): on a lost
+  sample the estimate is the last received output turned on by the last received angular
+  rate, ``q_k = q_last ⊗ Exp(ω Δt Σ_{j≤k} f^j)`` with ``f = 1`` or ``f = exp(−Δt/τ)``
+  (``gap_time_constant`` τ); the rotation is about one body axis, so this is exact for that
+  rate.  Without ``replay``, at the next received sample the filter's orientation is set to
+  the last prediction (Fusion: ``set_quaternion``; VQF: ``gyrQuat``, as for the feedback
+  hybrid) and the library updates from there.
+* ``gap="ar"``: the per-axis linear (autoregressive) prediction of the rate fitted at the
+  gap's start on the last ``gap_rate_prediction_window_s`` (default 6 s) of the history, of
+  order ``round(gap_rate_prediction_span_s · fs)`` (default 0.96 s; at most 64), as the Kalman
+  filter's; with less than a window of history it falls back to ``"constant_rate"`` (decaying
+  with ``gap_time_constant``).  Fusion: the output is integrated sample by sample from the
+  last output, ``q_k = q_{k−1} ⊗ Exp(ω_k Δt)``, and ``set_quaternion`` at the gap's end.  VQF:
+  ``updateGyr(ω_k)`` on every lost sample (VQF's own strapdown integration, bias-corrected
+  inside; its rest detector's gyroscope low-pass sees these rates too), output ``quat9D``
+  (``quat6D`` without ``mag``); the next received sample updates from that state.
+* ``replay=True`` (with any ``gap``): at the first received sample after a gap of L samples,
+  the gap is re-run with the gap module's replay rates — with ``"ar"`` the predicted rates
+  plus the end correction (:func:`~wsnlib.orientation.gaps.ar_end_weights`), otherwise (and
+  when the AR fit fell back) the linear ramp between the last received rate and the new
+  one (paper 001's gyroscope interpolation) — from the state at the gap's start, then the
+  received sample is updated as usual.  Fusion: the replay rates are integrated from the
+  output at the gap's start and ``set_quaternion`` sets the result (``imufusion.Ahrs`` cannot
+  be copied: its start-up ramp and its rejection timers are not restored, they stay as they
+  were, which for a gap that made no calls is the same).  VQF: ``filt.state`` (a deep copy)
+  is saved at the gap's start, restored at its end and ``updateGyr`` runs the L replay rates.
+  The replay is causal: the outputs on the lost samples are those without replay.
+
+A gap before the first received sample is held whatever ``gap`` (the filter has not
+started); a gap at the end of the recording is predicted, never replayed.  With
 ``output_on_lost="hold"`` the output on lost samples is the previous output whatever ``gap``.
 """
 
 from __future__ import annotations
 
 import collections
+import copy
 import gc
 import hashlib
 
@@ -96,7 +133,9 @@ from wsnlib import quaternion as Q
 from wsnlib._validation import check_nonnegative, check_positive
 from wsnlib.orientation import _batch as B
 from wsnlib.orientation import _kernels as K
+from wsnlib.orientation import gaps
 from wsnlib.orientation.hybrid_blend import blend_with_single_frame, check_single_frame_gate, trusted_unchecked
+from wsnlib.orientation.kalman_settings import KalmanSettings, gap_prediction_order
 from wsnlib.orientation.lost_run import check_weight_options, effective_lost_run, slerp_weight
 from wsnlib.orientation.triad import triad
 
@@ -129,6 +168,49 @@ def _predict_gap(q_last, omega, n_lost: int, dt: float, factor: float) -> np.nda
     weight = k.astype(float) if factor == 1.0 else factor * (1.0 - factor**k) / (1.0 - factor)
     turns = np.asarray(omega, dtype=float) * dt * weight[:, None]
     return Q.multiply(np.asarray(q_last, dtype=float), Q.from_rotation_vector(turns))
+
+
+def _integrate(q_start, rates, dt: float) -> np.ndarray:
+    """``(L, 4)``: ``q_k = q_{k−1} ⊗ Exp(ω_k Δt)`` from ``q_0 = q_start``, one step per row of ``rates`` (L, 3)."""
+    q = _floats(q_start)
+    out = np.empty((rates.shape[0], 4))
+    for k, (x, y, z) in enumerate(rates.tolist()):
+        q = K.quat_normalize(K.quat_multiply(q, K.quat_exp((x * dt, y * dt, z * dt))))
+        out[k] = q
+    return out
+
+
+class _GapRates:
+    """The gap options of a peer call as :mod:`wsnlib.orientation.gaps` settings.
+
+    ``gap`` the name, ``factor`` the per-sample decay of a held rate (None with ``"hold"``),
+    ``replay``; ``tracked``: the call keeps a rate history and asks :func:`gaps.gap_rates`
+    for the gap's rates (``gap="ar"`` or ``replay``), else the closed-form paths of
+    :func:`_predict_gap` (unchanged results for ``"hold"``/``"constant_rate"``).
+    """
+
+    def __init__(self, gap, factor, replay, order, window):
+        self.gap, self.factor, self.replay = gap, factor, replay
+        self.tracked = gap == "ar" or replay
+        self._settings = (gaps.GAP_CODES[gap], 1.0 if factor is None else factor, order, window)
+
+    def rates(self, history, n_lost: int, measured) -> tuple[np.ndarray, np.ndarray]:
+        """``(predicted, replayed)`` ``(n_lost, 3)`` rad/s of a gap after the rate ``history`` (n, 3)
+        that ends at the rate ``measured`` (None: at the recording's end)."""
+        measured = np.zeros(3) if measured is None else np.ascontiguousarray(measured, dtype=float)
+        return gaps.gap_rates(np.ascontiguousarray(history), n_lost, measured, *self._settings)
+
+
+def _gap_prediction_window(gap, span_s, window_s, fs: float, filter_name: str) -> tuple[int, int]:
+    """The AR predictor's order and window (samples) at ``fs`` from the span and window (s; None:
+    :class:`KalmanSettings`' defaults), which only ``gap="ar"`` takes."""
+    given = {name: value for name, value in (("gap_rate_prediction_span_s", span_s),
+                                              ("gap_rate_prediction_window_s", window_s)) if value is not None}
+    if given and gap != "ar":
+        raise ValueError(f"{', '.join(given)} only apply to gap='ar' in {filter_name} (the linear prediction's "
+                         f"span and window), got gap={gap!r}")
+    settings = KalmanSettings(**{name: check_positive(value, name) for name, value in given.items()})
+    return gap_prediction_order(settings, 1.0 / fs), round(settings.gap_rate_prediction_window_s * fs)
 
 
 def _feedback_inputs(signals, mask, rho, tau, schedule, window, gate=None, fs=None):
@@ -182,10 +264,12 @@ def _run_batch(one, signals, mask, batch, feedback, predict=False):
 class _Options:
     """The checked loss options of a peer call (:mod:`wsnlib.orientation`'s vocabulary)."""
 
-    def __init__(self, filter_name, mag, fs, gap, output_on_lost, gap_time_constant, blend, rho, tau, schedule,
-                 hold_window, single_frame_gate):
-        gap, gap_time_constant = B.check_gap(gap, gap_time_constant, filter_name)
+    def __init__(self, filter_name, mag, fs, gap, replay, output_on_lost, gap_time_constant, span_s, window_s,
+                 blend, rho, tau, schedule, hold_window, single_frame_gate):
+        gap, gap_time_constant = B.check_gap(gap, gap_time_constant, filter_name, supported=B.GAPS)
         self.gap_factor = None if gap == "hold" else B.rate_factor(gap_time_constant, fs)
+        order, window = _gap_prediction_window(gap, span_s, window_s, fs, filter_name)
+        self.gap = _GapRates(gap, self.gap_factor, B.check_flag(replay, "replay"), order, window)
         self.hold_output = B.check_output_on_lost(output_on_lost)
         self.blend = B.check_blend(blend, mag, filter_name)
         if self.blend is None:
@@ -283,7 +367,9 @@ def _rows(x: np.ndarray) -> list:
     return rows
 
 
-def _fusion_one(settings, dt=None, gap_factor=None):
+def _fusion_one(settings, dt, gap: _GapRates):
+    gap_factor = gap.factor
+
     def one(gyr, acc, mag, mask, feedback):
         ahrs = imufusion.Ahrs()
         ahrs.set_settings(settings)
@@ -301,13 +387,37 @@ def _fusion_one(settings, dt=None, gap_factor=None):
         if feedback is not None:
             blend_at, q_s, mu = feedback
         received = np.flatnonzero(mask).tolist()
+        used = np.empty((n_t, 3)) if gap.tracked else None  # the rate history (gaps module): raw gyroscope
+        first = received[0]
+
+        def fill_gap(prev, stop, measured):
+            """Outputs on the lost samples ``prev + 1 … stop − 1`` and (``measured``: the rate of the
+            received sample ``stop``) the quaternion the filter continues from at ``stop``."""
+            normalise(prev)
+            predicted, replayed = gap.rates(used[first:prev + 1], stop - prev - 1, measured)
+            used[prev + 1:stop] = predicted
+            if gap.gap == "ar":
+                out[prev + 1:stop] = _integrate(out[prev], predicted, dt)
+            elif gap_factor is not None:  # the same outputs as without replay
+                out[prev + 1:stop] = _predict_gap(out[prev], gyr[prev], stop - prev - 1, dt, gap_factor)
+            if measured is not None:
+                if gap.replay:
+                    ahrs.set_quaternion(_integrate(out[prev], replayed, dt)[-1])
+                elif gap.gap == "ar":
+                    ahrs.set_quaternion(out[stop - 1])
+
         prev = -1
         for t in received:
-            if gap_factor is not None and prev >= 0 and t - prev > 1:  # dead reckoning over the gap
-                normalise(prev)
-                out[prev + 1:t] = _predict_gap(out[prev], gyr[prev], t - prev - 1, dt, gap_factor)
-                ahrs.set_quaternion(out[t - 1])
+            if prev >= 0 and t - prev > 1:
+                if gap.tracked:
+                    fill_gap(prev, t, gyr[t])
+                elif gap_factor is not None:  # dead reckoning over the gap
+                    normalise(prev)
+                    out[prev + 1:t] = _predict_gap(out[prev], gyr[prev], t - prev - 1, dt, gap_factor)
+                    ahrs.set_quaternion(out[t - 1])
             prev = t
+            if used is not None:
+                used[t] = gyr[t]
             if mag is None:
                 ahrs.update_no_magnetometer(gyr_deg[t], acc_g[t])
             else:
@@ -316,7 +426,9 @@ def _fusion_one(settings, dt=None, gap_factor=None):
             if feedback is not None and blend_at[t]:
                 out[t] = _slerp(q_s[t], out[t], mu[t], normalise_d=True)
                 ahrs.set_quaternion(out[t])
-        if gap_factor is not None and 0 <= prev < n_t - 1:  # a gap at the end
+        if gap.tracked and gap_factor is not None and prev < n_t - 1:  # a gap at the end
+            fill_gap(prev, n_t, None)
+        elif gap_factor is not None and 0 <= prev < n_t - 1:
             normalise(prev)
             out[prev + 1:] = _predict_gap(out[prev], gyr[prev], n_t - 1 - prev, dt, gap_factor)
         rest = mask & ~normalised  # the others at once: the same arithmetic per row, vectorised
@@ -327,9 +439,10 @@ def _fusion_one(settings, dt=None, gap_factor=None):
 
 
 def fusion_orientation(gyr, acc, mag=None, *, fs: float, received=None, gain: float = 0.5,
-                       settings: dict | None = None, gap: str = "hold", output_on_lost: str = "estimate",
-                       gap_time_constant=None, blend: str | None = None, rho=None, tau=None, schedule=None,
-                       hold_window=None, single_frame_gate=None) -> np.ndarray:
+                       settings: dict | None = None, gap: str = "hold", replay: bool = False,
+                       output_on_lost: str = "estimate", gap_time_constant=None, gap_rate_prediction_span_s=None,
+                       gap_rate_prediction_window_s=None, blend: str | None = None, rho=None, tau=None,
+                       schedule=None, hold_window=None, single_frame_gate=None) -> np.ndarray:
     """x-io Fusion AHRS (``imufusion.Ahrs``) over whole recordings, with packet loss, batched.
 
     Each batch element gets a fresh ``imufusion.Ahrs`` with ``convention =
@@ -370,16 +483,25 @@ def fusion_orientation(gyr, acc, mag=None, *, fs: float, received=None, gain: fl
 
         ``sample_rate`` (= ``fs``), ``convention`` (= ENU) and ``gain`` (its own argument)
         are not accepted here.
-    gap : {"hold", "constant_rate"}
-        In a gap: hold (default), or keep turning by the last received angular rate, the
-        filter continuing from that prediction (module docstring; the semantics of
-        :func:`wsnlib.orientation.estimate_orientation`).
+    gap : {"hold", "constant_rate", "ar"}
+        In a gap: hold (default); keep turning by the last received angular rate (raw
+        gyroscope); or by the linear (autoregressive) prediction of the rate, the filter
+        continuing from that prediction (module docstring, "Gap prediction").
+    replay : bool
+        At the first received sample after a gap, re-run the gap from the state at its start
+        with the rates now known at both ends (``"ar"``: prediction plus end correction;
+        else the linear ramp between the rates around the gap), then update.  Causal: the
+        outputs on lost samples do not change.  Default False.
     output_on_lost : {"estimate", "hold"}
-        On lost samples: the estimate (the prediction with ``"constant_rate"``), or the
-        previous output.
+        On lost samples: the estimate (the prediction with ``"constant_rate"`` or ``"ar"``),
+        or the previous output.
     gap_time_constant : float, optional
-        With ``"constant_rate"``: the extrapolated rate decays as ``exp(−t/τ)``, τ in s (> 0);
-        ``None`` or ``inf``: constant.
+        With ``"constant_rate"`` (and ``"ar"`` where it falls back): the extrapolated rate
+        decays as ``exp(−t/τ)``, τ in s (> 0); ``None`` or ``inf``: constant.
+    gap_rate_prediction_span_s, gap_rate_prediction_window_s : float, optional
+        Only with ``gap="ar"``: how far back (s, > 0) the predictor looks (its order,
+        ``round(span · fs)`` in [1, 64]) and the length (s, > 0) of the rate history it is
+        fitted on.  ``None``: :class:`wsnlib.orientation.KalmanSettings`' defaults (0.96 s, 6 s).
     blend : {None, "output", "feedback"}
         Paper 001's SLERP towards TRIAD after a gap (module docstring); needs ``mag``.
     rho, tau : float, optional
@@ -400,8 +522,8 @@ def fusion_orientation(gyr, acc, mag=None, *, fs: float, received=None, gain: fl
     numpy.ndarray, shape (..., T, 4)
         ENU unit quaternions (body → earth), ``...`` the broadcast of the leading dimensions
         of the signals and ``received``.  Lost samples hold the previous output (or the
-        prediction, ``gap="constant_rate"``, unless ``output_on_lost="hold"``); samples before
-        the first received one hold the output at it.
+        prediction, ``gap="constant_rate"`` or ``"ar"``, unless ``output_on_lost="hold"``);
+        samples before the first received one hold the output at it.
 
     Raises
     ------
@@ -409,10 +531,12 @@ def fusion_orientation(gyr, acc, mag=None, *, fs: float, received=None, gain: fl
         Naming the argument: wrong shapes, mismatched T, leading dimensions that do not
         broadcast, a non-boolean ``received``, NaN/inf or a zero ``acc``/``mag`` vector in
         a received sample, ``fs`` <= 0, ``gain`` < 0, an unknown or negative setting, an
-        unknown ``blend``, ``schedule``, ``gap`` or ``output_on_lost``, bad ρ, τ or
-        ``hold_window``, ``mag`` None with ``blend``, ρ, τ, ``schedule``, ``hold_window`` or
-        ``single_frame_gate`` without ``blend``, a ``gap_time_constant`` <= 0 or with
-        ``"hold"``, a ``single_frame_gate`` of the wrong type, or a batch element with no
+        unknown ``blend``, ``schedule``, ``gap`` or ``output_on_lost``, a non-boolean
+        ``replay``, bad ρ, τ or ``hold_window``, ``mag`` None with ``blend``, ρ, τ,
+        ``schedule``, ``hold_window`` or ``single_frame_gate`` without ``blend``, a
+        ``gap_time_constant`` <= 0 or with ``"hold"``, a ``gap_rate_prediction_span_s`` or
+        ``gap_rate_prediction_window_s`` that is not finite and > 0 or given without
+        ``gap="ar"``, a ``single_frame_gate`` of the wrong type, or a batch element with no
         received sample.
 
     Notes
@@ -422,10 +546,11 @@ def fusion_orientation(gyr, acc, mag=None, *, fs: float, received=None, gain: fl
     should allow ~1e-6.
     """
     fs, signals, mask, batch = _prepare(gyr, acc, mag, fs, received)
-    options = _Options("fusion_orientation", mag, fs, gap, output_on_lost, gap_time_constant, blend, rho, tau,
-                       schedule, hold_window, single_frame_gate)
+    options = _Options("fusion_orientation", mag, fs, gap, replay, output_on_lost, gap_time_constant,
+                       gap_rate_prediction_span_s, gap_rate_prediction_window_s, blend, rho, tau, schedule,
+                       hold_window, single_frame_gate)
     ahrs_settings = _fusion_settings(fs, gain, settings)
-    quat = _run_batch(_fusion_one(ahrs_settings, 1.0 / fs, options.gap_factor), signals, mask, batch,
+    quat = _run_batch(_fusion_one(ahrs_settings, 1.0 / fs, options.gap), signals, mask, batch,
                       options.feedback(signals, mask), predict=options.gap_factor is not None)
     return options.finish(quat, signals, mask)
 
@@ -473,29 +598,59 @@ def _vqf_set_quat9d(filt, q_f: np.ndarray, use_mag: bool = True) -> None:
     filt.state = state
 
 
-def _vqf_one(fs: float, params: dict, gap_factor=None):
+def _vqf_one(fs: float, params: dict, gap: _GapRates):
+    gap_factor = gap.factor
+
     def one(gyr, acc, mag, mask, feedback):
         try:
             filt = vqf.VQF(1.0 / fs, **params)
         except (TypeError, ValueError) as exc:
             raise ValueError(f"params rejected by vqf.VQF: {exc}") from exc
         key = "quat6D" if mag is None else "quat9D"
-        out = np.empty((mask.shape[-1], 4))
+        quat = filt.getQuat6D if mag is None else filt.getQuat9D
+        n_t = mask.shape[-1]
+        out = np.empty((n_t, 4))
         blend_at, q_s, mu = (None, None, None) if feedback is None else feedback
+        used = np.empty((n_t, 3)) if gap.tracked else None  # the rate history (gaps module): raw gyroscope
+        first = int(np.argmax(mask))
+
+        def fill_gap(prev, stop, measured):
+            """Outputs on the lost samples ``prev + 1 … stop − 1`` and (``measured``: the rate of the
+            received sample ``stop``) the replay, which leaves the state where ``stop``'s update starts."""
+            predicted, replayed = gap.rates(used[first:prev + 1], stop - prev - 1, measured)
+            used[prev + 1:stop] = predicted
+            saved = copy.deepcopy(filt.state) if gap.replay and measured is not None else None
+            if gap.gap == "ar":  # VQF's own strapdown integration (bias-corrected inside)
+                for k, rate in enumerate(predicted, start=prev + 1):
+                    filt.updateGyr(rate)
+                    out[k] = quat()
+            elif gap_factor is not None:  # the same outputs as without replay
+                out[prev + 1:stop] = _predict_gap(out[prev], gyr[prev], stop - prev - 1, 1.0 / fs, gap_factor)
+            if saved is not None:
+                filt.state = saved
+                for rate in replayed:
+                    filt.updateGyr(rate)
+
         prev = -1  # last received sample
         for start, end in zip(*_pieces(mask, blend_at), strict=True):
-            if gap_factor is not None and prev >= 0 and start - prev > 1:  # dead reckoning over the gap
-                out[prev + 1:start] = _predict_gap(out[prev], gyr[prev], start - prev - 1, 1.0 / fs, gap_factor)
-                _vqf_set_quat9d(filt, out[start - 1], mag is not None)
+            if prev >= 0 and start - prev > 1:
+                if gap.tracked:
+                    fill_gap(prev, start, gyr[start])
+                elif gap_factor is not None:  # dead reckoning over the gap
+                    out[prev + 1:start] = _predict_gap(out[prev], gyr[prev], start - prev - 1, 1.0 / fs, gap_factor)
+                    _vqf_set_quat9d(filt, out[start - 1], mag is not None)
             prev = end - 1
             piece = filt.updateBatch(gyr[start:end], acc[start:end], None if mag is None else mag[start:end])
             out[start:end] = piece[key]
+            if used is not None:
+                used[start:end] = gyr[start:end]
             last = end - 1
             if feedback is not None and blend_at[last]:
                 out[last] = _slerp(q_s[last], out[last], mu[last])
                 _vqf_set_quat9d(filt, out[last])
-        n_t = mask.shape[-1]
-        if gap_factor is not None and 0 <= prev < n_t - 1:  # a gap at the end
+        if gap.tracked and gap_factor is not None and prev < n_t - 1:  # a gap at the end
+            fill_gap(prev, n_t, None)
+        elif gap_factor is not None and 0 <= prev < n_t - 1:
             out[prev + 1:] = _predict_gap(out[prev], gyr[prev], n_t - 1 - prev, 1.0 / fs, gap_factor)
         return out
 
@@ -503,8 +658,9 @@ def _vqf_one(fs: float, params: dict, gap_factor=None):
 
 
 def vqf_orientation(gyr, acc, mag=None, *, fs: float, received=None, params: dict | None = None, gap: str = "hold",
-                    output_on_lost: str = "estimate", gap_time_constant=None, blend: str | None = None, rho=None,
-                    tau=None, schedule=None, hold_window=None, single_frame_gate=None) -> np.ndarray:
+                    replay: bool = False, output_on_lost: str = "estimate", gap_time_constant=None,
+                    gap_rate_prediction_span_s=None, gap_rate_prediction_window_s=None, blend: str | None = None,
+                    rho=None, tau=None, schedule=None, hold_window=None, single_frame_gate=None) -> np.ndarray:
     """VQF (Laidig & Seel 2023, ``vqf.VQF``) over whole recordings, with packet loss, batched.
 
     Each batch element gets a fresh ``vqf.VQF(1/fs, **params)``; every contiguous run of
@@ -539,14 +695,17 @@ def vqf_orientation(gyr, acc, mag=None, *, fs: float, received=None, params: dic
         20 °/s, ``magMinUndisturbedTime`` 0.5 s, ``magMaxRejectionTime`` 60 s,
         ``magRejectionFactor`` 2.  Times are counted in received samples × Ts.  The
         sampling times come from ``fs`` and are not accepted here.
-    gap, output_on_lost, gap_time_constant, blend, rho, tau, schedule, hold_window, single_frame_gate
+    gap, replay, output_on_lost, gap_time_constant, gap_rate_prediction_span_s, gap_rate_prediction_window_s
+        As in :func:`fusion_orientation`; in a gap with ``"ar"`` VQF's own ``updateGyr`` turns
+        the state, and ``replay`` restores ``state`` (module docstring, "Gap prediction").
+    blend, rho, tau, schedule, hold_window, single_frame_gate
         As in :func:`fusion_orientation`.
 
     Returns
     -------
     numpy.ndarray, shape (..., T, 4)
         ENU unit quaternions (body → earth; y = magnetic north with ``mag``).  Lost samples
-        hold the previous output (or the prediction, ``gap="constant_rate"``, unless
+        hold the previous output (or the prediction, ``gap="constant_rate"`` or ``"ar"``, unless
         ``output_on_lost="hold"``); samples before the first received one hold the output at it.
 
     Raises
@@ -559,9 +718,10 @@ def vqf_orientation(gyr, acc, mag=None, *, fs: float, received=None, params: dic
         element with no received sample.
     """
     fs, signals, mask, batch = _prepare(gyr, acc, mag, fs, received)
-    options = _Options("vqf_orientation", mag, fs, gap, output_on_lost, gap_time_constant, blend, rho, tau,
-                       schedule, hold_window, single_frame_gate)
+    options = _Options("vqf_orientation", mag, fs, gap, replay, output_on_lost, gap_time_constant,
+                       gap_rate_prediction_span_s, gap_rate_prediction_window_s, blend, rho, tau, schedule,
+                       hold_window, single_frame_gate)
     vqf_params = _vqf_params(params)
-    quat = _run_batch(_vqf_one(fs, vqf_params, options.gap_factor), signals, mask, batch,
+    quat = _run_batch(_vqf_one(fs, vqf_params, options.gap), signals, mask, batch,
                       options.feedback(signals, mask), predict=options.gap_factor is not None)
     return options.finish(quat, signals, mask)
