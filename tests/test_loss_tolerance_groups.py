@@ -5,6 +5,7 @@ import dataclasses
 import numpy as np
 import pandas as pd
 import pytest
+
 from wsnlib.io.broad import broad_motion_group
 from wsnlib.io.recording import write_recording
 from wsnlib.sim import reach_and_flex, simulate_recording

@@ -286,7 +286,10 @@ def default_methods(grids: Mapping[str, tuple] | None = None) -> dict[str, Metho
     :data:`FUSION_DEFAULT_GAIN`; VQF's own parameters (its authors').  The *gated* hybrids apply
     the single frame only where :class:`wsnlib.orientation.SingleFrameGate` (its defaults) trusts
     it; the peers ``", constant rate"`` keep turning at the last received rate in a gap
-    (``gap="constant_rate"``, no decay) instead of holding their output.  The smoother's offline
+    (``gap="constant_rate"``, no decay) instead of holding their output, and the peers ``", AR +
+    replay"`` get the Kalman filter's own gap handling (:mod:`wsnlib.orientation.gaps`: the rate
+    predicted by the AR model in a gap, the gap replayed at its end), the same information as
+    ours.  The smoother's offline
     peers: ``"offline VQF"`` (:func:`wsnlib.orientation.offline_vqf_orientation`, the gaps filled
     by linear interpolation) and ``"VQF forward-backward"`` (VQF holding in a gap, run forwards
     and backwards and averaged, :func:`wsnlib.orientation.forward_backward_orientation`), over
@@ -326,6 +329,10 @@ def default_methods(grids: Mapping[str, tuple] | None = None) -> dict[str, Metho
         Method("VQF", "peer", VQF_GRID, functools.partial(_peer, library="VQF"), space=VQF_SPACE, default={}),
         Method("VQF, constant rate", "peer", VQF_GRID,
                functools.partial(_peer, library="VQF", gap="constant_rate"), space=VQF_SPACE, default={}),
+        Method("Fusion, AR + replay", "peer", FUSION_GRID,
+               functools.partial(_peer, library="Fusion", gap="ar", replay=True), space=FUSION_SPACE, default=gain),
+        Method("VQF, AR + replay", "peer", VQF_GRID, functools.partial(_peer, library="VQF", gap="ar", replay=True),
+               space=VQF_SPACE, default={}),
         Method("VQF (defaults)", "peer", ({"tauAcc": 3.0, "tauMag": 9.0},), functools.partial(_peer, library="VQF")),
         Method("VQF + hybrid (feedback)", "peer", VQF_HYBRID_GRID,
                functools.partial(_peer, library="VQF", hybrid=True), space=VQF_HYBRID_SPACE, default=rho_tau),
@@ -403,7 +410,8 @@ def inclination_methods() -> dict[str, Method]:
 #: help the hybrids, and does constant-rate prediction in a gap help the peers?
 GATING_PAIRS = (("hybrid (feedback)", "gated hybrid (feedback)"),
                 ("Fusion + hybrid (feedback)", "Fusion + gated hybrid (feedback)"))
-GAP_PREDICTION_PAIRS = (("Fusion", "Fusion, constant rate"), ("VQF", "VQF, constant rate"))
+GAP_PREDICTION_PAIRS = (("Fusion", "Fusion, constant rate"), ("VQF", "VQF, constant rate"),
+                        ("Fusion", "Fusion, AR + replay"), ("VQF", "VQF, AR + replay"))
 
 
 #: Name of the headline profile (tuning and targets).
