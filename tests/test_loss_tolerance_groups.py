@@ -28,7 +28,8 @@ def test_broad_motion_groups_are_issue_25s_seven_on_the_shared_trials():
               "09_undisturbed_fast_rotation_with_breaks_B", "11_undisturbed_slow_translation_B",
               "14_undisturbed_slow_translation_with_breaks_B", "16_undisturbed_fast_translation_B",
               "25_disturbed_tapping_B", "27_disturbed_phone_vibration_B", "29_disturbed_stationary_magnet_B",
-              "30_disturbed_stationary_magnet_C", "31_disturbed_stationary_magnet_D", "33_disturbed_attached_magnet_2cm",
+              "30_disturbed_stationary_magnet_C", "31_disturbed_stationary_magnet_D",
+              "33_disturbed_attached_magnet_2cm",
               "34_disturbed_attached_magnet_3cm", "35_disturbed_attached_magnet_4cm",
               "36_disturbed_attached_magnet_5cm"]
     groups = pd.Series({t: broad_motion_group(t) for t in shared})
