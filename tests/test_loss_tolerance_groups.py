@@ -53,7 +53,7 @@ def test_leave_one_group_out_tunes_each_trial_on_the_other_groups(tmp_path):
     assert result.setting_source == "leave-one-group-out"
     assert list(result.units["group"]) == [groups[n] for n in names]
     scores = result.tuning.pivot(index="setting_index", columns="trial", values="rmse_total")[names].to_numpy()
-    for j, name in enumerate(names):
+    for name in names:
         others = [k for k, other in enumerate(names) if groups[other] != groups[name]]
         chosen = result.choices.set_index("trial").loc[name, "setting_index"]
         assert chosen == int(np.argmin(scores[:, others].mean(axis=1)))

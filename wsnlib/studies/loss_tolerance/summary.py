@@ -383,7 +383,7 @@ def optimism_table(tuning: pd.DataFrame, choices: pd.DataFrame) -> pd.DataFrame:
 def edge_picks(methods, choices: pd.DataFrame) -> pd.DataFrame:
     """Chosen values at the edge of their grid: at a bound of the search space, or a grid too narrow.
 
-    For every method and numeric setting that varies over its grid: on how many trials the
+    For every method and numeric setting taking at least three values in its grid: on how many trials the
     chosen value is the grid's lowest or highest, and whether that edge is a bound of the
     method's search space (:attr:`~wsnlib.studies.loss_tolerance.Method.space`, written beside
     each grid: not to be chased past) or lies inside it (then the grid is too narrow: widen it).
@@ -399,8 +399,8 @@ def edge_picks(methods, choices: pd.DataFrame) -> pd.DataFrame:
         chosen = choices[choices["method"] == name]["setting_index"].to_numpy()
         for key in dict.fromkeys(k for setting in method.grid for k in setting):
             values = [setting.get(key) for setting in method.grid]
-            if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values) or len(set(values)) < 2:
-                continue
+            if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values) or len(set(values)) < 3:
+                continue  # with two values every pick is an edge: nothing to learn from it
             picked = np.array([values[i] for i in chosen if i >= 0])
             for edge, value in (("low", min(values)), ("high", max(values))):
                 n = int(np.sum(picked == value))
