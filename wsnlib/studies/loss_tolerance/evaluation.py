@@ -271,7 +271,8 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
     sources = [str(getattr(recordings[name], "source", name)) for name in names]
     folds = sources if groups is None else _check_groups(groups, names, sources)
     tuned = len(set(folds)) >= 2
-    setting_source = SETTING_SOURCES[1] if not tuned else SETTING_SOURCES[0 if groups is None else 2]
+    by_recording = len(set(folds)) == len(set(sources)) == len(set(zip(folds, sources, strict=True)))
+    setting_source = SETTING_SOURCES[1] if not tuned else SETTING_SOURCES[0 if by_recording else 2]
     masks, rows = {}, {}
     for name, trial_rng in zip(names, rng.spawn(len(names)), strict=True):
         masks[name], rows[name] = _masks(profiles, recordings[name].n_samples, fs[name], trial_rng, draws)
