@@ -365,12 +365,20 @@ def rank_with_ties(samples, *, rng: np.random.Generator, level: float = 0.95, n_
     order = [names[i] for i in np.argsort(sign * table.loc[names, "estimate"].to_numpy(), kind="stable")]
     by_name = dict(zip(names, arrays, strict=True))
     out = table.loc[order].copy()
+    _tie_with_leaders(out, order, lambda name, leader: paired_difference_ci(
+        by_name[name], by_name[leader], rng=rng, level=level, n_boot=n_boot, method=method, statistic=statistic))
+    out.attrs.update(table.attrs)
+    return out
+
+
+def _tie_with_leaders(out, order, difference) -> None:
+    """Fill ``out``'s rank, tie_group, tied, diff_to_leader, diff_low, diff_high: walking ``order`` (best
+    first), a method ties with its group's leader when ``difference(method, leader)``'s interval holds 0."""
     groups, diffs, lows, highs = [], [], [], []
     group, leader = 0, None
     for name in order:
         if leader is not None:
-            diff = paired_difference_ci(by_name[name], by_name[leader], rng=rng, level=level, n_boot=n_boot,
-                                        method=method, statistic=statistic)
+            diff = difference(name, leader)
             d, lo, hi = float(diff.estimate), float(diff.low), float(diff.high)
         if leader is None or not lo <= 0.0 <= hi:
             group += 1
@@ -386,8 +394,6 @@ def rank_with_ties(samples, *, rng: np.random.Generator, level: float = 0.95, n_
     out["diff_to_leader"] = diffs
     out["diff_low"] = lows
     out["diff_high"] = highs
-    out.attrs.update(table.attrs)
-    return out
 
 
 def _rank_grouped(samples, groups, *, rng, level, n_boot, paired, lower_is_better):
@@ -412,24 +418,8 @@ def _rank_grouped(samples, groups, *, rng, level, n_boot, paired, lower_is_bette
     sign = 1.0 if lower_is_better else -1.0
     order = list(table.index[np.argsort(sign * table["estimate"].to_numpy(), kind="stable")])
     out = table.loc[order].copy()
-    tie_groups, diffs, lows, highs = [], [], [], []
-    group, leader = 0, None
-    for name in order:
-        if leader is not None:
-            diff = grouped_bootstrap_ci(arrays[name] - arrays[leader], groups, rng=rng, level=level, n_boot=n_boot)
-            d, lo, hi = float(diff.estimate), float(diff.low), float(diff.high)
-        if leader is None or not lo <= 0.0 <= hi:
-            group += 1
-            leader = name
-            d = lo = hi = 0.0
-        tie_groups.append(group)
-        diffs.append(d)
-        lows.append(lo)
-        highs.append(hi)
-    out["rank"] = np.arange(1, len(out) + 1)
-    out["tie_group"] = tie_groups
-    out["tied"] = out.groupby("tie_group")["tie_group"].transform("size").to_numpy() > 1
-    out["diff_to_leader"], out["diff_low"], out["diff_high"] = diffs, lows, highs
+    _tie_with_leaders(out, order, lambda name, leader: grouped_bootstrap_ci(
+        arrays[name] - arrays[leader], groups, rng=rng, level=level, n_boot=n_boot))
     out.attrs.update(level=float(level), units="groups (resampled with their loss draws)")
     return out
 
