@@ -7,14 +7,43 @@ Kalman filter of :mod:`wsnlib.orientation` (its compiled step on a named state):
 * :mod:`.packet` — the versioned binary packet (a table in its docstring and in
   ``data/raw/README.md``): :func:`encode_packet`, :func:`decode_packet`, CRC-16/CCITT-FALSE, the
   optional redundancy block (:class:`Summary`);
+* :mod:`.sender` — a recording as the packets a node sends (:func:`node_stream`,
+  :func:`encode_stream`);
+* :mod:`.receiver` — :class:`Receiver`: one filter per node, reorder window, duplicates, loss,
+  fixed-lag smoothing (``latency``), bridging bursts with the packets' summaries, counters.
 
-This package's door gathers the public names: ``from wsnlib.stream import decode_packet``.
+The compiled code (:mod:`._kernels`, :mod:`._receiver_kernels`) is cached by numba below the
+cache folder of :mod:`wsnlib.orientation`'s sources, in a sub-folder named by this package's
+compiled sources, so an edit of either is never run from stale machine code.
+
+This package's door gathers the public names: ``from wsnlib.stream import Receiver``.
 """
 
+import contextlib
+from pathlib import Path
+
+import numba
+
+from wsnlib._files import sources_digest
 from wsnlib.orientation import _numba_cache
 
-with _numba_cache.caching_into_this_version():  # see wsnlib/stream/_kernels.py
-    from wsnlib.stream import _kernels  # noqa: F401
+#: SHA-256 of this package's compiled sources (``_*kernels.py``) when it was imported.
+SOURCES_DIGEST = sources_digest(Path(__file__).parent, "_*kernels.py")
+
+
+@contextlib.contextmanager
+def _caching_into_this_version():
+    folder = _numba_cache.version_folder() / f"stream-{SOURCES_DIGEST[:16]}"
+    saved = numba.config.CACHE_DIR
+    numba.config.CACHE_DIR = str(folder)
+    try:
+        yield
+    finally:
+        numba.config.CACHE_DIR = saved
+
+
+with _caching_into_this_version():
+    from wsnlib.stream import _kernels, _receiver_kernels  # noqa: F401
     from wsnlib.stream.packet import (
         LAYOUTS,
         MAX_REDUNDANCY,
@@ -29,6 +58,10 @@ with _numba_cache.caching_into_this_version():  # see wsnlib/stream/_kernels.py
         decode_packet,
         encode_packet,
     )
+    from wsnlib.stream.receiver import COUNTERS, DEFAULT_REORDER, Receiver, ReceiverOutput
+    from wsnlib.stream.sender import SAMPLES_PER_PACKET, NodeStream, encode_stream, node_stream
 
-__all__ = ["LAYOUTS", "MAX_REDUNDANCY", "MAX_SAMPLES_PER_PACKET", "PACKET_VERSION", "REDUNDANCY_BITS",
-           "REJECT_REASONS", "Packet", "PacketError", "Summary", "crc16_ccitt_false", "decode_packet", "encode_packet"]
+__all__ = ["COUNTERS", "DEFAULT_REORDER", "LAYOUTS", "MAX_REDUNDANCY", "MAX_SAMPLES_PER_PACKET", "PACKET_VERSION",
+           "REDUNDANCY_BITS", "REJECT_REASONS", "SAMPLES_PER_PACKET", "NodeStream", "Packet", "PacketError", "Receiver",
+           "ReceiverOutput", "Summary", "crc16_ccitt_false", "decode_packet", "encode_packet", "encode_stream",
+           "node_stream"]

@@ -292,3 +292,15 @@ def span_rotation_vectors(rotations, packet, layout, k, out):
         r = quat_log(q)
         for a in range(3):
             out[j, a] = r[a]
+
+
+@njit(**COMPILE)
+def summary_rotations(rotations, layout, k_max, out, k):
+    """Every packet's redundancy entries: ``out[p, :k[p]]`` (P, k_max, 3) from the per-packet rotations
+    ``rotations`` (P, 4); ``k[p]`` the entries packet ``p`` can carry (its covered packets exist)."""
+    for p in range(rotations.shape[0]):
+        n = 0
+        while n < k_max and (p - 1 - n >= 0 if layout == CONSECUTIVE else p - (1 << n) >= 0):
+            n += 1
+        k[p] = n
+        span_rotation_vectors(rotations, p, layout, n, out[p])
