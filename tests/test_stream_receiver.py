@@ -165,6 +165,37 @@ def test_a_valid_packet_that_contradicts_its_stream_is_corrupt():
     assert rx.counters.loc[4, "corrupt"] == 2 and rx.rejected["field"] == 2
 
 
+@pytest.mark.parametrize("window,latency", [(1, 0), (3, 12)])
+def test_every_sample_is_output_within_its_deadline_when_the_clock_is_given(window, latency):
+    """Packets arrive when their last sample is taken; ``expire`` at every packet slot declares lost
+    packets at their deadline, bursts included: each sample is out no later than latency + reorder
+    window + one packet after it was sampled.  Without the clock, a burst longer than the window is
+    declared only when the next packet arrives, too late."""
+    stream = _stream(n=900, seed=4)
+    packets = _mask(stream, 0.25, 8)
+    data = dict(zip(np.flatnonzero(packets), encode_stream(stream, packets=np.flatnonzero(packets)), strict=True))
+    deadline = latency + (window + 1) * SPP - 1  # samples after the sample itself
+    late = {}
+    for clock in (True, False):
+        rx = Receiver(FS, latency=latency, reorder=window, silence_s=30.0)
+        parts, emitted_at = [], []
+        for q in range(stream.n_packets):
+            now = ((q + 1) * SPP - 1) / FS  # packet q's last sample is taken (and the packet sent)
+            outs = [rx.receive([data[q]], now if clock else None)] if q in data else []
+            outs += [rx.expire(now)] if clock else []
+            for out in outs:
+                parts.append(out)
+                emitted_at.append(np.full(len(out), now))
+        out = ReceiverOutput.concatenate(parts)
+        delay = np.concatenate(emitted_at) * FS - out.sample
+        late[clock] = int(np.sum(delay > deadline + 1e-6))
+        if clock and latency == 0:  # the same values as the batch filter, only earlier
+            batch, mask = _batch(stream, packets)
+            assert np.abs(out.quat - batch[out.sample]).max() <= 1e-9
+    assert late[True] == 0
+    assert late[False] > 0
+
+
 def test_receiver_arguments_are_checked():
     with pytest.raises(ValueError, match="fs"):
         Receiver(0.0)

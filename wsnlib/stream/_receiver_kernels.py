@@ -44,11 +44,12 @@ from wsnlib.stream import _kernels as PK
 #: number, unwrapped) and its first sample; the highest sequence number seen; the stream's first
 #: sample; the next sample to output; the newest sample filtered; the last 62 released packets
 #: (bit j: packet ``next_seq − 1 − j`` was received); lost packets since the last received one;
-#: the counters (:data:`COUNTERS`).
+#: the counters (:data:`COUNTERS`); the receiver's clock (s) when the newest packet arrived and that
+#: packet's last sample (NaN, −1: no clock given).
 NODE_DTYPE = np.dtype([
     ("id", "i8"), ("has_mag", "?"), ("started", "?"), ("spp", "i8"), ("next_seq", "i8"), ("next_sample", "i8"),
     ("max_seq", "i8"), ("first_sample", "i8"), ("emitted", "i8"), ("newest", "i8"), ("recent", "i8"),
-    ("gap_packets", "i8"), ("counts", "i8", (6,)),
+    ("gap_packets", "i8"), ("counts", "i8", (6,)), ("clock_s", "f8"), ("clock_sample", "i8"),
 ])
 #: Counter names, in the order of ``NODE_DTYPE["counts"]``.
 COUNTERS = ("received", "lost", "duplicate", "reordered", "corrupt", "late")
@@ -409,6 +410,7 @@ def _new_node(slot, nodes, node_id, ints, templates):
     book.next_seq = book.max_seq = ints[PK.I_SEQ]
     book.next_sample = book.first_sample = book.emitted = book.newest = ints[PK.I_FIRST]
     book.recent, book.gap_packets = 0, 0
+    book.clock_s, book.clock_sample = np.nan, -1
     for a in range(6):
         book.counts[a] = 0
     m = 1 if has_mag else 0
@@ -458,9 +460,10 @@ def _release_through(slot, nodes, last, cfg, consts, bconsts, out, dense, lags, 
 
 @njit(**COMPILE)
 def receive(data, lengths, start, lookup, nodes, n_used, cfg, consts, bconsts, templates, fs, rejects, parse_buffers,
-            out, scratch):
+            out, scratch, now):
     """Datagrams ``data[d, :lengths[d]]`` from ``d = start`` on, in arrival order; returns ``(d, status)``:
     the first datagram not processed and :data:`DONE`, :data:`NEED_NODES` or :data:`NEED_OUTPUT`.
+    ``now``: the receiver's clock (s) at their arrival, or NaN (see :func:`expire`).
 
     ``lookup`` (65536,): node id → slot (−1: none yet); ``n_used`` (1,): slots in use; ``rejects``
     (6,): datagrams rejected per reason code (1–5, :mod:`._kernels`).  A rejected datagram whose
@@ -523,6 +526,8 @@ def receive(data, lengths, start, lookup, nodes, n_used, cfg, consts, bconsts, t
             book.counts[N_REORDERED] += 1
         else:
             book.max_seq = seq
+            if not np.isnan(now):
+                book.clock_s, book.clock_sample = now, book.next_sample + dseq * book.spp + ints[PK.I_N] - 1
         while nodes[8][slot, book.next_seq % window]:
             release_received(slot, nodes, book.next_seq % window, cfg, consts, bconsts, out, dense, lags, scratch)
     return data.shape[0], DONE
@@ -538,3 +543,32 @@ def flush(nodes, n_used, cfg, consts, bconsts, out, scratch):
         book = nodes[0][slot]
         _release_through(slot, nodes, book.max_seq, cfg, consts, bconsts, out, dense, lags, scratch)
         flush_output(slot, nodes, cfg, out, dense, lags, scratch)
+
+
+@njit(**COMPILE)
+def expire(start, nodes, n_used, cfg, consts, bconsts, out, scratch, fs, now, silence_s):
+    """Declare lost every packet whose deadline has passed at the receiver's clock ``now`` (s), from node
+    slot ``start`` on; returns ``(slot, status)`` as :func:`receive`.
+
+    A node's sample clock runs from its newest packet's last sample at that packet's arrival, at
+    ``fs``.  Packet ``q`` (first sample ``f_q``) is due when its last sample is taken; it is declared
+    lost once the packet ``reorder`` after it is due too (``f_q + (reorder + 1)·spp − 1`` samples),
+    as :func:`receive` declares it when that packet arrives.  A node silent for longer than
+    ``silence_s`` is not predicted further (it may have stopped); its next packet resumes it.
+    """
+    dense = np.zeros((0, 0, 4))
+    lags = np.zeros(1, dtype=np.int64)
+    window = cfg[CFG_REORDER]
+    for slot in range(start, n_used[0]):
+        book = nodes[0][slot]
+        elapsed = now - book.clock_s
+        if not (elapsed >= 0.0) or elapsed > silence_s:  # no clock yet (NaN), or silent too long
+            continue
+        current = book.clock_sample + np.int64(math.floor(elapsed * fs + 1e-6))  # (1e-6: 0.12 s × 50 Hz is 5.99…)
+        overdue = (current - (window + 1) * book.spp + 1 - book.next_sample) // book.spp  # packets past next_seq
+        if overdue < 0:
+            continue
+        if out[4][0] + (overdue + 1) * book.spp + cfg[CFG_LATENCY] > out[0].shape[0]:
+            return slot, NEED_OUTPUT
+        _release_through(slot, nodes, book.next_seq + overdue, cfg, consts, bconsts, out, dense, lags, scratch)
+    return n_used[0], DONE

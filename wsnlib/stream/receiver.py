@@ -24,8 +24,11 @@ Rules (the compiled code is :mod:`wsnlib.stream._receiver_kernels`):
   the fixed-lag RTS smoother of :mod:`wsnlib.orientation.fixed_lag`.  A sample in packet ``p`` is
   filtered when ``p`` arrives, or when ``p + reorder`` arrives (declared lost); so every sample is
   output no later than ``latency`` samples plus the reorder window plus one packet after it was
-  sampled (in the node's sample clock, counting from the sample that completed the packet
-  whose arrival released it).  :meth:`Receiver.flush` ends the stream: what is held is released.
+  sampled, if packets arrive when their last sample is taken — also in a burst of losses, when
+  no packet arrives at all, if the receiver's clock is given (``now`` of :meth:`Receiver.receive`,
+  and :meth:`Receiver.expire` called now and then): each node's sample clock runs from its newest
+  packet's arrival, and a packet is declared lost when the one ``reorder`` after it is due.
+  :meth:`Receiver.flush` ends the stream: what is held is released.
 * **Redundancy** (``bridge``): a packet whose summary (:class:`~wsnlib.stream.packet.Summary`)
   covers lost packets just before it bridges the gap: the filter is re-run from its state at the
   gap's start, turned on each covered lost sample by the measured rotation
@@ -71,6 +74,8 @@ from wsnlib.stream.packet import MAX_PACKET_SIZE, REJECT_REASONS
 
 #: Default reorder window (packets).
 DEFAULT_REORDER = 3
+#: Default time (s) after which :meth:`Receiver.expire` stops predicting a silent node.
+DEFAULT_SILENCE_S = 2.0
 #: Rows of a node's ring of recent packet rotations (a doubling summary of 8 entries spans 128).
 ROTATION_RING = 256
 COUNTERS = RK.COUNTERS
@@ -186,10 +191,13 @@ class Receiver:
         Use the redundancy blocks of packets to bridge bursts of lost packets (default True).
     gap, replay, gap_time_constant
         The filter's gap options (:func:`~wsnlib.orientation.kalman_orientation`).
+    silence_s : float
+        :meth:`expire` stops predicting a node silent for longer than this (s).
     """
 
     def __init__(self, fs, settings=None, *, latency: int = 0, reorder: int = DEFAULT_REORDER, bridge: bool = True,
-                 gap: str = "ar", replay: bool = True, gap_time_constant=None):
+                 gap: str = "ar", replay: bool = True, gap_time_constant=None, silence_s: float = DEFAULT_SILENCE_S):
+        self.silence_s = check_positive(silence_s, "silence_s")
         self._setup = FilterSetup(fs, settings, latency=latency, reorder=reorder, bridge=bridge, gap=gap,
                                   replay=replay, gap_time_constant=gap_time_constant)
         self._nodes = self._setup.allocate(16)
@@ -225,19 +233,30 @@ class Receiver:
             b[:used] = a[:used]
         self._nodes = new
 
-    def receive_array(self, data: np.ndarray, lengths: np.ndarray) -> ReceiverOutput:
-        """Datagrams as rows of ``data`` (D, ≥ longest; uint8), ``lengths`` (D,) bytes each, in arrival order."""
+    def receive_array(self, data: np.ndarray, lengths: np.ndarray, now: float | None = None) -> ReceiverOutput:
+        """Datagrams as rows of ``data`` (D, ≥ longest; uint8), ``lengths`` (D,) bytes each, in arrival order;
+        ``now``: the receiver's clock (s, e.g. ``time.monotonic()``) at their arrival, which :meth:`expire` needs."""
         data = np.ascontiguousarray(data, dtype=np.uint8)
         lengths = np.ascontiguousarray(lengths, dtype=np.int64)
         bad_lengths = lengths.size and (lengths.min() < 0 or lengths.max() > data.shape[1])
         if data.ndim != 2 or lengths.shape != (data.shape[0],) or bad_lengths:
             raise ValueError(f"data must be (D, width) bytes and lengths (D,) within the width, got {data.shape} "
                              f"and {lengths.shape}")
+        clock = np.nan if now is None else float(now)
+
+        def call(start):
+            return RK.receive(data, lengths, start, self._lookup, self._nodes, self._n_used, self._setup.cfg,
+                              self._setup.consts, self._setup.bridge_consts, self._setup.templates, self._setup.fs,
+                              self._rejects, self._parse, self._out, self._setup.scratch, clock)
+
+        return self._until_done(call)
+
+    def _until_done(self, call) -> ReceiverOutput:
+        """Run ``call(start)`` (a kernel returning ``(next start, status)``) until it is done, growing the
+        node arrays or draining (or growing) the output as it asks."""
         parts, start = [], 0
         while True:
-            start, status = RK.receive(data, lengths, start, self._lookup, self._nodes, self._n_used, self._setup.cfg,
-                                       self._setup.consts, self._setup.bridge_consts, self._setup.templates,
-                                       self._setup.fs, self._rejects, self._parse, self._out, self._setup.scratch)
+            start, status = call(start)
             if status == RK.DONE:
                 break
             if status == RK.NEED_NODES:
@@ -249,8 +268,23 @@ class Receiver:
         parts.append(self._drain())
         return ReceiverOutput.concatenate(parts)
 
-    def receive(self, datagrams) -> ReceiverOutput:
-        """Datagrams (an iterable of bytes-like), in arrival order; returns the samples now output."""
+    def expire(self, now: float) -> ReceiverOutput:
+        """Declare lost every packet overdue at the clock ``now`` (s, the clock of :meth:`receive`): packet
+        ``q`` once the packet ``reorder`` after it is due (each node's sample clock runs from its newest
+        packet's arrival); so every sample is output within its deadline even in a burst of losses.  A node
+        silent for longer than ``silence_s`` is not predicted further.  Returns the samples output."""
+        now = float(now)
+
+        def call(start):
+            return RK.expire(start, self._nodes, self._n_used, self._setup.cfg, self._setup.consts,
+                             self._setup.bridge_consts, self._out, self._setup.scratch, self._setup.fs, now,
+                             self.silence_s)
+
+        return self._until_done(call)
+
+    def receive(self, datagrams, now: float | None = None) -> ReceiverOutput:
+        """Datagrams (an iterable of bytes-like), in arrival order (``now``: as :meth:`receive_array`);
+        returns the samples now output."""
         datagrams = [bytes(d) for d in datagrams]
         width = max([len(d) for d in datagrams] + [MAX_PACKET_SIZE])
         data = np.zeros((len(datagrams), width), np.uint8)
@@ -258,7 +292,7 @@ class Receiver:
         for i, d in enumerate(datagrams):
             data[i, :len(d)] = np.frombuffer(d, np.uint8)
             lengths[i] = len(d)
-        return self.receive_array(data, lengths)
+        return self.receive_array(data, lengths, now)
 
     def flush(self) -> ReceiverOutput:
         """End of the stream: release what is held (missing packets before the last one seen as lost)
