@@ -44,12 +44,12 @@ from wsnlib.stream import _kernels as PK
 #: number, unwrapped) and its first sample; the highest sequence number seen; the stream's first
 #: sample; the next sample to output; the newest sample filtered; the last 62 released packets
 #: (bit j: packet ``next_seq − 1 − j`` was received); lost packets since the last received one;
-#: the counters (:data:`COUNTERS`); the receiver's clock (s) when the newest packet arrived and that
-#: packet's last sample (NaN, −1: no clock given).
+#: the counters (:data:`COUNTERS`); the receiver's clock (s) when the last packet arrived, and when, by
+#: that clock, the node's sample 0 was taken (its *origin*; NaN: no clock given).
 NODE_DTYPE = np.dtype([
     ("id", "i8"), ("has_mag", "?"), ("started", "?"), ("spp", "i8"), ("next_seq", "i8"), ("next_sample", "i8"),
     ("max_seq", "i8"), ("first_sample", "i8"), ("emitted", "i8"), ("newest", "i8"), ("recent", "i8"),
-    ("gap_packets", "i8"), ("counts", "i8", (6,)), ("clock_s", "f8"), ("clock_sample", "i8"),
+    ("gap_packets", "i8"), ("counts", "i8", (6,)), ("clock_s", "f8"), ("clock_origin", "f8"),
 ])
 #: Counter names, in the order of ``NODE_DTYPE["counts"]``.
 COUNTERS = ("received", "lost", "duplicate", "reordered", "corrupt", "late")
@@ -410,7 +410,7 @@ def _new_node(slot, nodes, node_id, ints, templates):
     book.next_seq = book.max_seq = ints[PK.I_SEQ]
     book.next_sample = book.first_sample = book.emitted = book.newest = ints[PK.I_FIRST]
     book.recent, book.gap_packets = 0, 0
-    book.clock_s, book.clock_sample = np.nan, -1
+    book.clock_s, book.clock_origin = np.nan, np.nan
     for a in range(6):
         book.counts[a] = 0
     m = 1 if has_mag else 0
@@ -444,6 +444,23 @@ def _store(nodes, slot, b, ints, floats, raw, summary):
             nodes[14][slot, b, j, a] = summary[j, a] * floats[PK.F_ROT]
 
 
+#: How fast (s per s) a node's clock origin may move later: a sender clock slower than the receiver's.
+CLOCK_DRIFT = 1e-3
+
+
+@njit(**COMPILE)
+def _set_clock(book, now, last_sample, fs):
+    """A packet whose last sample is ``last_sample`` arrived at ``now``: sample 0 was taken at most
+    ``now − (last_sample + 1)/fs``.  The origin is the earliest such bound (a delayed arrival only makes
+    it later), allowed to move later by :data:`CLOCK_DRIFT` per second."""
+    bound = now - (last_sample + 1) / fs
+    if np.isnan(book.clock_origin):
+        book.clock_origin = bound
+    else:
+        book.clock_origin = min(book.clock_origin + CLOCK_DRIFT * max(now - book.clock_s, 0.0), bound)
+    book.clock_s = now
+
+
 @njit(**COMPILE)
 def _release_through(slot, nodes, last, cfg, consts, bconsts, out, dense, lags, scratch):
     """Release the packets of node ``slot`` in order up to sequence ``last``: buffered ones as received,
@@ -460,10 +477,10 @@ def _release_through(slot, nodes, last, cfg, consts, bconsts, out, dense, lags, 
 
 @njit(**COMPILE)
 def receive(data, lengths, start, lookup, nodes, n_used, cfg, consts, bconsts, templates, fs, rejects, parse_buffers,
-            out, scratch, now):
-    """Datagrams ``data[d, :lengths[d]]`` from ``d = start`` on, in arrival order; returns ``(d, status)``:
-    the first datagram not processed and :data:`DONE`, :data:`NEED_NODES` or :data:`NEED_OUTPUT`.
-    ``now``: the receiver's clock (s) at their arrival, or NaN (see :func:`expire`).
+            out, scratch, now, silence_s):
+    """Datagrams ``data[d, :lengths[d]]`` from ``d = start`` on, in arrival order, then (``now`` not NaN: the
+    receiver's clock, s, at their arrival) :func:`expire`; returns ``(d, status)``: where to resume (a
+    datagram, or ``D`` + the node slot of the expiry) and :data:`DONE`, :data:`NEED_NODES` or :data:`NEED_OUTPUT`.
 
     ``lookup`` (65536,): node id → slot (−1: none yet); ``n_used`` (1,): slots in use; ``rejects``
     (6,): datagrams rejected per reason code (1–5, :mod:`._kernels`).  A rejected datagram whose
@@ -526,11 +543,15 @@ def receive(data, lengths, start, lookup, nodes, n_used, cfg, consts, bconsts, t
             book.counts[N_REORDERED] += 1
         else:
             book.max_seq = seq
-            if not np.isnan(now):
-                book.clock_s, book.clock_sample = now, book.next_sample + dseq * book.spp + ints[PK.I_N] - 1
+        if not np.isnan(now):
+            _set_clock(book, now, book.next_sample + dseq * book.spp + ints[PK.I_N] - 1, fs)
         while nodes[8][slot, book.next_seq % window]:
             release_received(slot, nodes, book.next_seq % window, cfg, consts, bconsts, out, dense, lags, scratch)
-    return data.shape[0], DONE
+    if np.isnan(now):
+        return data.shape[0], DONE
+    slot, status = expire(max(start - data.shape[0], 0), nodes, n_used, cfg, consts, bconsts, out, scratch, fs, now,
+                          silence_s)
+    return data.shape[0] + slot, status
 
 
 @njit(**COMPILE)
@@ -550,10 +571,11 @@ def expire(start, nodes, n_used, cfg, consts, bconsts, out, scratch, fs, now, si
     """Declare lost every packet whose deadline has passed at the receiver's clock ``now`` (s), from node
     slot ``start`` on; returns ``(slot, status)`` as :func:`receive`.
 
-    A node's sample clock runs from its newest packet's last sample at that packet's arrival, at
-    ``fs``.  Packet ``q`` (first sample ``f_q``) is due when its last sample is taken; it is declared
-    lost once the packet ``reorder`` after it is due too (``f_q + (reorder + 1)·spp − 1`` samples),
-    as :func:`receive` declares it when that packet arrives.  A node silent for longer than
+    A node's sample clock runs at ``fs`` from its origin (:func:`_set_clock`: sample ``t`` is taken at
+    ``origin + (t + 1)/fs``, estimated from the earliest arrivals, so late arrivals do not delay it).
+    Packet ``q`` (first sample ``f_q``) is due when its last sample is taken; it is declared lost once
+    the packet ``reorder`` after it is due too (sample ``f_q + (reorder + 1)·spp − 1``), as
+    :func:`receive` declares it when that packet arrives.  A node silent for longer than
     ``silence_s`` is not predicted further (it may have stopped); its next packet resumes it.
     """
     dense = np.zeros((0, 0, 4))
@@ -564,7 +586,7 @@ def expire(start, nodes, n_used, cfg, consts, bconsts, out, scratch, fs, now, si
         elapsed = now - book.clock_s
         if not (elapsed >= 0.0) or elapsed > silence_s:  # no clock yet (NaN), or silent too long
             continue
-        current = book.clock_sample + np.int64(math.floor(elapsed * fs + 1e-6))  # (1e-6: 0.12 s × 50 Hz is 5.99…)
+        current = np.int64(math.floor((now - book.clock_origin) * fs + 1e-6)) - 1  # (1e-6: 0.12 s × 50 Hz is 5.99…)
         overdue = (current - (window + 1) * book.spp + 1 - book.next_sample) // book.spp  # packets past next_seq
         if overdue < 0:
             continue

@@ -26,8 +26,9 @@ Rules (the compiled code is :mod:`wsnlib.stream._receiver_kernels`):
   output no later than ``latency`` samples plus the reorder window plus one packet after it was
   sampled, if packets arrive when their last sample is taken — also in a burst of losses, when
   no packet arrives at all, if the receiver's clock is given (``now`` of :meth:`Receiver.receive`,
-  and :meth:`Receiver.expire` called now and then): each node's sample clock runs from its newest
-  packet's arrival, and a packet is declared lost when the one ``reorder`` after it is due.
+  and :meth:`Receiver.expire` called now and then): each node's sample clock runs at ``fs`` from
+  the earliest its packets' arrivals allow (a late arrival does not delay it), and a packet is
+  declared lost when the one ``reorder`` after it is due.
   :meth:`Receiver.flush` ends the stream: what is held is released.
 * **Redundancy** (``bridge``): a packet whose summary (:class:`~wsnlib.stream.packet.Summary`)
   covers lost packets just before it bridges the gap: the filter is re-run from its state at the
@@ -74,8 +75,9 @@ from wsnlib.stream.packet import MAX_PACKET_SIZE, REJECT_REASONS
 
 #: Default reorder window (packets).
 DEFAULT_REORDER = 3
-#: Default time (s) after which :meth:`Receiver.expire` stops predicting a silent node.
-DEFAULT_SILENCE_S = 2.0
+#: Default time (s) after which :meth:`Receiver.expire` stops predicting a silent node (a burst of losses
+#: this long is rare; a node that stopped is predicted this long).
+DEFAULT_SILENCE_S = 10.0
 #: Rows of a node's ring of recent packet rotations (a doubling summary of 8 entries spans 128).
 ROTATION_RING = 256
 COUNTERS = RK.COUNTERS
@@ -120,18 +122,20 @@ def _empty_output() -> ReceiverOutput:
 
 def allocate_nodes(capacity: int, window: int, history_rows: int, ring_rows: int) -> tuple:
     """The per-node arrays of :mod:`._receiver_kernels` for ``capacity`` nodes, in its index order."""
-    book = np.zeros(capacity, RK.NODE_DTYPE)
-    ring = np.zeros((capacity, ring_rows), RING_DTYPE)
-    ring["sample"] = -1
-    return (book, np.zeros(capacity, STATE_DTYPE), np.zeros(capacity, gaps.GAP_DTYPE), np.zeros(capacity, WORK_DTYPE),
-            np.zeros((capacity, history_rows, 3)), np.zeros(capacity, STATE_DTYPE), np.zeros(capacity, gaps.GAP_DTYPE),
-            np.zeros(capacity, WORK_DTYPE),
-            np.zeros((capacity, window), bool), np.zeros((capacity, window), np.int64),
-            np.zeros((capacity, window, PK.MAX_SAMPLES, 9)), np.zeros((capacity, window), np.int64),
-            np.zeros((capacity, window), np.int64), np.zeros((capacity, window)),
-            np.zeros((capacity, window, PK.MAX_REDUNDANCY, 3)),
-            np.zeros((capacity, ROTATION_RING, 4)), np.zeros((capacity, ROTATION_RING), np.int64),
-            np.full((capacity, ROTATION_RING), -1, np.int64), ring)
+    shapes = [((capacity,), RK.NODE_DTYPE), ((capacity,), STATE_DTYPE), ((capacity,), gaps.GAP_DTYPE),
+              ((capacity,), WORK_DTYPE), ((capacity, history_rows, 3), float), ((capacity,), STATE_DTYPE),
+              ((capacity,), gaps.GAP_DTYPE), ((capacity,), WORK_DTYPE), ((capacity, window), bool),
+              ((capacity, window), np.int64), ((capacity, window, PK.MAX_SAMPLES, 9), float),
+              ((capacity, window), np.int64), ((capacity, window), np.int64), ((capacity, window), float),
+              ((capacity, window, PK.MAX_REDUNDANCY, 3), float), ((capacity, ROTATION_RING, 4), float),
+              ((capacity, ROTATION_RING), np.int64), ((capacity, ROTATION_RING), np.int64),
+              ((capacity, ring_rows), RING_DTYPE)]
+    arrays = tuple(np.empty(shape, dtype) for shape, dtype in shapes)
+    for arr in arrays:  # zeros, written now: every page is there before packets wait for it
+        arr.view(np.uint8)[...] = 0
+    arrays[17][...] = -1  # no packet's rotation yet
+    arrays[18]["sample"] = -1  # an empty ring
+    return arrays
 
 
 class FilterSetup:
@@ -193,20 +197,24 @@ class Receiver:
         The filter's gap options (:func:`~wsnlib.orientation.kalman_orientation`).
     silence_s : float
         :meth:`expire` stops predicting a node silent for longer than this (s).
+    capacity : int
+        Nodes to allocate for up front (more are added by doubling, which takes time when thousands are).
     """
 
     def __init__(self, fs, settings=None, *, latency: int = 0, reorder: int = DEFAULT_REORDER, bridge: bool = True,
-                 gap: str = "ar", replay: bool = True, gap_time_constant=None, silence_s: float = DEFAULT_SILENCE_S):
+                 gap: str = "ar", replay: bool = True, gap_time_constant=None, silence_s: float = DEFAULT_SILENCE_S,
+                 capacity: int = 16):
         self.silence_s = check_positive(silence_s, "silence_s")
         self._setup = FilterSetup(fs, settings, latency=latency, reorder=reorder, bridge=bridge, gap=gap,
                                   replay=replay, gap_time_constant=gap_time_constant)
-        self._nodes = self._setup.allocate(16)
+        self._nodes = self._setup.allocate(check_count(capacity, "capacity"))
         self._lookup = np.full(65536, -1, dtype=np.int64)
         self._n_used = np.zeros(1, np.int64)
         self._rejects = np.zeros(len(REJECT_REASONS) + 1, np.int64)
         self._parse = (np.zeros(PK.N_INTS, np.int64), np.zeros(PK.N_FLOATS), np.zeros((PK.MAX_SAMPLES, 9), np.int64),
                        np.zeros((PK.MAX_REDUNDANCY, 6), np.int64))
         self._out = self._new_output(4096)
+        self._no_data, self._no_lengths = np.zeros((0, 1), np.uint8), np.zeros(0, np.int64)
 
     fs = property(lambda self: self._setup.fs)
     latency = property(lambda self: self._setup.latency)
@@ -234,8 +242,10 @@ class Receiver:
         self._nodes = new
 
     def receive_array(self, data: np.ndarray, lengths: np.ndarray, now: float | None = None) -> ReceiverOutput:
-        """Datagrams as rows of ``data`` (D, ≥ longest; uint8), ``lengths`` (D,) bytes each, in arrival order;
-        ``now``: the receiver's clock (s, e.g. ``time.monotonic()``) at their arrival, which :meth:`expire` needs."""
+        """Datagrams as rows of ``data`` (D, ≥ longest; uint8), ``lengths`` (D,) bytes each, in arrival order.
+
+        ``now``: the receiver's clock (s, e.g. ``time.monotonic()``) at their arrival; given, it also
+        declares overdue packets lost (:meth:`expire`).  Returns the samples now output."""
         data = np.ascontiguousarray(data, dtype=np.uint8)
         lengths = np.ascontiguousarray(lengths, dtype=np.int64)
         bad_lengths = lengths.size and (lengths.min() < 0 or lengths.max() > data.shape[1])
@@ -243,20 +253,12 @@ class Receiver:
             raise ValueError(f"data must be (D, width) bytes and lengths (D,) within the width, got {data.shape} "
                              f"and {lengths.shape}")
         clock = np.nan if now is None else float(now)
-
-        def call(start):
-            return RK.receive(data, lengths, start, self._lookup, self._nodes, self._n_used, self._setup.cfg,
-                              self._setup.consts, self._setup.bridge_consts, self._setup.templates, self._setup.fs,
-                              self._rejects, self._parse, self._out, self._setup.scratch, clock)
-
-        return self._until_done(call)
-
-    def _until_done(self, call) -> ReceiverOutput:
-        """Run ``call(start)`` (a kernel returning ``(next start, status)``) until it is done, growing the
-        node arrays or draining (or growing) the output as it asks."""
+        setup = self._setup
         parts, start = [], 0
         while True:
-            start, status = call(start)
+            start, status = RK.receive(data, lengths, start, self._lookup, self._nodes, self._n_used, setup.cfg,
+                                       setup.consts, setup.bridge_consts, setup.templates, setup.fs, self._rejects,
+                                       self._parse, self._out, setup.scratch, clock, self.silence_s)
             if status == RK.DONE:
                 break
             if status == RK.NEED_NODES:
@@ -265,22 +267,16 @@ class Receiver:
                 self._out = self._new_output(2 * self._out[0].shape[0])
             else:
                 parts.append(self._drain())
-        parts.append(self._drain())
-        return ReceiverOutput.concatenate(parts)
+        if not parts:
+            return self._drain()
+        return ReceiverOutput.concatenate(parts + [self._drain()])
 
     def expire(self, now: float) -> ReceiverOutput:
         """Declare lost every packet overdue at the clock ``now`` (s, the clock of :meth:`receive`): packet
-        ``q`` once the packet ``reorder`` after it is due (each node's sample clock runs from its newest
-        packet's arrival); so every sample is output within its deadline even in a burst of losses.  A node
+        ``q`` once the packet ``reorder`` after it is due (each node's sample clock runs from its packets'
+        earliest arrivals); so every sample is output within its deadline even in a burst of losses.  A node
         silent for longer than ``silence_s`` is not predicted further.  Returns the samples output."""
-        now = float(now)
-
-        def call(start):
-            return RK.expire(start, self._nodes, self._n_used, self._setup.cfg, self._setup.consts,
-                             self._setup.bridge_consts, self._out, self._setup.scratch, self._setup.fs, now,
-                             self.silence_s)
-
-        return self._until_done(call)
+        return self.receive_array(self._no_data, self._no_lengths, float(now))
 
     def receive(self, datagrams, now: float | None = None) -> ReceiverOutput:
         """Datagrams (an iterable of bytes-like), in arrival order (``now``: as :meth:`receive_array`);
