@@ -5,9 +5,9 @@ the body went through during each (:mod:`wsnlib.stream.packet`).  When such a pa
 after a burst of lost packets, the receiver re-runs the burst from the filter's state before it
 (the state after its last received sample), and on each lost sample whose packet's rotation is
 known it takes :func:`bridge_step` instead of the filter's prediction with a *predicted* rate
-(``gap``).  The step is the filter's own prediction (:func:`~._kalman_kernels.predict`) with the
-measured bias-corrected rate ``ω̄ − b̂`` (``ω̄`` constant over the covered samples, so that their
-product ``Exp(ω̄ Δt)ⁿ`` is exactly the summary's rotation), and with the gap's noise model: the
+(``gap``).  The step is the filter's own prediction (:func:`~._kalman_kernels.predict`) with a
+rate the receiver derived from the summary, minus the bias estimate (the rates over the covered
+samples turn, together, by exactly the summary's rotation), and with the gap's noise model: the
 summary's rate error (std ``rate_sigma``, rad/s: its quantisation, module
 :mod:`wsnlib.stream.receiver`) in place of the predicted rate's ``σ_gap``, so the attitude
 variance grows by ``(rate_sigma · kΔt)²`` after ``k`` such samples, and the unknown linear

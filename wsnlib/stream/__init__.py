@@ -10,7 +10,10 @@ Kalman filter of :mod:`wsnlib.orientation` (its compiled step on a named state):
 * :mod:`.sender` — a recording as the packets a node sends (:func:`node_stream`,
   :func:`encode_stream`);
 * :mod:`.receiver` — :class:`Receiver`: one filter per node, reorder window, duplicates, loss,
-  fixed-lag smoothing (``latency``), bridging bursts with the packets' summaries, counters.
+  fixed-lag smoothing (``latency``), bridging bursts with the packets' summaries, counters;
+* :mod:`.simulation` — the receiver's output on a whole recording at several latencies at once
+  (:func:`receiver_output`), and the send-twice baseline's loss (:func:`packets_sent_twice`);
+* :mod:`.udp` and ``python -m wsnlib.stream send / receive`` — packets over UDP.
 
 The compiled code (:mod:`._kernels`, :mod:`._receiver_kernels`) is cached by numba below the
 cache folder of :mod:`wsnlib.orientation`'s sources, in a sub-folder named by this package's
@@ -60,8 +63,9 @@ with _caching_into_this_version():
     )
     from wsnlib.stream.receiver import COUNTERS, DEFAULT_REORDER, Receiver, ReceiverOutput
     from wsnlib.stream.sender import SAMPLES_PER_PACKET, NodeStream, encode_stream, node_stream
+    from wsnlib.stream.simulation import packets_sent_twice, receiver_output
 
 __all__ = ["COUNTERS", "DEFAULT_REORDER", "LAYOUTS", "MAX_REDUNDANCY", "MAX_SAMPLES_PER_PACKET", "PACKET_VERSION",
            "REDUNDANCY_BITS", "REJECT_REASONS", "SAMPLES_PER_PACKET", "NodeStream", "Packet", "PacketError", "Receiver",
            "ReceiverOutput", "Summary", "crc16_ccitt_false", "decode_packet", "encode_packet", "encode_stream",
-           "node_stream"]
+           "node_stream", "packets_sent_twice", "receiver_output"]

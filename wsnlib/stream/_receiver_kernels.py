@@ -99,7 +99,7 @@ def _output(i, nodes, cfg, c, sample, received, out, dense, lags, scratch, live)
     if dense.shape[1] > 0:
         n = backward(ring, sample, lags[lags.shape[0] - 1], book.first_sample, rows)
         for li in range(lags.shape[0]):
-            if lags[li] < n:
+            if lags[li] < n and sample - lags[li] < dense.shape[1]:  # (a lost last packet may run past the end)
                 for a in range(4):
                     dense[li, sample - lags[li], a] = rows[lags[li], a]
         return
@@ -125,7 +125,7 @@ def flush_output(i, nodes, cfg, out, dense, lags, scratch):
         k = newest - lag
         if dense.shape[1] > 0:
             for li in range(lags.shape[0]):
-                if lags[li] > lag and k + lags[li] > newest:  # no sample lags[li] later: the latest estimate
+                if lags[li] > lag and k < dense.shape[1]:  # no sample lags[li] later: the latest estimate
                     for a in range(4):
                         dense[li, k, a] = rows[lag, a]
         else:
@@ -220,51 +220,31 @@ def release_lost(i, nodes, cfg, consts, bconsts, out, dense, lags, scratch):
 
 
 @njit(**COMPILE)
-def _unwrap(r, guess):
-    """The rotation vector along ``r`` by ‖r‖ + 2πn (n ∈ {−1, 0, 1}) closest to ``guess`` (a turn of
-    more than 180° in a packet or a span is otherwise taken the short way)."""
-    theta = vec_norm(r)
-    if theta == 0.0:
-        return r
-    best, best_r = 1e300, r
-    for n in (-1, 0, 1):
-        k = (theta + 2.0 * math.pi * n) / theta
-        cand = (k * r[0], k * r[1], k * r[2])
-        dist = (cand[0] - guess[0]) ** 2 + (cand[1] - guess[1]) ** 2 + (cand[2] - guess[2]) ** 2
-        if dist < best:
-            best, best_r = dist, cand
-    return best_r
-
-
-@njit(**COMPILE)
-def _gap_rates(i, nodes, b, c, rates, sigmas):
-    """Per lost packet of the current gap (``rates`` (B, 3), ``sigmas`` (B,)): the constant raw rate
-    (rad/s) that turns by the rotation the buffered packet ``b`` summarises, and its std (−1:
-    not covered).  Returns whether any is covered."""
-    book, ck_gap, ck_state = nodes[0][i], nodes[6][i], nodes[5][i]
+def _gap_segments(i, nodes, b, seg_q, seg_sigma):
+    """Which lost packets of the current gap the buffered packet ``b`` summarises, as segments: for lost
+    packet ``p`` of the gap (0-based), ``seg_sigma[p]`` ≥ 0 is its segment's rotation error std per
+    component (rad; −1: not covered) and ``seg_q[p]`` the rotation of its segment's part inside the gap
+    (the same for every packet of a segment; segments are maximal runs of equal ``seg_q``).  Returns
+    whether any packet is covered."""
+    book = nodes[0][i]
     n_gap = book.gap_packets
-    k, layout, sigma = nodes[11][i, b], nodes[12][i, b], nodes[13][i, b]
-    rot, first_values = nodes[14][i, b], nodes[10][i, b, 0]
+    k, layout, sigma, rot = nodes[11][i, b], nodes[12][i, b], nodes[13][i, b], nodes[14][i, b]
     rot_q, rot_state, rot_seq = nodes[15][i], nodes[16][i], nodes[17][i]
     e = book.next_seq  # this packet; the gap is packets e − n_gap … e − 1
-    dt_packet = book.spp * c.dt
-    guess_rate = (0.5 * (ck_gap.last_rate[0] + ck_state.bias[0] + first_values[0]),
-                  0.5 * (ck_gap.last_rate[1] + ck_state.bias[1] + first_values[1]),
-                  0.5 * (ck_gap.last_rate[2] + ck_state.bias[2] + first_values[2]))
     for p in range(n_gap):
-        sigmas[p] = -1.0
+        seg_sigma[p] = -1.0
     covered = False
     span_prev = (1.0, 0.0, 0.0, 0.0)
     for j in range(k):
         if layout == PK.CONSECUTIVE:
             lo = hi = e - 1 - j
             segment = quat_exp((rot[j, 0], rot[j, 1], rot[j, 2]))
-            seg_sigma = sigma
+            error = sigma
         else:
             span = quat_exp((rot[j, 0], rot[j, 1], rot[j, 2]))
             lo, hi = e - (1 << j), e - 1 - (0 if j == 0 else 1 << (j - 1))
             segment = quat_normalize(quat_multiply(span, quat_conjugate(span_prev)))  # span_j ⊗ span_{j−1}⁻¹
-            seg_sigma = sigma if j == 0 else sigma * math.sqrt(2.0)
+            error = sigma if j == 0 else sigma * math.sqrt(2.0)
             span_prev = span
         if hi < e - n_gap:
             break  # entirely before the gap
@@ -281,15 +261,11 @@ def _gap_rates(i, nodes, b, c, rates, sigmas):
                 break
             segment = quat_normalize(quat_multiply(quat_conjugate(before), segment))
             lo = e - n_gap
-        n_packets = hi - lo + 1
-        duration = n_packets * dt_packet
-        r = _unwrap(quat_log(segment), (guess_rate[0] * duration, guess_rate[1] * duration,
-                                        guess_rate[2] * duration))
         for p in range(lo, hi + 1):
             at = p - (e - n_gap)
-            for a in range(3):
-                rates[at, a] = r[a] / duration
-            sigmas[at] = seg_sigma / duration
+            for a in range(4):
+                seg_q[at, a] = segment[a]
+            seg_sigma[at] = error
         covered = True
         if lo == e - n_gap:
             break
@@ -297,34 +273,81 @@ def _gap_rates(i, nodes, b, c, rates, sigmas):
 
 
 @njit(**COMPILE)
+def _fit_segment(rates, first, stop, q, dt):
+    """Correct the rates ``rates[first:stop]`` (rad/s) so that ``Π Exp(ω Δt)`` over them is the rotation
+    ``q`` exactly: with ``R`` their product now and ``c = Log(R⁻¹ ⊗ q)`` the correction, the path
+    becomes ``R_k ⊗ Exp(u_k c)`` (``R_k`` the product up to sample k, ``u_k`` its share of the
+    segment), and each rate the step between consecutive points of that path."""
+    n = stop - first
+    c = quat_log(quat_multiply(quat_conjugate(PK.integrated_rotation(rates, first, stop, dt)), q))
+    path = (1.0, 0.0, 0.0, 0.0)
+    previous = path
+    for k in range(first, stop):
+        path = quat_normalize(quat_multiply(path, quat_exp((rates[k, 0] * dt, rates[k, 1] * dt, rates[k, 2] * dt))))
+        u = (k - first + 1.0) / n
+        target = quat_normalize(quat_multiply(path, quat_exp((u * c[0], u * c[1], u * c[2]))))
+        step = quat_log(quat_multiply(quat_conjugate(previous), target))
+        for a in range(3):
+            rates[k, a] = step[a] / dt
+        previous = target
+
+
+@njit(**COMPILE)
 def _bridge(i, nodes, b, cfg, c, bc, out, dense, lags, scratch):
     """Re-run the current gap from the checkpoint with the rotations packet ``b`` summarises (the
-    outputs already given stay; the ring's records of the gap are replaced)."""
-    book = nodes[0][i]
-    n_gap = book.gap_packets
-    if n_gap * book.spp > cfg[CFG_LONGEST_BRIDGE]:
+    outputs already given stay; the ring's records of the gap are replaced).
+
+    The rates on the covered lost samples: linear between the raw rates of the last sample before the
+    gap and the first after it, each segment shifted by a constant so that it turns by exactly the
+    summarised rotation (:func:`_fit_segment`); their error std: the segment's quantisation error over
+    its duration."""
+    book, ck_gap, ck_state = nodes[0][i], nodes[6][i], nodes[5][i]
+    n_gap, spp = book.gap_packets, book.spp
+    if n_gap * spp > cfg[CFG_LONGEST_BRIDGE]:
         return
-    rates = np.zeros((n_gap, 3))
-    sigmas = np.empty(n_gap)
-    if not _gap_rates(i, nodes, b, c, rates, sigmas):
+    seg_q = np.zeros((n_gap, 4))
+    seg_sigma = np.empty(n_gap)
+    if not _gap_segments(i, nodes, b, seg_q, seg_sigma):
         return
+    n = n_gap * spp
+    after = nodes[10][i, b, 0]
+    rates = np.empty((n, 3))
+    for k in range(n):
+        u = (k + 1.0) / (n + 1.0)
+        for a in range(3):
+            rates[k, a] = (1.0 - u) * (ck_gap.last_rate[a] + ck_state.bias[a]) + u * after[a]
+    p = 0
+    while p < n_gap:
+        last = p
+        while last + 1 < n_gap and seg_sigma[last + 1] >= 0.0 and np.all(seg_q[last + 1] == seg_q[p]):
+            last += 1
+        if seg_sigma[p] >= 0.0:
+            _fit_segment(rates, p * spp, (last + 1) * spp, (seg_q[p, 0], seg_q[p, 1], seg_q[p, 2], seg_q[p, 3]),
+                         c.dt)
+        p = last + 1
     nodes[1][i] = nodes[5][i]
     nodes[2][i] = nodes[6][i]
     nodes[3][i] = nodes[7][i]
     nothing = np.zeros(9)
-    first = book.next_sample - n_gap * book.spp
+    first = book.next_sample - n
     run = 0
     for p in range(n_gap):
-        rate = (rates[p, 0], rates[p, 1], rates[p, 2])
-        for s in range(book.spp):
-            sample = first + p * book.spp + s
+        count = 1
+        while p - count >= 0 and seg_sigma[p - count] >= 0.0 and np.all(seg_q[p - count] == seg_q[p]):
+            count += 1
+        last = p
+        while last + 1 < n_gap and seg_sigma[last + 1] >= 0.0 and np.all(seg_q[last + 1] == seg_q[p]):
+            last += 1
+        rate_sigma = seg_sigma[p] / ((last - p + count) * spp * c.dt) if seg_sigma[p] >= 0.0 else -1.0
+        for s in range(spp):
+            k = p * spp + s
             run += 1
-            _step(i, nodes, cfg, c, bc, sample, False, nothing, rate, sigmas[p], run)
-            _output(i, nodes, cfg, c, sample, False, out, dense, lags, scratch, False)
-        if sigmas[p] >= 0.0:
-            turn = book.spp * c.dt
+            _step(i, nodes, cfg, c, bc, first + k, False, nothing, (rates[k, 0], rates[k, 1], rates[k, 2]),
+                  rate_sigma, run)
+            _output(i, nodes, cfg, c, first + k, False, out, dense, lags, scratch, False)
+        if seg_sigma[p] >= 0.0:
             _remember_rotation(nodes, i, book.next_seq - n_gap + p, ROT_BRIDGED,
-                               quat_exp((rate[0] * turn, rate[1] * turn, rate[2] * turn)))
+                               PK.integrated_rotation(rates, p * spp, (p + 1) * spp, c.dt))
 
 
 @njit(**COMPILE)
@@ -361,7 +384,8 @@ def run_node(nodes, cfg, consts, bconsts, values, packet_received, summaries, k,
              out):
     """Node 0 of ``nodes`` (fresh, ``book.spp`` and ``has_mag`` set) through the packets of a recording:
     ``values`` (T, 9), ``packet_received`` (P,), per packet the summary ``summaries`` (P, K, 3), ``k``
-    (P,), ``sigma`` (P,) (``layout`` one code).  The first received packet starts the stream."""
+    (P,), ``sigma`` (P,) (``layout`` one code).  The first received packet starts the stream; every lost
+    packet after it is declared lost in turn (as the receiver's clock declares them)."""
     book = nodes[0][0]
     spp = book.spp
     n_t = values.shape[0]
@@ -383,12 +407,7 @@ def run_node(nodes, cfg, consts, bconsts, values, packet_received, summaries, k,
                 for a in range(3):
                     nodes[14][0, 0, j, a] = summaries[p, j, a]
             release_received(0, nodes, 0, cfg, consts, bconsts, out, dense, lags, scratch)
-        else:
-            last = p + 1
-            while last < packet_received.shape[0] and not packet_received[last]:
-                last += 1
-            if last == packet_received.shape[0]:
-                break  # lost packets at the end: nothing after them declares them lost
+        else:  # (also after the last received packet: the receiver's clock declares those)
             release_lost(0, nodes, cfg, consts, bconsts, out, dense, lags, scratch)
     flush_output(0, nodes, cfg, out, dense, lags, scratch)
 
@@ -532,6 +551,7 @@ def receive(data, lengths, start, lookup, nodes, n_used, cfg, consts, bconsts, t
         if out[4][0] + (max(dseq - window + 1, 0) + window) * book.spp + cfg[CFG_LATENCY] > out_room:
             return d, NEED_OUTPUT
         seq = book.next_seq + dseq
+        last_sample = book.next_sample + dseq * book.spp + ints[PK.I_N] - 1
         if dseq >= window:
             _release_through(slot, nodes, seq - window, cfg, consts, bconsts, out, dense, lags, scratch)
         b = seq % window
@@ -544,7 +564,7 @@ def receive(data, lengths, start, lookup, nodes, n_used, cfg, consts, bconsts, t
         else:
             book.max_seq = seq
         if not np.isnan(now):
-            _set_clock(book, now, book.next_sample + dseq * book.spp + ints[PK.I_N] - 1, fs)
+            _set_clock(book, now, last_sample, fs)
         while nodes[8][slot, book.next_seq % window]:
             release_received(slot, nodes, book.next_seq % window, cfg, consts, bconsts, out, dense, lags, scratch)
     if np.isnan(now):
