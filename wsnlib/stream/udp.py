@@ -43,10 +43,11 @@ def receiving_socket(port: int, host: str = "127.0.0.1") -> socket.socket:
 
 
 def send_datagrams(datagrams, times_s, port: int, *, speed: float | None = 1.0, host: str = "127.0.0.1",
-                   clock: Callable[[], float] = time.monotonic) -> float:
+                   clock: Callable[[], float] = time.monotonic,
+                   should_stop: Callable[[], bool] = lambda: False) -> float:
     """Send ``datagrams`` (bytes) to ``host:port``, datagram ``i`` at ``times_s[i] / speed`` seconds after
-    the start (``times_s`` non-decreasing; ``speed`` None: at once, as fast as possible); returns the
-    seconds it took."""
+    the start (``times_s`` non-decreasing; ``speed`` None: at once, as fast as possible), until
+    ``should_stop()`` (asked before each datagram) says so; returns the seconds it took."""
     times = np.asarray(times_s, dtype=float)
     if times.shape != (len(datagrams),) or np.any(np.diff(times) < 0):
         raise ValueError("times_s must be one non-decreasing time per datagram")
@@ -56,6 +57,8 @@ def send_datagrams(datagrams, times_s, port: int, *, speed: float | None = 1.0, 
         target = (host, int(port))
         start = clock()
         for datagram, t in zip(datagrams, times, strict=True):
+            if should_stop():
+                break
             if speed is not None:
                 wait = start + t / speed - clock()
                 if wait > SLEEP_MIN_S:  # shorter sleeps cost more than they wait: send a little early
