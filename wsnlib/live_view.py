@@ -12,7 +12,7 @@ project's widget rule (:mod:`wsnlib.interactive`):
   frame (:class:`wsnlib.plotting.streaming.LiveFigure`: the body frame of the estimate and of the
   optical reference, the error of the last seconds with lost samples marked) redrawn
   :data:`FRAMES_PER_S` times a second while packets flow, with a status line (frames drawn and
-  their rate, the receiver's counters).  Moving a control starts a new session; the recording
+  their rate over the last 25, the receiver's counters).  Moving a control starts a new session; the recording
   starts over when it ends; the panel stops after ``seconds`` (or with its Stop button);
 * in the batch (:func:`wsnlib.paths.in_batch`): the same threads with the sender as fast as
   possible (no waiting for real time), for the recording's first ``seconds``, and a static
@@ -126,7 +126,7 @@ def _static_view(unit, *, loss_rate, latency_s, scheme, seed, seconds) -> Figure
     session.done.wait(timeout=120)
     error = session.errors()
     time_s = np.arange(session.n) / session.fs
-    fig = Figure(figsize=(10.0, 3.8), layout="constrained")
+    fig = Figure(figsize=(7.5, 3.6), layout="constrained")
     grid = fig.add_gridspec(1, 3)
     frame = fig.add_subplot(grid[0, 0], projection="3d")
     ax = fig.add_subplot(grid[0, 1:])
@@ -136,9 +136,9 @@ def _static_view(unit, *, loss_rate, latency_s, scheme, seed, seconds) -> Figure
                     title=f"at {time_s[last]:.1f} s: estimate (solid),\noptical reference (dashed)")
     plot_live_error(time_s[: last + 1], error[: last + 1], session.received[: last + 1], ax=ax,
                     window_s=float(time_s[last]) + 1.0 / session.fs)
-    fig.suptitle(f"The receiver's output over UDP loopback (sent as fast as possible): {scheme.name}, GE "
+    fig.suptitle(f"The receiver's output over UDP (sent as fast as possible): {scheme.name},\nGE "
                  f"{loss_rate:.0%} ({int((~session.delivered).sum())} of {session.delivered.size} packets lost), "
-                 f"latency {latency_s:g} s", fontsize=10)
+                 f"latency {latency_s:g} s", fontsize=9)
     return fig
 
 
@@ -199,7 +199,7 @@ def _live_panel(unit, *, schemes, loss_rates, latencies_s, start, seed, seconds)
         control.observe(restart, names="value")
 
     def draw_loop():
-        period = 1.0 / FRAMES_PER_S
+        period, drawn = 1.0 / FRAMES_PER_S, []
         while not stop.value and time.monotonic() - state["began"] < seconds:
             tick = time.monotonic()
             with lock:
@@ -218,9 +218,11 @@ def _live_panel(unit, *, schemes, loss_rates, latencies_s, start, seed, seconds)
                               got, title=f"{redundancy.value}, GE {loss.value:.0%}, latency {latency.value:g} s")
                 image.value = figure.png()
                 state["frames"] += 1
-                elapsed = time.monotonic() - state["began"]
+                drawn.append(time.monotonic())
+                recent = drawn[-25:]
+                rate = (len(recent) - 1) / (recent[-1] - recent[0]) if len(recent) > 1 else 0.0
                 counts = session.receiver.counters.sum() if session.receiver is not None else None
-                status.value = (f"frames drawn: {state['frames']} ({state['frames'] / elapsed:.1f} per s); sample "
+                status.value = (f"frames drawn: {state['frames']} ({rate:.1f} per s); sample "
                                 f"{newest} ({newest / session.fs:.1f} s)" + ("" if counts is None else
                                 f"; packets received {counts['received']}, lost {counts['lost']}, "
                                 f"duplicate {counts['duplicate']}"))

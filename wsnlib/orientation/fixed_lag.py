@@ -90,12 +90,18 @@ def record(ring, st, work, c, sample, received, scratch):
                 for m in range(NX):
                     s += F[a, m] * P_post[m, b]
                 FP[a, b] = s
-        for b in range(NX):  # column b of (P⁻)⁻¹ F P⁺ = row b of C (P⁺, P⁻ symmetric)
-            for a in range(NX):
-                col[a] = FP[a, b]
-            _cholesky_solve(P_minus, col, chol, x)
-            for a in range(NX):
-                prev.gain[b, a] = x[a]
+        _cholesky_solve(P_minus, FP[:, 0].copy(), chol, x)  # factors P⁻ = L Lᵀ into chol (and solves column 0)
+        for b in range(NX):  # column b of (P⁻)⁻¹ F P⁺ = row b of C (P⁺, P⁻ symmetric): two triangular solves
+            for i in range(NX):
+                acc_i = FP[i, b]
+                for k in range(i):
+                    acc_i -= chol[i, k] * col[k]
+                col[i] = acc_i / chol[i, i]
+            for i in range(NX - 1, -1, -1):
+                acc_i = col[i]
+                for k in range(i + 1, NX):
+                    acc_i -= chol[k, i] * prev.gain[b, k]
+                prev.gain[b, i] = acc_i / chol[i, i]
         prev.has_gain = True
 
 

@@ -4,6 +4,7 @@ coverage, and the live view's frame (an orientation as a body frame, and the err
 from __future__ import annotations
 
 import numpy as np
+from matplotlib.ticker import ScalarFormatter
 
 from wsnlib import quaternion as Q
 from wsnlib.plotting.style import OKABE_ITO
@@ -66,8 +67,10 @@ def plot_redundancy_tradeoff(table, *, axes, loss_rates, latencies):
             ax.plot(front["overhead_bytes"], front["rmse_total"], color="black", lw=0.8,
                     ls="-" if latency == latencies[0] else "--", zorder=2)
         ax.set_title(f"GE {rate:.0%}")
-        ax.set_xlabel("overhead (bytes per 140-byte packet)")
+        ax.set_xlabel("overhead (bytes per packet)")
         ax.set_yscale("log")
+        ax.yaxis.set_major_formatter(ScalarFormatter())
+        ax.yaxis.set_minor_formatter(ScalarFormatter())
     axes[0].set_ylabel("total RMSE (°), mean over trials")
     handles = [axes[0].scatter([], [], marker=m, color="white", edgecolor="black", label=f"latency {lat:g} s")
                for m, lat in zip(LATENCY_MARKERS, latencies, strict=False)]
@@ -114,9 +117,9 @@ def plot_body_frame(quat, *, ax, reference=None, title=None):
             ax.plot([0, tip[0]], [0, tip[1]], [0, tip[2]], color=color, **style)
     for limits in (ax.set_xlim, ax.set_ylim, ax.set_zlim):
         limits(-1, 1)
-    ax.set_xlabel("east")
-    ax.set_ylabel("north")
-    ax.set_zlabel("up")
+    ax.set_xlabel("east", labelpad=-12)
+    ax.set_ylabel("north", labelpad=-12)
+    ax.set_zlabel("up", labelpad=-12)
     ax.set_xticks([])
     ax.set_yticks([])
     ax.set_zticks([])
