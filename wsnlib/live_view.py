@@ -74,6 +74,7 @@ class Session:
         self.lock = threading.Lock()
         self._stop = threading.Event()
         self.sock = receiving_socket(0)
+        self.sent, self.sent_at = threading.Event(), 0.0
         self.done = threading.Event()
 
     def _sink(self, out) -> None:
@@ -89,8 +90,12 @@ class Session:
             self.receiver = Receiver(fs, latency=self.latency)
             return self.receiver
 
-        receiver, _, _ = serve(self.sock, make, self._sink, idle_exit_s=0.5 + 2 * self.latency / self.fs,
-                               should_stop=self._stop.is_set, batches=Batches(256))
+        linger = 0.5 + 2 * self.latency / self.fs  # after the last datagram: the latency's samples still come
+
+        def finished():
+            return self._stop.is_set() or (self.sent.is_set() and time.monotonic() - self.sent_at > linger)
+
+        receiver, _, _ = serve(self.sock, make, self._sink, should_stop=finished, batches=Batches(256))
         if receiver is not None:
             self._sink(receiver.flush())
         self.sock.close()
@@ -99,6 +104,8 @@ class Session:
     def _send(self) -> None:
         send_datagrams(self.datagrams, self.times, self.sock.getsockname()[1], speed=self.speed,
                        should_stop=self._stop.is_set)
+        self.sent_at = time.monotonic()
+        self.sent.set()
 
     def start(self) -> Session:
         self.threads = [threading.Thread(target=self._receive, daemon=True),
