@@ -22,10 +22,7 @@ compiled sources, so an edit of either is never run from stale machine code.
 This package's door gathers the public names: ``from wsnlib.stream import Receiver``.
 """
 
-import contextlib
 from pathlib import Path
-
-import numba
 
 from wsnlib._files import sources_digest
 from wsnlib.orientation import _numba_cache
@@ -33,19 +30,7 @@ from wsnlib.orientation import _numba_cache
 #: SHA-256 of this package's compiled sources (``_*kernels.py``) when it was imported.
 SOURCES_DIGEST = sources_digest(Path(__file__).parent, "_*kernels.py")
 
-
-@contextlib.contextmanager
-def _caching_into_this_version():
-    folder = _numba_cache.version_folder() / f"stream-{SOURCES_DIGEST[:16]}"
-    saved = numba.config.CACHE_DIR
-    numba.config.CACHE_DIR = str(folder)
-    try:
-        yield
-    finally:
-        numba.config.CACHE_DIR = saved
-
-
-with _caching_into_this_version():
+with _numba_cache.caching_into_this_version(f"stream-{SOURCES_DIGEST[:16]}"):
     from wsnlib.stream import _kernels, _receiver_kernels  # noqa: F401
     from wsnlib.stream.packet import (
         LAYOUTS,

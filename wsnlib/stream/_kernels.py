@@ -108,31 +108,31 @@ def _i16(buf, i):
 
 
 @njit(**COMPILE)
-def _f32(buf, i):
-    """IEEE 754 binary32, big-endian (inf and NaN come out as NaN: never a valid field here)."""
-    u = _u32(buf, i)
-    sign = -1.0 if u >> 31 else 1.0
-    exponent = (u >> 23) & 0xFF
-    mantissa = u & 0x7FFFFF
-    if exponent == 0xFF:
+def _ieee(u, exponent_bits, mantissa_bits):
+    """The IEEE 754 binary float whose bits are ``u`` (``exponent_bits`` + ``mantissa_bits`` + sign); inf and
+    NaN come out as NaN: never a valid field here."""
+    sign = -1.0 if (u >> (exponent_bits + mantissa_bits)) & 1 else 1.0
+    top = (1 << exponent_bits) - 1
+    exponent = (u >> mantissa_bits) & top
+    mantissa = u & ((1 << mantissa_bits) - 1)
+    shift = (top >> 1) + mantissa_bits - 1  # bias + mantissa bits − 1 for subnormals, + 1 for normals
+    if exponent == top:
         return np.nan
     if exponent == 0:
-        return sign * math.ldexp(float(mantissa), -149)
-    return sign * math.ldexp(float(mantissa | 0x800000), exponent - 150)
+        return sign * math.ldexp(float(mantissa), -shift)
+    return sign * math.ldexp(float(mantissa | (1 << mantissa_bits)), exponent - shift - 1)
+
+
+@njit(**COMPILE)
+def _f32(buf, i):
+    """binary32, big-endian."""
+    return _ieee(_u32(buf, i), 8, 23)
 
 
 @njit(**COMPILE)
 def _f16(buf, i):
-    """IEEE 754 binary16, big-endian (inf and NaN come out as NaN)."""
-    u = _u16(buf, i)
-    sign = -1.0 if u >> 15 else 1.0
-    exponent = (u >> 10) & 0x1F
-    mantissa = u & 0x3FF
-    if exponent == 0x1F:
-        return np.nan
-    if exponent == 0:
-        return sign * math.ldexp(float(mantissa), -24)
-    return sign * math.ldexp(float(mantissa | 0x400), exponent - 25)
+    """binary16, big-endian."""
+    return _ieee(_u16(buf, i), 5, 10)
 
 
 @njit(**COMPILE)

@@ -538,10 +538,10 @@ def coverage_sentence(coverage: pd.DataFrame, designed: Scheme, headline: float 
     drawn, model = row.get(f"<= {span}", np.nan), 1.0 - lost_share_in_longer_bursts(span)
     within3 = row.get("<= 2", np.nan), row.get("<= 4", np.nan)
     return (f"At GE {headline:.0%} the drawn bursts average {row['mean_burst_packets']:.1f} packets (longest "
-            f"{row['longest_burst_packets']:.0f}); only {within3[0]:.0%} of the lost packets sit in bursts of at most 2 "
-            f"packets and {within3[1]:.0%} in bursts of at most 4, so a summary of the last 3 packets leaves most lost "
-            f"packets to prediction. {designed.name} bridges bursts of up to {span} packets whole: {drawn:.1%} of the "
-            f"lost packets drawn here ({model:.1%} in the channel model, which chose it).")
+            f"{row['longest_burst_packets']:.0f}); only {within3[0]:.0%} of the lost packets sit in bursts of at most "
+            f"2 packets and {within3[1]:.0%} in bursts of at most 4, so a summary of the last 3 packets leaves most "
+            f"lost packets to prediction. {designed.name} bridges bursts of up to {span} packets whole: "
+            f"{drawn:.1%} of the lost packets drawn here ({model:.1%} in the channel model, which chose it).")
 
 
 def tradeoff_sentence(table: pd.DataFrame, loss_rate: float, latency_s: float, limit: float = OVERHEAD_LIMIT) -> str:
