@@ -23,7 +23,8 @@ keyed by the unit's position, so every scheme sees the same slots: a paired comp
 References on the same masks: the receiver without loss (*lossless*, scored on the samples the
 mask receives), the causal receiver without redundancy (latency 0), the offline smoother
 without redundancy (:func:`~wsnlib.orientation.smooth_orientation`, curves across gaps), and
-paper 001's receiver (Madgwick's filter, output held over gaps).
+paper 001's receiver (Madgwick's filter, output held over gaps, its β chosen leave-one-group-out from
+notebook 10's grid, the tuning budget of every peer there).
 
 Choosing a scheme: the issue's targets ask for *a* scheme within 25 % overhead; the scheme each
 unit is scored with is chosen leave-one-group-out (:func:`wsnlib.loto.leave_one_out_choice`,
@@ -46,7 +47,7 @@ from wsnlib._validation import check_rng
 from wsnlib.loss import burst_lengths, gilbert_elliott, packets_to_samples
 from wsnlib.orientation import kalman_orientation, madgwick, smooth_orientation
 from wsnlib.stream import Receiver, ReceiverOutput, encode_stream, node_stream, packets_sent_twice, receiver_output
-from wsnlib.studies.loss_tolerance import MADGWICK_BETA
+from wsnlib.studies.loss_tolerance import BETA_GRID
 from wsnlib.tuning import pareto_front
 
 #: Gilbert–Elliott loss rates studied, the headline one, the mean burst (packets).
@@ -57,6 +58,9 @@ MEAN_BURST_PACKETS = 3.0
 CURVE_LATENCIES_S = (0.0, 0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0)
 REDUNDANCY_LATENCIES_S = (0.0, 0.5)
 TARGET_LATENCY_S = 0.5
+#: Paper 001's receiver: Madgwick's filter holding its output over gaps, with β (rad/s) chosen from
+#: notebook 10's grid (:data:`~wsnlib.studies.loss_tolerance.BETA_GRID`) leave-one-group-out.
+PAPER001_BETAS = np.array([setting["beta"] for setting in BETA_GRID])
 #: The issue's budget of overhead per packet (share of a 140-byte packet).
 OVERHEAD_LIMIT = 0.25
 #: The issue's targets: received samples within this × lossless; overall within this × causal.
@@ -159,11 +163,12 @@ def _unit_job(name, unit, slots, schemes, latencies_s, curve_schemes, curve_late
         packets = slot[:-1]
         mask = packets_to_samples(packets, spp, n_t)
         smoothed = errors(smooth_orientation(plain.gyr, plain.acc, plain.mag, fs=fs, received=mask, settings=settings))
-        held = errors(madgwick(plain.gyr, plain.acc, plain.mag, fs=fs, beta=MADGWICK_BETA, received=mask))
+        held = [madgwick(plain.gyr, plain.acc, plain.mag, fs=fs, beta=float(beta), received=mask)
+                for beta in PAPER001_BETAS]
         references.append({"trial": name, "loss_rate": rate, "draw": draw,
                            "lossless_total": _rmse(lossless, valid), "lossless_received": _rmse(lossless, valid & mask),
-                           "smoother_total": _rmse(smoothed, valid), "paper001_total": _rmse(held, valid),
-                           "lost_share": float(1.0 - packets.mean())})
+                           "smoother_total": _rmse(smoothed, valid), "lost_share": float(1.0 - packets.mean()),
+                           **{f"paper001_beta{i}": _rmse(errors(q), valid) for i, q in enumerate(held)}})
         for scheme in dict.fromkeys(list(schemes) + (list(curve_schemes) if rate == headline else [])):
             key = (scheme.redundancy, scheme.bits, scheme.layout)
             if key not in streams:
@@ -209,9 +214,9 @@ class StreamingResult:
         rmse_received, rmse_lost (°), lossless_received (° of the lossless receiver on the same
         received samples).
     references : pandas.DataFrame
-        Per unit × loss rate × draw: lossless_total, lossless_received, smoother_total, paper001_total
-        (Madgwick's filter holding its output over gaps, paper 001's receiver, β
-        :data:`~wsnlib.studies.loss_tolerance.MADGWICK_BETA`) (°), lost_share.
+        Per unit × loss rate × draw: lossless_total, lossless_received, smoother_total, lost_share, and
+        ``paper001_beta<i>``: Madgwick's filter holding its output over gaps (paper 001's receiver)
+        with the i-th β of :data:`PAPER001_BETAS` (°).
     curve : pandas.DataFrame
         The latency curve at the headline rate: trial, draw, scheme, latency_s, rmse_total.
     slots : dict
@@ -419,7 +424,12 @@ def paper_vs_ours(result: StreamingResult, scheme: Scheme, *, rng: np.random.Gen
     labels = _labels(result, trials)
     refs = result.references[result.references["loss_rate"] == rate]
     per = result.per_trial[result.per_trial["loss_rate"] == rate]
-    rows = {"paper 001's receiver (Madgwick, output held over gaps)": (refs, "paper001_total"),
+    betas = [c for c in refs.columns if c.startswith("paper001_beta")]
+    scores = np.array([[refs[refs["trial"] == t][c].mean() for t in trials] for c in betas])
+    choice = loto.leave_one_out_choice(scores, groups=labels)
+    held = refs.copy()
+    held["paper001"] = [row[betas[choice[trials.index(row["trial"])]]] for _, row in refs.iterrows()]
+    rows = {"paper 001's receiver (Madgwick, output held over gaps; β leave-one-group-out)": (held, "paper001"),
             "ours, causal (latency 0), no redundancy": (per[(per["scheme"] == NONE.name) & (per["latency_s"] == 0.0)],
                                                         "rmse_total"),
             f"ours, causal, {scheme.name}": (per[(per["scheme"] == scheme.name) & (per["latency_s"] == 0.0)],
