@@ -137,8 +137,10 @@ def _static_view(unit, *, loss_rate, latency_s, scheme, seed, seconds) -> Figure
     grid = fig.add_gridspec(1, 3)
     frame = fig.add_subplot(grid[0, 0], projection="3d")
     ax = fig.add_subplot(grid[0, 1:])
-    done = np.flatnonzero(session.output)
-    last = int(done[-1]) if done.size else 0
+    # Up to the last delivered packet's last sample: what follows it depends on when the receiver's clock
+    # declared the packets after it lost (timing), what precedes it does not.
+    spp = session.stream.samples_per_packet
+    last = min(int(np.flatnonzero(session.delivered)[-1] + 1) * spp, session.n) - 1
     plot_body_frame(session.quat[last], ax=frame, reference=session.unit.quat_ref[last],
                     title=f"at {time_s[last]:.1f} s: estimate (solid),\noptical reference (dashed)")
     plot_live_error(time_s[: last + 1], error[: last + 1], session.received[: last + 1], ax=ax,
