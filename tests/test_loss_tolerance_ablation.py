@@ -36,7 +36,9 @@ def test_space_grid_splits_one_budget_over_the_settings():
     assert len(grid) == 12 and sorted({s["a"] for s in grid}) == [0.1, 1.0, 10.0, 100.0]
     assert sorted({s["b"] for s in grid}) == [0.1, 3.16, 100.0]
     assert len(lt.space_grid(three, 12)) == 12  # 3 × 2 × 2
-    assert len(lt.space_grid(two, 13)) == 12  # the largest product that fits
+    assert len(lt.space_grid(two, 13)) == 12  # 4 × 3 rather than 13 × 1: every setting gets as many as fit
+    assert len({s["c"] for s in lt.space_grid(three, 16)}) == 2  # 4 × 2 × 2 = 16, not 4 × 4 × 1
+    assert len({s["b"] for s in lt.space_grid(three, 4)}) == 2  # 2 × 2 × 1, not 4 × 1 × 1
     assert len(lt.space_grid(two, 1000)) == 32 * 31
     choice = {"replay": lt.Choice((True, False)), **one}
     grid = lt.space_grid(choice, 12)  # every value of a choice, the range gets the rest

@@ -286,27 +286,29 @@ def settings_grid(fixed: Mapping | None = None, **axes) -> tuple[dict, ...]:
 
 def _axis_counts(space: Mapping, budget: int) -> dict[str, int]:
     """How many levels each axis of ``space`` gets within ``budget`` settings: a :class:`Choice` all its
-    values; the :class:`Range` axes as equal as possible (earlier axes first to get one more), the
-    largest product that fits — exactly ``budget`` when it factors so (12 = 12 = 4 × 3 = 3 × 2 × 2)."""
+    values; the :class:`Range` axes as many each as possible (the fewest any gets is the largest
+    that fits), then the largest product that fits, then the most equal counts (earlier axes first
+    to get the larger ones) — exactly ``budget`` when it factors so (12 = 12 = 4 × 3 = 3 × 2 × 2;
+    16 over three ranges: 4 × 2 × 2; 13 over two: 4 × 3)."""
     counts = {key: len(axis.values) for key, axis in space.items() if isinstance(axis, Choice)}
     fixed = int(np.prod(list(counts.values()))) if counts else 1
     if fixed > budget:
         raise ValueError(f"a budget of {budget} settings cannot hold every value of the choices {sorted(counts)} "
                          f"({fixed} combinations)")
     ranges = [key for key, axis in space.items() if isinstance(axis, Range)]
-    room = budget // fixed
-    base = 1
-    while (base + 1) ** len(ranges) <= room:
-        base += 1
-    levels = dict.fromkeys(ranges, base)
-    grown = True
-    while grown:
-        grown = False
-        for key in ranges:
-            trial = int(np.prod([levels[k] + (k == key) for k in ranges]))
-            if trial <= room and levels[key] == min(levels.values()):
-                levels[key] += 1
-                grown = True
+
+    def splits(room: int, k: int, largest: int):
+        """Non-increasing k-tuples of counts ≥ 1, each at most ``largest``, with product ≤ ``room``."""
+        if k == 0:
+            yield ()
+            return
+        for first in range(min(room, largest), 0, -1):
+            for rest in splits(room // first, k - 1, first):
+                yield (first, *rest)
+
+    best = max(splits(budget // fixed, len(ranges), budget // fixed),
+               key=lambda split: (min(split, default=1), int(np.prod(split)), -max(split, default=1)))
+    levels = dict(zip(ranges, best, strict=True))
     return {key: counts.get(key, levels.get(key)) for key in space}
 
 
@@ -315,9 +317,9 @@ def space_grid(space: Mapping, budget: int) -> tuple[dict, ...]:
 
     Each :class:`Range` gets ``n`` values from its lower to its upper physical bound, both
     included, evenly spaced on a log scale (:meth:`Range.levels`); each :class:`Choice` all its
-    values.  The numbers of levels are as equal as possible and their product is the largest
-    that fits in ``budget`` (:func:`_axis_counts`): with the default budget of 12, one axis gets
-    12 values, two get 4 × 3, three 3 × 2 × 2.  Since both bounds are in the grid, a chosen value
+    values.  Every range gets as many values as fit, then the product is the largest that fits
+    in ``budget`` (:func:`_axis_counts`): with the default budget of 12, one axis gets 12 values,
+    two get 4 × 3, three 3 × 2 × 2.  Since both bounds are in the grid, a chosen value
     at a grid edge is at a physical bound (flagged by :func:`~wsnlib.studies.loss_tolerance.
     summary.edge_picks`, not chased past it).
 
