@@ -650,6 +650,18 @@ def test_draws_are_rows_and_summaries_average_them():
     with pytest.raises(ValueError, match="draws"):
         lt.evaluate(recordings, rng=np.random.default_rng(3), methods=methods, profiles=profiles,
                     headline="GE 20 %", draws=0)
+    # Draws per profile: more where the settings are tuned, the first draws the same masks.
+    five = loss.LossProfile.gilbert_elliott(0.05, name="GE 5 %")
+    mapped = lt.evaluate(recordings, rng=np.random.default_rng(3), methods=methods, profiles=[*profiles, five],
+                         headline="GE 20 %", draws={"GE 20 %": 3}, progress=False).per_trial
+    assert mapped.groupby("profile")["draw"].nunique().to_dict() == {"GE 20 %": 3, "GE 5 %": 1, "lossless": 1,
+                                                                    "paper burst": 1}
+    pd.testing.assert_frame_equal(mapped[mapped["profile"] == "GE 20 %"].reset_index(drop=True),
+                                  rows[rows["profile"] == "GE 20 %"].reset_index(drop=True))
+    for bad, match in (({"GE 50 %": 2}, "unknown profiles"), ({"GE 20 %": 0}, "GE 20 %")):
+        with pytest.raises(ValueError, match=match):
+            lt.evaluate(recordings, rng=np.random.default_rng(3), methods=methods, profiles=profiles,
+                        headline="GE 20 %", draws=bad)
 
 
 def test_paper001_registry_and_profiles():

@@ -202,8 +202,8 @@ def _scoring_job(name, method, rec, masks, rows, setting, burst):
     return new_rows, total[0], None if burst is None else total[burst], time.perf_counter() - start
 
 
-def _masks(profiles, recording, fs: float, rng: np.random.Generator, draws: int):
-    """Masks ``(K, T)`` of every profile (``draws`` of each random one, one per position of a
+def _masks(profiles, recording, fs: float, rng: np.random.Generator, draws: Mapping[str, int]):
+    """Masks ``(K, T)`` of every profile (``draws[name]`` of each random one, one per position of a
     :class:`BurstPositions`) at ``fs`` (Hz), and each row's (profile, draw).  Each profile draws from
     its own generator, keyed by ``rng``'s seed and the profile's name, so a profile's masks do not
     depend on which other profiles are run (a second study of a subset of the methods and profiles
@@ -217,7 +217,7 @@ def _masks(profiles, recording, fs: float, rng: np.random.Generator, draws: int)
         if profile.model == BurstPositions.model:
             masks.append(profile.masks(np.asarray(recording.movement, dtype=bool), fs))
         else:
-            n = draws if profile.model == "gilbert_elliott" else 1
+            n = draws[profile.name] if profile.model == "gilbert_elliott" else 1
             key = zlib.crc32(profile.name.encode())
             profile_rng = np.random.default_rng(np.random.SeedSequence(seed.entropy,
                                                                        spawn_key=(*seed.spawn_key, key)))
@@ -240,7 +240,8 @@ def _traced_burst(recording, masks, rows) -> int | None:
 
 
 def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[str, Method] | None = None,
-             profiles=PROFILES, headline: str = HEADLINE, draws: int = 1, groups: Mapping | None = None,
+             profiles=PROFILES, headline: str = HEADLINE, draws: int | Mapping[str, int] = 1,
+             groups: Mapping | None = None,
              n_jobs: int = -1, scheduler=None, progress: bool = True) -> LossToleranceResult:
     """Tune every method leave-one-group-out at ``headline`` and score it under every profile.
 
@@ -270,8 +271,10 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
         The first must be lossless (the reference of the gap response); one named ``headline``.
     headline : str
         Profile at which the settings are tuned.
-    draws : int
-        Masks drawn per trial for each random (Gilbert–Elliott) profile, ≥ 1.
+    draws : int or mapping profile name → int
+        Masks drawn per trial for each random (Gilbert–Elliott) profile, ≥ 1; a mapping gives
+        each profile its own number (1 for a profile it does not name), e.g. more at the headline,
+        where the settings are tuned and the targets scored, than elsewhere.
     groups : mapping name → str, optional
         The group each trial is held out with (leave-one-group-out: a trial's setting is tuned
         on the trials of the *other* groups), e.g.
@@ -309,7 +312,6 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
         profiles); latency_s and latency_rule (package docstring).
     """
     check_rng(rng)
-    check_count(draws, "draws")
     methods = default_methods() if methods is None else dict(methods)
     profiles = tuple(profiles)
     names = list(recordings)
@@ -320,6 +322,7 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
     profile_names = [p.name for p in profiles]
     if headline not in profile_names:
         raise ValueError(f"headline must be one of the profiles {profile_names}, got {headline!r}")
+    draws = _check_draws(draws, profile_names)
     fs = {name: check_positive(getattr(recordings[name], "fs", None), f"recordings[{name!r}].fs") for name in names}
     sources = [str(getattr(recordings[name], "source", name)) for name in names]
     folds = sources if groups is None else _check_groups(groups, names, sources)
@@ -369,6 +372,17 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
     return LossToleranceResult(per_trial=pd.DataFrame(results), tuning=tuning, choices=choices, traces=traces,
                                seconds=pd.Series(seconds, name="seconds"), methods=methods, profiles=profiles,
                                units=units, setting_source=setting_source)
+
+
+def _check_draws(draws, profile_names) -> dict[str, int]:
+    """``draws`` (a count for every random profile, or a mapping profile name → count, 1 for a profile
+    not named) as a count per profile name; ``ValueError`` for a count < 1 or an unknown name."""
+    if isinstance(draws, Mapping):
+        unknown = sorted(set(draws) - set(profile_names))
+        if unknown:
+            raise ValueError(f"draws names unknown profiles {unknown}; the profiles are {profile_names}")
+        return {name: check_count(draws.get(name, 1), f"draws[{name!r}]") for name in profile_names}
+    return dict.fromkeys(profile_names, check_count(draws, "draws"))
 
 
 def _check_groups(groups, names, sources) -> list[str]:
