@@ -590,7 +590,7 @@ def test_paper_vs_ours_and_sentences():
                            "ci_high": 16.0, "verdict": "hurts", "n_better": 1, "n_trials": 7}])
     sentence = ltt.paper_vs_ours_sentence(table, peaks, positions=8)
     assert "21.0° [20.0, 22.0] to the hybrid's error and 11.0° [10.0, 12.0] to holding's" in sentence
-    assert "**higher than holding's**" in sentence and "lower on 1 of 7 trials" in sentence
+    assert "**higher than holding's**" in sentence and "the hybrid's lower on 1 of 7 trials" in sentence
     assert "8 positions" in sentence and "after 22.00 s" in sentence
     tie = ltt.paper_vs_ours_sentence(table, peaks.assign(verdict="tie"))
     assert "a tie with holding's" in tie and "one burst per run" in tie
