@@ -198,3 +198,29 @@ def test_heatmap_panels_share_one_colour_scale_and_validate():
     with pytest.raises(ValueError, match="no finite value"):
         plotting.plot_heatmap_panels({"a": np.full((2, 3), np.nan)}, [1, 2], [1, 2, 3], axes=axes)
     plt.close(fig)
+
+
+@pytest.mark.parametrize(("low", "high"), [(40.0, 90.0), (0.02, 0.5), (1.5e4, 6e4), (3.0, 3e5)])
+def test_log_axes_are_labelled_with_plain_numbers(low, high):
+    """Issue 26: "6×10¹" becomes "60", on major and minor ticks, for every log axis after use_style()."""
+    import pandas as pd
+
+    plotting.use_style()
+    fig, (ax_a, ax_b) = plt.subplots(1, 2)
+    ax_a.plot([1, 2], [low, high])
+    ax_a.set_yscale("log")
+    pd.Series([low, high]).plot(ax=ax_b, logy=True)      # pandas' own route to a log axis
+    fig.canvas.draw()
+    for ax in (ax_a, ax_b):
+        ticks = [*ax.yaxis.get_major_ticks(), *ax.yaxis.get_minor_ticks()]
+        labels = {(tick.get_loc(), tick.label1.get_text()) for tick in ticks if tick.label1.get_text()}
+        assert labels, "no tick is labelled"
+        for value, text in labels:
+            assert text == plotting.plain_number(value), (value, text)
+            assert float(text) == pytest.approx(value, rel=1e-3), (value, text)
+    plt.close(fig)
+
+
+def test_plain_number_keeps_three_significant_digits_and_no_exponent():
+    assert [plotting.plain_number(v) for v in (60.0, 0.02, 2e5, 1.0, 0.000123456, 12345.0)] == [
+        "60", "0.02", "200000", "1", "0.000123", "12300"]

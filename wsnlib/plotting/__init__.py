@@ -1,8 +1,9 @@
 """Plot style, figure saving and the figures of the notebooks, one module per concern.
 
 * :mod:`wsnlib.plotting.style` — the palette (:data:`OKABE_ITO`, :data:`METHOD_COLORS`,
-  :data:`METHOD_MARKERS`), :func:`use_style`, the legibility limits and :func:`savefig`, the
-  one way figures are written (byte-reproducible PNG and PDF).
+  :data:`METHOD_MARKERS`), :func:`use_style` (with log axes in plain numbers,
+  :class:`PlainLogScale`), the legibility limits and :func:`savefig`, the one way figures are
+  written (byte-reproducible PNG and PDF).
 * :mod:`wsnlib.plotting.traces` — angle and error traces with lost samples shaded, bands,
   trade-offs, the paper's arm figure.
 * :mod:`wsnlib.plotting.grids` — annotated heatmaps and Pareto fronts of parameter searches.
@@ -26,8 +27,10 @@ from wsnlib.plotting.style import (
     METHOD_MARKERS,
     MIN_FONT_PT,
     OKABE_ITO,
+    PlainLogScale,
     effective_font_sizes,
     method_style,
+    plain_number,
     savefig,
     use_style,
 )
@@ -41,7 +44,7 @@ from wsnlib.plotting.traces import (
 )
 
 __all__ = ["ANNOTATION_FONT_PT", "DISPLAY_WIDTH_IN", "METHOD_COLORS", "METHOD_MARKERS", "MIN_FONT_PT", "OKABE_ITO",
-           "break_at_gaps", "effective_font_sizes", "loss_spans", "method_style", "plot_angle_traces",
+           "PlainLogScale", "break_at_gaps", "effective_font_sizes", "loss_spans", "method_style", "plot_angle_traces",
            "plot_arm_angles", "plot_band", "plot_burst_recovery", "plot_burst_traces", "plot_error_vs_loss_rate",
            "plot_heatmap", "plot_heatmap_panels", "plot_hybrid_vs_fusion", "plot_pareto", "plot_per_trial_dots",
-           "plot_static_fingerprinting", "plot_tradeoff", "savefig", "use_style"]
+           "plot_static_fingerprinting", "plot_tradeoff", "plain_number", "savefig", "use_style"]
