@@ -8,6 +8,7 @@
 * :mod:`wsnlib.plotting.grids` — annotated heatmaps and Pareto fronts of parameter searches.
 * :mod:`wsnlib.plotting.study_results` — panels of one burst loss and of static fingerprinting.
 * :mod:`wsnlib.plotting.loss_tolerance` — figures of the loss-tolerance study (notebook 10).
+* :mod:`wsnlib.plotting.testbed` — paper 002's testbed as we assume it (anchor layout, its Fig. 4).
 
 Every public name is re-exported here, so ``plotting.savefig``, ``plotting.use_style()`` and
 ``plotting.ANNOTATION_FONT_PT`` work as before the split.  Module-level state (the palette
@@ -31,6 +32,7 @@ from wsnlib.plotting.style import (
     savefig,
     use_style,
 )
+from wsnlib.plotting.testbed import plot_anchor_layout
 from wsnlib.plotting.traces import (
     break_at_gaps,
     loss_spans,
@@ -44,4 +46,4 @@ __all__ = ["ANNOTATION_FONT_PT", "DISPLAY_WIDTH_IN", "METHOD_COLORS", "METHOD_MA
            "break_at_gaps", "effective_font_sizes", "loss_spans", "method_style", "plot_angle_traces",
            "plot_arm_angles", "plot_band", "plot_burst_recovery", "plot_burst_traces", "plot_error_vs_loss_rate",
            "plot_heatmap", "plot_heatmap_panels", "plot_hybrid_vs_fusion", "plot_pareto", "plot_per_trial_dots",
-           "plot_static_fingerprinting", "plot_tradeoff", "savefig", "use_style"]
+           "plot_static_fingerprinting", "plot_tradeoff", "savefig", "use_style", "plot_anchor_layout"]
