@@ -243,3 +243,17 @@ def test_joint_errors_split_height_from_horizontal_offset(campaign):
     exact = {user: {"T1": {"joints": true_joints_straight_arm(inputs, user)["elbow"]},
                     "T2": {"joints": true_joints_straight_arm(inputs, user)["wrist"]}} for user in inputs.target1}
     assert joint_errors_cm(inputs, exact)["error_cm"].max() == 0.0
+
+
+def test_kinect_crossing_interpolates_the_mean_curve():
+    import pandas as pd
+
+    from wsnlib.studies.posture import kinect_crossing
+
+    # Mean over draws (and users) of the PE: 4, 6, 10 cm at 2, 4, 6 cm of bias; never 20 cm.
+    sweep = pd.DataFrame({"glitch_scale": 1.0, "bias_std_m": np.repeat([0.02, 0.04, 0.06], 2), "draw": [0, 1] * 3,
+                          "user": "U1", "pe_cm": [3.0, 5.0, 6.0, 6.0, 9.0, 11.0]})
+    assert kinect_crossing(sweep, 8.0)[1.0] == pytest.approx(0.05)
+    assert kinect_crossing(sweep, 6.0)[1.0] == pytest.approx(0.04)
+    assert kinect_crossing(sweep, 2.0)[1.0] == pytest.approx(0.02)   # reached at the smallest bias already
+    assert np.isnan(kinect_crossing(sweep, 20.0)[1.0])

@@ -48,9 +48,9 @@ from wsnlib.sim.optical import kinect_errors as optical_kinect_errors
 from wsnlib.sim.radio import RadioChannel
 
 __all__ = ["KINECT_BIAS_STD_M", "KINECT_GLITCH_SCALES", "RADIO_ASSUMPTIONS", "RadioSensitivity", "StudyInputs",
-           "joint_errors_cm", "kinect_errors", "kinect_sensitivity", "per_user_pe", "perturbed_channel",
-           "pitch_errors_deg", "radio_sensitivity", "selected_errors", "sensitivity_grid", "study_inputs",
-           "true_joints_straight_arm", "with_reference_error"]
+           "joint_errors_cm", "kinect_crossing", "kinect_errors", "kinect_sensitivity", "per_user_pe",
+           "perturbed_channel", "pitch_errors_deg", "radio_sensitivity", "selected_errors", "sensitivity_grid",
+           "study_inputs", "true_joints_straight_arm", "with_reference_error"]
 
 
 @dataclass(frozen=True)
@@ -283,6 +283,41 @@ def kinect_sensitivity(campaign, inputs: StudyInputs, *, bias_std_m=KINECT_BIAS_
     out = pd.concat(rows, ignore_index=True)
     out["pe_cm"] = out[["T1", "T2"]].mean(axis=1)
     return out
+
+
+def kinect_crossing(sweep: pd.DataFrame, level_cm: float) -> pd.Series:
+    """Per glitch scale, the bias at which the Kinect-like baseline's mean PE reaches ``level_cm``.
+
+    Parameters
+    ----------
+    sweep : DataFrame
+        :func:`kinect_sensitivity`'s output.
+    level_cm : float
+        E.g. the deterministic approach's mean PE over users (cm).
+
+    Returns
+    -------
+    pandas.Series
+        Index ``glitch_scale``; the per-axis bias (m), linear between the grid's biases, at
+        which the mean over draws of the users' mean PE first reaches ``level_cm``: the
+        smallest bias of the grid if it does there already (smaller ones are not searched),
+        NaN if it does nowhere in the grid.
+    """
+    curve = sweep.groupby(["glitch_scale", "bias_std_m", "draw"])["pe_cm"].mean().groupby(
+        ["glitch_scale", "bias_std_m"]).mean()
+    out = {}
+    for scale, values in curve.groupby(level="glitch_scale"):
+        bias = values.index.get_level_values("bias_std_m").to_numpy()
+        pe = values.to_numpy()
+        above = np.flatnonzero(pe >= level_cm)
+        if above.size == 0:
+            out[scale] = np.nan
+        elif above[0] == 0:
+            out[scale] = float(bias[0])
+        else:
+            i = above[0]
+            out[scale] = float(bias[i - 1] + (level_cm - pe[i - 1]) * (bias[i] - bias[i - 1]) / (pe[i] - pe[i - 1]))
+    return pd.Series(out, name="bias_std_m").rename_axis("glitch_scale")
 
 
 def pitch_errors_deg(data, *, method: str, fs: float = 30.0, **options):
