@@ -44,9 +44,9 @@ def _body_top(ax, body) -> None:
 
 
 #: The three panels: title, (horizontal, vertical) coordinate of the shoulder frame, axis labels.
-_VIEWS = (("front view", (0, 2), "x (m, user's right ←)", "z (m, up)"),
+_VIEWS = (("front view", (0, 2), "x (m, to the user's right: leftwards)", "z (m, up)"),
           ("side view (from the user's right)", (1, 2), "y (m, forward)", "z (m, up)"),
-          ("floor plan (from above)", (0, 1), "x (m, user's right →)", "y (m, forward)"))
+          ("floor plan (from above)", (0, 1), "x (m, to the user's right)", "y (m, forward)"))
 
 
 def plot_anchor_layout(user=None, *, axes=None):
@@ -108,7 +108,7 @@ def plot_anchor_layout(user=None, *, axes=None):
             ax.plot(position[i], position[j], ls="", ms=11, mec="white", zorder=4,
                     **{**style, "label": style["label"] if name in ("A1", "A2") else None})
             ax.annotate(str(index + 1), (position[i], position[j]), ha="center", va="center", color="white",
-                        fontsize=ANNOTATION_FONT_PT, fontweight="bold", zorder=5)
+                        fontsize=ANNOTATION_FONT_PT, zorder=5)
             if not worn:
                 ax.annotate(f"{position[2] - floor_z:.2f} m high", (position[i], position[j]),
                             textcoords="offset points", xytext=(0, -12), ha="center", fontsize=ANNOTATION_FONT_PT)
