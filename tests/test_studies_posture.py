@@ -194,7 +194,7 @@ def test_kinect_sensitivity_equals_simulating_each_model_and_scoring_it(campaign
     import dataclasses
 
     from wsnlib.sim.optical import kinect_target_positions, simulate_kinect
-    from wsnlib.studies.posture import kinect_sensitivity, per_user_pe
+    from wsnlib.studies.posture import kinect_sensitivity, user_pe_cm
 
     inputs = study_inputs(campaign)
     sweep = kinect_sensitivity(campaign, inputs, bias_std_m=(0.0, 0.05), glitch_scales=(0.0, 3.0), n_draws=3, seed=4)
@@ -215,7 +215,7 @@ def test_kinect_sensitivity_equals_simulating_each_model_and_scoring_it(campaign
     for draw in range(3):
         errors = {f"T{t + 1}": 100 * np.linalg.norm(targets[draw, frames[:, t], t] - data.true_positions, axis=-1)
                   for t, data in enumerate((data1, data2))}
-        expected = per_user_pe({**errors, "movement": data1.movement, "user": np.full(data1.movement.size, user)})
+        expected = user_pe_cm({**errors, "movement": data1.movement, "user": np.full(data1.movement.size, user)})
         row = sweep.query("glitch_scale == 3.0 and bias_std_m == 0.05 and draw == @draw and user == @user")
         np.testing.assert_allclose(row[["T1", "T2"]].to_numpy()[0], expected.loc[user].to_numpy(), rtol=1e-12)
     # More bias, more error (the same draws); without bias and glitches only the small jitter is left.

@@ -22,7 +22,7 @@ Two checks of how far the Table 2–3 comparison can be trusted:
   bias and glitch rates (:mod:`wsnlib.sim.optical`, "not verified") moved over a grid.
 
 :func:`joint_errors_cm` says where the estimated elbow and wrist sit against the true ones
-(height against horizontal offset), :func:`per_user_pe` averages errors per user as Table 3.
+(height against horizontal offset), :func:`user_pe_cm` averages errors per user as Table 3.
 """
 
 from __future__ import annotations
@@ -48,9 +48,9 @@ from wsnlib.sim.optical import kinect_errors as optical_kinect_errors
 from wsnlib.sim.radio import RadioChannel
 
 __all__ = ["KINECT_BIAS_STD_M", "KINECT_GLITCH_SCALES", "RADIO_ASSUMPTIONS", "RadioSensitivity", "StudyInputs",
-           "joint_errors_cm", "kinect_crossing", "kinect_errors", "kinect_sensitivity", "per_user_pe",
-           "perturbed_channel", "pitch_errors_deg", "radio_sensitivity", "selected_errors", "sensitivity_grid",
-           "study_inputs", "true_joints_straight_arm", "with_reference_error"]
+           "joint_errors_cm", "kinect_crossing", "kinect_errors", "kinect_sensitivity", "perturbed_channel",
+           "pitch_errors_deg", "radio_sensitivity", "selected_errors", "sensitivity_grid", "study_inputs",
+           "true_joints_straight_arm", "user_pe_cm", "with_reference_error"]
 
 
 @dataclass(frozen=True)
@@ -183,7 +183,7 @@ def _pooled(inputs: StudyInputs, errors: dict) -> dict[str, np.ndarray]:
             "user": np.concatenate(users)}
 
 
-def per_user_pe(errors: dict) -> pd.DataFrame:
+def user_pe_cm(errors: dict) -> pd.DataFrame:
     """Each user's PE (cm) per target as Table 3 averages: the mean over movements of each movement's mean.
 
     Parameters
@@ -241,7 +241,7 @@ def kinect_sensitivity(campaign, inputs: StudyInputs, *, bias_std_m=KINECT_BIAS_
     -------
     pandas.DataFrame
         Columns ``glitch_scale``, ``bias_std_m``, ``draw``, ``user``, ``T1``, ``T2`` (PE, cm, as
-        :func:`per_user_pe`) and ``pe_cm`` (their mean: Table 3's average of the two targets).
+        :func:`user_pe_cm`) and ``pe_cm`` (their mean: Table 3's average of the two targets).
     """
     check_type(inputs, StudyInputs, "inputs")
     check_count(n_draws, "n_draws")
@@ -267,7 +267,7 @@ def kinect_sensitivity(campaign, inputs: StudyInputs, *, bias_std_m=KINECT_BIAS_
             fractions = (d1 / person.upper_arm_m, (d2 - person.upper_arm_m) / person.forearm_m)
             frames = inputs.kinect_frame[user]
             true = np.stack([data1.true_positions, inputs.target2[user].true_positions], axis=1)   # (n, 2, 3)
-            # Table 3's averaging (per_user_pe): each movement's mean, then the mean over movements.
+            # Table 3's averaging (user_pe_cm): each movement's mean, then the mean over movements.
             _, movement = np.unique(data1.movement, return_inverse=True)
             weights = np.eye(movement.max() + 1)[movement]                           # (n, M)
             weights = weights / weights.sum(axis=0) / weights.shape[1]
