@@ -11,6 +11,7 @@
 * :mod:`wsnlib.plotting.loss_options` — the loss options' error against smoothness (notebook 04).
 * :mod:`wsnlib.plotting.slerp_sphere` — SLERP drawn on the unit sphere (paper 001, Fig. 5; notebook 02).
 * :mod:`wsnlib.plotting.loss_tolerance` — figures of the loss-tolerance study (notebook 10).
+* :mod:`wsnlib.plotting.testbed` — paper 002's testbed as we assume it (anchor layout, its Fig. 4).
 
 Every public name is re-exported here, so ``plotting.savefig``, ``plotting.use_style()`` and
 ``plotting.ANNOTATION_FONT_PT`` work as before the split.  Module-level state (the palette
@@ -38,6 +39,7 @@ from wsnlib.plotting.style import (
     savefig,
     use_style,
 )
+from wsnlib.plotting.testbed import plot_anchor_layout
 from wsnlib.plotting.traces import (
     break_at_gaps,
     loss_spans,
@@ -50,7 +52,8 @@ from wsnlib.plotting.traces import (
 
 __all__ = ["ANNOTATION_FONT_PT", "DISPLAY_WIDTH_IN", "METHOD_COLORS", "METHOD_MARKERS", "MIN_FONT_PT", "OKABE_ITO",
            "PlainLogScale", "break_at_gaps", "effective_font_sizes", "loss_spans", "method_style", "plain_number",
-           "plot_angle_traces", "plot_arm_angles", "plot_band", "plot_burst_recovery", "plot_burst_traces",
-           "plot_error_vs_loss_rate", "plot_heatmap", "plot_heatmap_panels", "plot_hybrid_vs_fusion",
-           "plot_option_tradeoffs", "plot_pareto", "plot_per_trial_dots", "plot_slerp_on_sphere",
-           "plot_static_fingerprinting", "plot_trace_panels", "plot_tradeoff", "savefig", "slerp_tips", "use_style"]
+           "plot_anchor_layout", "plot_angle_traces", "plot_arm_angles", "plot_band", "plot_burst_recovery",
+           "plot_burst_traces", "plot_error_vs_loss_rate", "plot_heatmap", "plot_heatmap_panels",
+           "plot_hybrid_vs_fusion", "plot_option_tradeoffs", "plot_pareto", "plot_per_trial_dots",
+           "plot_slerp_on_sphere", "plot_static_fingerprinting", "plot_trace_panels", "plot_tradeoff", "savefig",
+           "slerp_tips", "use_style"]
