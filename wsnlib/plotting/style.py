@@ -113,13 +113,20 @@ METHOD_COLORS.update({"gated hybrid (feedback)": METHOD_COLORS["hybrid (feedback
                       "Fusion, constant rate": METHOD_COLORS["Fusion"], "VQF, constant rate": METHOD_COLORS["VQF"],
                       "offline VQF": METHOD_COLORS["VQF"], "VQF forward-backward": METHOD_COLORS["VQF"],
                       "RIANN": OKABE_ITO["yellow"], "Fusion, AR + replay": METHOD_COLORS["Fusion"],
-                      "VQF, AR + replay": METHOD_COLORS["VQF"]})
+                      "VQF, AR + replay": METHOD_COLORS["VQF"], "Kalman, hold": METHOD_COLORS["Kalman"],
+                      "Kalman, constant rate": METHOD_COLORS["Kalman"], "Kalman, AR": METHOD_COLORS["Kalman"],
+                      "Fusion, AR": METHOD_COLORS["Fusion"], "VQF, AR": METHOD_COLORS["VQF"],
+                      "Fusion (defaults)": METHOD_COLORS["Fusion"],
+                      "Fusion (defaults), constant rate": METHOD_COLORS["Fusion"],
+                      "VQF (defaults), constant rate": METHOD_COLORS["VQF"]})
 METHOD_MARKERS.update({"constant_rate": ">", "hybrid (feedback)": "D", "Kalman": "*", "smoother": "P",
                        "VQF (defaults)": "X"})
 METHOD_MARKERS.update({"gated hybrid (feedback)": "d", "Fusion + gated hybrid (feedback)": "H",
                        "Fusion, constant rate": "1", "VQF, constant rate": "2", "offline VQF": "<",
                        "VQF forward-backward": "8", "RIANN": "p", "Fusion, AR + replay": "3",
-                       "VQF, AR + replay": "4"})
+                       "VQF, AR + replay": "4", "Kalman, hold": "o", "Kalman, constant rate": ">", "Kalman, AR": "s",
+                       "Fusion, AR": "s", "VQF, AR": "s", "Fusion (defaults)": "X",
+                       "Fusion (defaults), constant rate": "x", "VQF (defaults), constant rate": "x"})
 
 
 def method_style(name: str, **overrides) -> dict:
