@@ -4,7 +4,6 @@ coverage, and the live view's frame (an orientation as a body frame, and the err
 from __future__ import annotations
 
 import numpy as np
-from matplotlib.ticker import ScalarFormatter
 
 from wsnlib import quaternion as Q
 from wsnlib.plotting.style import OKABE_ITO
@@ -69,8 +68,6 @@ def plot_redundancy_tradeoff(table, *, axes, loss_rates, latencies):
         ax.set_title(f"GE {rate:.0%}")
         ax.set_xlabel("overhead (bytes per packet)")
         ax.set_yscale("log")
-        ax.yaxis.set_major_formatter(ScalarFormatter())
-        ax.yaxis.set_minor_formatter(ScalarFormatter())
     axes[0].set_ylabel("total RMSE (°), mean over trials")
     handles = [axes[0].scatter([], [], marker=m, color="white", edgecolor="black", label=f"latency {lat:g} s")
                for m, lat in zip(LATENCY_MARKERS, latencies, strict=False)]
