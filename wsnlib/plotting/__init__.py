@@ -12,6 +12,7 @@
 * :mod:`wsnlib.plotting.slerp_sphere` — SLERP drawn on the unit sphere (paper 001, Fig. 5; notebook 02).
 * :mod:`wsnlib.plotting.loss_tolerance` — figures of the loss-tolerance study (notebook 10).
 * :mod:`wsnlib.plotting.testbed` — paper 002's testbed as we assume it (anchor layout, its Fig. 4).
+* :mod:`wsnlib.plotting.streaming` — figures of the live receiver (notebook 11) and its live frame.
 
 Every public name is re-exported here, so ``plotting.savefig``, ``plotting.use_style()`` and
 ``plotting.ANNOTATION_FONT_PT`` work as before the split.  Module-level state (the palette
@@ -24,6 +25,14 @@ from wsnlib.plotting.grids import plot_heatmap, plot_heatmap_panels, plot_pareto
 from wsnlib.plotting.loss_options import plot_option_tradeoffs
 from wsnlib.plotting.loss_tolerance import plot_burst_traces, plot_error_vs_loss_rate, plot_per_trial_dots
 from wsnlib.plotting.slerp_sphere import plot_slerp_on_sphere, slerp_tips
+from wsnlib.plotting.streaming import (
+    LiveFigure,
+    plot_body_frame,
+    plot_burst_coverage,
+    plot_latency_curve,
+    plot_live_error,
+    plot_redundancy_tradeoff,
+)
 from wsnlib.plotting.study_results import plot_burst_recovery, plot_hybrid_vs_fusion, plot_static_fingerprinting
 from wsnlib.plotting.style import (
     ANNOTATION_FONT_PT,
@@ -50,10 +59,11 @@ from wsnlib.plotting.traces import (
     plot_tradeoff,
 )
 
-__all__ = ["ANNOTATION_FONT_PT", "DISPLAY_WIDTH_IN", "METHOD_COLORS", "METHOD_MARKERS", "MIN_FONT_PT", "OKABE_ITO",
-           "PlainLogScale", "break_at_gaps", "effective_font_sizes", "loss_spans", "method_style", "plain_number",
-           "plot_anchor_layout", "plot_angle_traces", "plot_arm_angles", "plot_band", "plot_burst_recovery",
-           "plot_burst_traces", "plot_error_vs_loss_rate", "plot_heatmap", "plot_heatmap_panels",
-           "plot_hybrid_vs_fusion", "plot_option_tradeoffs", "plot_pareto", "plot_per_trial_dots",
-           "plot_slerp_on_sphere", "plot_static_fingerprinting", "plot_trace_panels", "plot_tradeoff", "savefig",
-           "slerp_tips", "use_style"]
+__all__ = ["ANNOTATION_FONT_PT", "DISPLAY_WIDTH_IN", "LiveFigure", "METHOD_COLORS", "METHOD_MARKERS", "MIN_FONT_PT",
+           "OKABE_ITO", "PlainLogScale", "break_at_gaps", "effective_font_sizes", "loss_spans", "method_style",
+           "plain_number", "plot_anchor_layout", "plot_angle_traces", "plot_arm_angles", "plot_band",
+           "plot_body_frame", "plot_burst_coverage", "plot_burst_recovery", "plot_burst_traces",
+           "plot_error_vs_loss_rate", "plot_heatmap", "plot_heatmap_panels", "plot_hybrid_vs_fusion",
+           "plot_latency_curve", "plot_live_error", "plot_option_tradeoffs", "plot_pareto", "plot_per_trial_dots",
+           "plot_redundancy_tradeoff", "plot_slerp_on_sphere", "plot_static_fingerprinting", "plot_trace_panels",
+           "plot_tradeoff", "savefig", "slerp_tips", "use_style"]
