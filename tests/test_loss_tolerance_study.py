@@ -662,6 +662,17 @@ def test_draws_are_rows_and_summaries_average_them():
         with pytest.raises(ValueError, match=match):
             lt.evaluate(recordings, rng=np.random.default_rng(3), methods=methods, profiles=profiles,
                         headline="GE 20 %", draws=bad)
+    # Tuned on the first draw only: the tuning and the choices of the single-draw study, scored on all three.
+    first_only = lt.evaluate(recordings, rng=np.random.default_rng(3), methods=methods, profiles=profiles,
+                             headline="GE 20 %", draws=3, tuning_draws=1, progress=False)
+    assert len(one.tuning) and not one.tuning.equals(three.tuning)
+    pd.testing.assert_frame_equal(first_only.tuning, one.tuning)
+    pd.testing.assert_frame_equal(first_only.choices, one.choices)
+    assert first_only.per_trial.groupby("profile")["draw"].nunique()["GE 20 %"] == 3
+    for bad, match in ((4, "exceeds the headline's draws"), (0, "tuning_draws")):
+        with pytest.raises(ValueError, match=match):
+            lt.evaluate(recordings, rng=np.random.default_rng(3), methods=methods, profiles=profiles,
+                        headline="GE 20 %", draws=3, tuning_draws=bad)
 
 
 def test_paper001_registry_and_profiles():

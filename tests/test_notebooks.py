@@ -81,15 +81,13 @@ def _compiled_since(start: float) -> bool:
 
 @pytest.fixture(scope="module")
 def quick_batch(tmp_path_factory):
-    """The batch in quick mode: ``(folder, manifest)``.  Run once, and again when numba compiled
-    kernels meanwhile (a fresh clone, or edited sources): the run-time check must not see that."""
+    """The batch in quick mode: ``(folder, manifest, compiled)``, ``compiled`` whether numba wrote
+    compiled kernels to its cache meanwhile (a fresh clone, edited sources, or another test
+    process compiling): then the batch's seconds include compilation."""
     start = time.time()
     folder = tmp_path_factory.mktemp("quick-batch")
     manifest = _run_batch(folder)
-    if _compiled_since(start):
-        folder = tmp_path_factory.mktemp("quick-batch-warm")
-        manifest = _run_batch(folder)
-    return folder, manifest
+    return folder, manifest, _compiled_since(start)
 
 
 #: The notebook run a second time for the reproducibility check (cheap, and it writes tables and figures).
@@ -98,7 +96,7 @@ RERUN = "04_loss_alternatives"
 
 @pytest.mark.notebook
 def test_batch_runs_in_quick_mode_and_is_reproducible(quick_batch, tmp_path):
-    run1, first = quick_batch
+    run1, first, _ = quick_batch
     second = _run_batch(tmp_path, "--only", f"{RERUN}*")
     ran = [entry["notebook"] for entry in first["notebooks"]]
     assert ran == [batch_selection.notebook_name(nb) for nb in EVERY_NOTEBOOK]
@@ -143,7 +141,7 @@ def _clutter(cell) -> list[str]:
 @pytest.mark.notebook
 def test_executed_notebooks_show_no_warning_stderr_or_path_list(quick_batch):
     """The student sees results only: no warning, no stderr, no ``[PosixPath(...)]`` from savefig."""
-    run1, _ = quick_batch
+    run1, _, _ = quick_batch
     problems = []
     for notebook in EVERY_NOTEBOOK:
         executed = nbformat.read(run1 / "build" / "executed" / batch_selection.notebook_name(notebook), as_version=4)
@@ -183,7 +181,11 @@ def test_stated_quick_run_times_match_the_batch(quick_batch):
     faster or busier machine than the one that measured them does not fail the test; a notebook
     whose share of the batch changed (a hand-written or stale number) does.
     """
-    measured = {entry["notebook"]: entry["seconds"] for entry in quick_batch[1]["notebooks"]}
+    _, manifest, compiled = quick_batch
+    if compiled:
+        pytest.skip("numba compiled kernels during the batch (a fresh clone or edited sources): its seconds "
+                    "include compilation; .ci/run runs `make figures` first, which fills the cache")
+    measured = {entry["notebook"]: entry["seconds"] for entry in manifest["notebooks"]}
     statements = {batch_selection.notebook_name(nb): _stated_run_time(nb) for nb in EVERY_NOTEBOOK}
     missing = [name for name, statement in statements.items() if statement is None]
     assert not missing, f"no measured run time in the first cell of {missing}"

@@ -79,8 +79,8 @@ class LossToleranceResult:
         One row per method × profile × trial (columns in :func:`evaluate`); a "trial" is one
         study unit (a BROAD trial, or one node of a recording file).
     tuning : pandas.DataFrame
-        Headline RMSE (°, mean over the headline's draws) of every setting on every trial, for
-        the methods with more than one setting:
+        Headline RMSE (°, mean over the masks tuned on, ``tuning_draws`` of :func:`evaluate`) of
+        every setting on every trial, for the methods with more than one setting:
         method, setting_index, setting, trial, rmse_total, rmse_heading, rmse_inclination
         (no rows without tuning, :attr:`setting_source` ``"defaults (one recording)"``).
     choices : pandas.DataFrame
@@ -241,7 +241,7 @@ def _traced_burst(recording, masks, rows) -> int | None:
 
 def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[str, Method] | None = None,
              profiles=PROFILES, headline: str = HEADLINE, draws: int | Mapping[str, int] = 1,
-             groups: Mapping | None = None,
+             groups: Mapping | None = None, tuning_draws: int | None = None,
              n_jobs: int = -1, scheduler=None, progress: bool = True) -> LossToleranceResult:
     """Tune every method leave-one-group-out at ``headline`` and score it under every profile.
 
@@ -281,6 +281,12 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
         :func:`~wsnlib.studies.loss_tolerance.holdout_groups` (BROAD's kinds of motion).  A
         group holds whole recordings (the nodes of one recording never straddle a fold).
         Default: each trial's recording (``source``).
+    tuning_draws : int, optional
+        Tune on the first this many of the headline's masks (default: all of them); the scores
+        use them all.  Tuning is most of the study's run time (every setting of every method on
+        every trial), and a leave-one-group-out choice already averages over the other groups'
+        trials, so fewer masks there cost little (the tuning table shows how flat the scores
+        are over the settings).  Every method tunes on the same masks.
     n_jobs : int
         Local worker processes (-1, default: one per core; 1: none, everything in this process).
     scheduler : str or distributed.Client, optional
@@ -323,6 +329,9 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
     if headline not in profile_names:
         raise ValueError(f"headline must be one of the profiles {profile_names}, got {headline!r}")
     draws = _check_draws(draws, profile_names)
+    tuning_draws = draws[headline] if tuning_draws is None else check_count(tuning_draws, "tuning_draws")
+    if tuning_draws > draws[headline]:
+        raise ValueError(f"tuning_draws ({tuning_draws}) exceeds the headline's draws ({draws[headline]})")
     fs = {name: check_positive(getattr(recordings[name], "fs", None), f"recordings[{name!r}].fs") for name in names}
     sources = [str(getattr(recordings[name], "source", name)) for name in names]
     folds = sources if groups is None else _check_groups(groups, names, sources)
@@ -334,8 +343,8 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
         masks[name], rows[name] = _masks(profiles, recordings[name], fs[name], trial_rng, draws)
     seconds = dict.fromkeys(methods, 0.0)
     if tuned:
-        setting, tuning, choices = _tune(recordings, names, folds, methods, masks, rows, headline, seconds,
-                                         n_jobs=n_jobs, scheduler=scheduler, progress=progress)
+        setting, tuning, choices = _tune(recordings, names, folds, methods, masks, rows, headline, tuning_draws,
+                                         seconds, n_jobs=n_jobs, scheduler=scheduler, progress=progress)
     else:
         untuned = {m: method.untuned_setting() for m, method in methods.items()}
         setting = {m: [untuned[m]] * len(names) for m in methods}
@@ -401,8 +410,10 @@ def _check_groups(groups, names, sources) -> list[str]:
     return labels
 
 
-def _tune(recordings, names, folds, methods, masks, rows, headline, seconds, *, n_jobs, scheduler, progress):
-    """Leave-one-group-out tuning at ``headline`` (``folds``: each trial's group): each trial's setting
+def _tune(recordings, names, folds, methods, masks, rows, headline, tuning_draws, seconds, *, n_jobs, scheduler,
+          progress):
+    """Leave-one-group-out tuning at ``headline``'s first ``tuning_draws`` masks (``folds``: each trial's
+    group): each trial's setting
     per method (``setting[m][j]``), the tuning table and the choices table (see
     :class:`LossToleranceResult`); adds the run time to ``seconds``."""
     # Tuning jobs, one per method, trial and SETTINGS_PER_JOB settings.  Without a cluster, each
@@ -413,8 +424,8 @@ def _tune(recordings, names, folds, methods, masks, rows, headline, seconds, *, 
     where = [(m, j, first) for j in range(len(names)) for m, method in tuned.items()
              for first in range(0, len(method.grid), SETTINGS_PER_JOB)]
     where.sort(key=lambda job: (job[1], job[2]) != (0, 0))
-    at_headline = {name: [k for k, (profile, _) in enumerate(rows[name]) if profile.name == headline]
-                   for name in names}
+    at_headline = {name: [k for k, (profile, draw) in enumerate(rows[name])
+                          if profile.name == headline and draw < tuning_draws] for name in names}
     jobs = [(methods[m], recordings[names[j]], masks[names[j]][at_headline[names[j]]],
              methods[m].grid[first:first + SETTINGS_PER_JOB]) for m, j, first in where]
     scores = {m: np.empty((len(tuned[m].grid), len(names), 3)) for m in tuned}  # total, heading, inclination
