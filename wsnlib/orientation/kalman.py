@@ -447,8 +447,14 @@ def kalman_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
     outputs = (np.empty((n_batch, n_t, 4)), np.empty((n_batch, n_t, 3)), np.empty((n_batch, n_t, 3)),
                np.empty((kept, n_t if full_output else 1, NX, NX)), np.empty((n_batch, n_t), dtype=bool),
                np.empty((n_batch, n_t), dtype=bool))
-    run_kalman(inputs.gyr, inputs.acc, inputs.mag, inputs.received, inputs.index, inputs.q_init, inputs.start,
-               inputs.init_only, c, outputs)
+    if n_batch == 1:  # one stream: the loop itself, without starting the thread pool
+        i_gyr, i_acc, i_mag, i_rx = inputs.index[0]
+        K.kalman_stream(inputs.gyr[i_gyr], inputs.acc[i_acc], inputs.mag[i_mag], inputs.received[i_rx],
+                        inputs.q_init[0], inputs.start[0], inputs.init_only, c[0],
+                        tuple(out[0] for out in outputs) + K.new_records(0))
+    else:
+        run_kalman(inputs.gyr, inputs.acc, inputs.mag, inputs.received, inputs.index, inputs.q_init, inputs.start,
+                   inputs.init_only, c, outputs)
     out_q, out_bias, _, out_P, acc_used, mag_used = outputs
     long_rejections = np.zeros(n_batch, dtype=np.int64)
     if inputs.has_mag:
