@@ -31,3 +31,22 @@ def test_search_benchmark_times_the_same_results_as_the_naive_loop():
         assert naive["max_abs_diff_cm"] < 1e-6, (approach, naive)  # the vectorised search = one fit per setting
     assert results["n_settings"] == {"deterministic": 6350, "probabilistic": 635}  # the paper's grid
     assert results["table3"].shape[0] == 2                                      # Table 3: one row per target
+
+
+def test_stream_benchmark_outputs_every_sample_of_every_node_and_meets_deadlines_with_its_own_timing():
+    from _recordings import turning_recording
+
+    bench = _load("bench_stream")
+    gyr, acc, mag, _ = turning_recording(1500, seed=3, noise=0.01)
+    results = bench.run(quick=True, log=lambda *args: None, signals=(gyr, acc, mag))
+    live = results["live"]
+    assert live["read"] == live["sent"] > 0                             # over UDP, every datagram read
+    assert live["samples"] == results["nodes"] * int(results["seconds"] * bench.FS)  # every sample out, once
+    counts = live["counters"]
+    assert counts["received"] == live["sent"] and counts["duplicate"] == counts["corrupt"] == 0
+    assert 0.05 < results["lost_share"] < 0.15                          # timed under GE 10 %, not lossless
+    for name, setting in results["offline"].items():
+        assert setting["late"] == 0, name                               # the algorithm's own deadlines
+        assert setting["samples"] == live["samples"], name
+    text = bench.report(results)
+    assert text.count("PASS") + text.count("MISS") == len(results["targets"]) == 2

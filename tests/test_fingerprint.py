@@ -385,3 +385,72 @@ def test_fit_predict_by_group_uses_each_groups_own_map():
     with pytest.raises(ValueError, match="groups"):
         fit_predict_by_group(KNNFingerprint(n_neighbors=1), X_train, y_train, groups_train, X, np.array(["a", "c"]))
 
+
+
+# ------------------------------------------------------------------ missing online readings
+
+
+@pytest.mark.parametrize("cls, options", [(KNNFingerprint, {"metric": "euclidean", "power": 2}),
+                                          (KNNFingerprint, {"metric": "manhattan", "power": 1}),
+                                          (ProbabilisticKNN, {"pmf": "histogram"}),
+                                          (ProbabilisticKNN, {"pmf": "parzen"})])
+def test_skipping_a_missing_online_reading_equals_leaving_its_anchor_out(rng, cls, options):
+    X, y, means, _ = _training(rng, n_anchors=5)
+    X[rng.uniform(size=X.shape) < 0.1] = np.nan                      # missing in training too
+    online = np.round(means + rng.normal(0.0, 3.0, size=means.shape))
+    missing = rng.uniform(size=online.shape) < 0.3
+    missing[:, 0] = False                                            # every vector keeps a reading
+    online[missing] = np.nan
+    skip = cls(n_neighbors=3, online_missing="skip", **options).fit(X, y)
+    out = skip.predict(online)
+    for row, vector in enumerate(online):
+        heard = np.flatnonzero(~np.isnan(vector))
+        alone = cls(n_neighbors=3, anchors=heard, **options).fit(X, y)
+        np.testing.assert_allclose(out[row], alone.predict(np.nan_to_num(vector[None], nan=-100.0))[0], atol=1e-12)
+    if cls is ProbabilisticKNN:   # the posterior, too, is the one over the heard anchors
+        row = int(np.argmax(missing.sum(axis=1)))
+        heard = np.flatnonzero(~missing[row])
+        alone = cls(n_neighbors=3, anchors=heard, **options).fit(X, y)
+        np.testing.assert_allclose(skip.predict_proba(online[row : row + 1]),
+                                   alone.predict_proba(np.nan_to_num(online[row : row + 1], nan=-100.0)), atol=1e-12)
+
+
+@pytest.mark.parametrize("cls", [KNNFingerprint, ProbabilisticKNN])
+def test_a_complete_vector_is_the_same_whether_missing_readings_raise_or_are_skipped(rng, cls):
+    X, y, means, _ = _training(rng)
+    online = np.round(means + rng.normal(0.0, 2.0, size=means.shape))
+    np.testing.assert_array_equal(cls(online_missing="skip").fit(X, y).predict(online),
+                                  cls().fit(X, y).predict(online))
+
+
+@pytest.mark.parametrize("cls", [KNNFingerprint, ProbabilisticKNN])
+def test_missing_online_readings_raise_by_default_and_a_vector_with_none_is_refused(cls):
+    with pytest.raises(ValueError, match="online_missing='skip'"):
+        cls(n_neighbors=1).fit(MAP_X, MAP_Y).predict([[-50.0, np.nan]])
+    skip = cls(n_neighbors=1, online_missing="skip").fit(MAP_X, MAP_Y)
+    np.testing.assert_array_equal(skip.predict([[-50.0, np.nan]]), MAP_Y[:1])
+    with pytest.raises(ValueError, match="row 1 has no reading"):
+        skip.predict([[-50.0, np.nan], [np.nan, np.nan]])
+    with pytest.raises(ValueError, match="row 0 has no reading on any selected anchor"):
+        cls(n_neighbors=1, anchors=[1], online_missing="skip").fit(MAP_X, MAP_Y).predict([[-50.0, np.nan]])
+    with pytest.raises(ValueError, match="online_missing"):
+        cls(online_missing="fill").fit(MAP_X, MAP_Y)
+
+
+def test_gmm_cells_are_fitted_on_one_thread(rng, monkeypatch):
+    """Non-integer readings in cells of more than 256 (where the k-means start would use its threads)."""
+    from sklearn.mixture import GaussianMixture
+    from threadpoolctl import threadpool_info
+
+    seen = []
+    fit = GaussianMixture.fit
+
+    def recording_fit(self, values, *args, **kwargs):
+        seen.append({info["user_api"]: info["num_threads"] for info in threadpool_info()})
+        return fit(self, values, *args, **kwargs)
+
+    monkeypatch.setattr(GaussianMixture, "fit", recording_fit)
+    X = rng.normal(-60.0, 3.0, size=(600, 2))
+    y = np.repeat([[0.0, 0, 0], [1.0, 0, 0]], 300, axis=0)
+    ProbabilisticKNN(pmf="gmm", n_neighbors=1, random_state=0).fit(X, y)
+    assert len(seen) == 4 and all(threads == 1 for counts in seen for threads in counts.values())

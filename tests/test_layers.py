@@ -24,10 +24,10 @@ LAYERS = {
     "core":       "__init__ quaternion frames testbed arm_model loss metrics paths _files _validation paper_values "
                   "cache fixed_order parallel plausibility",
     "io":         "io",
-    "algorithms": "orientation radio posture optimize tuning loto stats",
+    "algorithms": "orientation radio posture optimize tuning loto stats stream",
     "sim":        "sim",
     "report":     "plotting outputs reproduce batch_selection batch_manifest run_times book",
-    "studies":    "studies interactive exercises",
+    "studies":    "studies interactive exercises live_view",
 }  # fmt: skip
 RANK = {layer: rank for rank, layer in enumerate(LAYERS)}
 LAYER_OF = {top: layer for layer, tops in LAYERS.items() for top in tops.split()}

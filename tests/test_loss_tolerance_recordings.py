@@ -102,14 +102,14 @@ def test_at_40_hz_the_study_gives_what_the_method_gives_at_40_hz(tmp_path):
 
 def test_masks_and_latency_use_each_recordings_rate(tmp_path):
     """Loss profiles are in seconds and packets of samples: the paper's burst (4 packets of 6
-    samples, every 8 s from 4 s on) starts at the first packet boundary from 4 s on, sample 162
+    samples, repeated every 8 s from 4 s on) starts at the first packet boundary from 4 s on, sample 162
     at 40 Hz (4 s = sample 160), 204 at 50 Hz (sample 200), and lasts 24 samples."""
     _simulated(tmp_path / "forty.csv", fs=40.0, duration_s=10.0, seed=1)
     _simulated(tmp_path / "fifty.csv", fs=50.0, duration_s=10.0, seed=2)
     units = lt.load_recordings([tmp_path / "forty.csv", tmp_path / "fifty.csv"], progress=False)
-    profiles = (lt.PROFILES[0], lt.PROFILES[1])
+    profiles = (lt.PROFILES[0], LossProfile.burst(4.0, 4, period_s=8.0, name="paper burst, repeated"))
     result = lt.evaluate(units, rng=np.random.default_rng(0), methods=_methods("smoother"), profiles=profiles,
-                         headline="paper burst", n_jobs=1, progress=False)
+                         headline="paper burst, repeated", n_jobs=1, progress=False)
     assert result.traces["forty/humerus"]["burst_ends"][0] == 162 + 24
     assert result.traces["fifty/humerus"]["burst_ends"][0] == 204 + 24
     latency = result.per_trial.set_index("trial")["latency_s"]  # the smoother waits for the whole recording
@@ -145,13 +145,13 @@ def test_one_recording_runs_every_method_with_its_default_and_says_so(tmp_path):
     used = result.per_trial.drop_duplicates("method").set_index("method")["setting"]
     assert used["hold_last"] == str({"beta": 0.041}) and used["Kalman"] == "{}" and used["VQF"] == "{}"
     assert used["Fusion"] == str({"gain": 0.5})
-    assert used["hybrid (feedback)"] == str({"rho_tau": 18})   # notebook 03's ρ = 3 × τ = 6
+    assert used["hybrid (feedback)"] == str({"beta": 0.041, "rho_tau": 18})   # notebook 03's ρ = 3 × τ = 6
     assert used["VQF (defaults)"] == str(methods["VQF (defaults)"].grid[0])
     table = result.rmse_table()
     assert (table["setting_source"] == "defaults (one recording)").all()
     # Without a default, a method with several settings cannot run untuned.
     bare = {"x": dataclasses.replace(methods["hold_last"], default=None)}
-    with pytest.raises(ValueError, match="'hold_last' has 8 settings and no default"):
+    with pytest.raises(ValueError, match="'hold_last' has 12 settings and no default"):
         lt.evaluate(units, rng=np.random.default_rng(0), methods=bare, profiles=LOSSLESS, headline="lossless",
                     progress=False)
 
@@ -224,8 +224,9 @@ def test_loss_specs_of_the_command_line():
     assert (ge.name, ge.model, ge.loss_rate, ge.mean_burst_packets, ge.samples_per_packet) == \
         ("ge:0.10:3", "gilbert_elliott", 0.10, 3.0, 6)
     assert loss_profile("ge:0.2").mean_burst_packets == 3.0 and loss_profile("ge:0.2:5:12").samples_per_packet == 12
-    paper = loss_profile("burst:4:4:8")  # paper 001's burst, every 8 s: the study's "paper burst"
-    np.testing.assert_array_equal(paper.mask(3000, 40.0, None), lt.PROFILES[1].mask(3000, 40.0, None))
+    paper = loss_profile("burst:4:4:8")  # paper 001's burst, every 8 s
+    np.testing.assert_array_equal(paper.mask(3000, 40.0, None),
+                                  LossProfile.burst(4.0, 4, period_s=8.0).mask(3000, 40.0, None))
     assert loss_profile("burst:2:3").burst_period_s is None and loss_profile("none").model == "none"
     import argparse
     for bad in ("ge:1.5", "ge:0.1:0.5", "ge:0.1:3:2.5", "burst:4", "burst:4:0", "gilbert:0.1", "ge:ten"):
@@ -308,10 +309,13 @@ def test_sentences_on_other_recordings_name_no_broad_group():
                                                                            "magnet": []}
     rows = [{"profile": "paper burst", "metric": metric, "method": m, "mean": 1.0, "ci_low": 0.5, "ci_high": 1.5}
             for m in ("hold_last", "hybrid (feedback)", "Kalman", "smoother", "VQF")
-            for metric in ("peak_increase_deg", "recovery_s")]
+            for metric in tables.PAPER_VS_OURS_COLUMNS]
     table = tables.paper_vs_ours(pd.DataFrame(rows), "VQF")
-    assert "On BROAD" in tables.paper_vs_ours_sentence(table) and "magnetic" in tables.paper_vs_ours_sentence(table)
-    other = tables.paper_vs_ours_sentence(table, broad=False)
+    peaks = pd.DataFrame([{"without": "hold_last", "with": "hybrid (feedback)", "difference": 0.0, "ci_low": -1.0,
+                           "ci_high": 1.0, "verdict": "tie", "n_better": 1, "n_trials": 2}])
+    broad_text = tables.paper_vs_ours_sentence(table, peaks)
+    assert "On BROAD" in broad_text and "magnetic" in broad_text
+    other = tables.paper_vs_ours_sentence(table, peaks, broad=False)
     assert "On these recordings" in other and "BROAD" not in other and "magnetic" not in other
 
 

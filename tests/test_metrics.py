@@ -126,6 +126,41 @@ def test_burst_response_on_a_known_excursion():
         metrics.burst_response(lossy, lossless, np.array([1.5]), fs)
 
 
+def test_single_burst_response_against_the_error_just_before_it():
+    """Paper 001's protocol: one burst per run, its effect measured from where the method was."""
+    fs = 10.0
+    received = np.ones((3, 100), bool)
+    received[:, 40:45] = False                          # one burst: samples 40-44, first received after it 45
+    error = np.full((3, 100), 2.0)
+    error[0, 40:50] = 12.0                              # run 0: +10° from the burst's start to 49, then back
+    error[1] = 20.0                                     # run 1: high before, and still 25° (> 20 + 2) at the end
+    error[1, 45:] = 25.0
+    error[2, 30:35] = 6.0                               # run 2: an earlier excursion sets what "before" means
+    error[2, 35:40] = np.nan                            # ... its last half second has no reference
+    res = metrics.single_burst_response(error, received, fs, before_s=1.0, window_s=3.0, threshold_deg=2.0,
+                                        level_deg=10.0)
+    assert res["start"].tolist() == [40] * 3 and res["end"].tolist() == [45] * 3
+    np.testing.assert_allclose(res["before_deg"], [2.0, 20.0, 6.0])
+    np.testing.assert_allclose(res["peak_increase_deg"], [10.0, 5.0, -4.0])
+    np.testing.assert_allclose(res["mean_increase_deg"], [10.0 * 5 / 30, 5.0, -4.0])
+    # Back within 2° of the error before: after sample 49 (0.5 s from 45); never (inf); at once (0).
+    np.testing.assert_allclose(res["recovery_s"], [0.5, np.inf, 0.0])
+    # Below an absolute 10°: the same for run 0; never for run 1, which was above it already; at once for run 2.
+    np.testing.assert_allclose(res["level_recovery_s"], [0.5, np.inf, 0.0])
+    # A window without enough reference gives NaN, not a number.
+    sparse = error[:1].copy()
+    sparse[0, 45:70] = np.nan
+    assert np.isnan(metrics.single_burst_response(sparse, received[:1], fs, window_s=3.0)["recovery_s"]).all()
+    two = received[0].copy()
+    two[60:65] = False
+    with pytest.raises(ValueError, match="exactly one run"):
+        metrics.single_burst_response(error[0], two, fs)
+    with pytest.raises(ValueError, match="before it and one after"):
+        metrics.single_burst_response(error[0], np.arange(100) > 3, fs)
+    with pytest.raises(ValueError, match="boolean"):
+        metrics.single_burst_response(error[0], received[0].astype(int), fs)
+
+
 # --- BROAD error metrics ----------------------------------------------------------------------
 
 

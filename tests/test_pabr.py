@@ -567,3 +567,38 @@ def test_a_shuffled_track_is_returned_in_time_order(tiny):
     tr = pabr.load_pabr_tracks("walk", tiny)
     np.testing.assert_array_equal(tr["timestamp"], [10.0, 10.4, 11.2, 12.1])
     assert list(tr["receiver"]) == ["sensor10", "sensor11", "sensor10", "sensor12"]
+
+
+# ------------------------------------------------------------------ same-day split and moving vectors
+
+
+def test_time_split_cuts_each_point_at_the_middle_of_its_span(tiny):
+    fp = pabr.load_pabr_fingerprints("set_1", tiny)
+    early, late = pabr.pabr_time_split(fp)
+    assert len(early) + len(late) == len(fp)
+    # point 0 spans 100.0-101.5 s (cut at 100.75), point 1 100.0-101.0 s (cut at 100.5)
+    assert sorted(early.loc[early["point"] == 0, "timestamp"]) == [100.0, 100.0, 100.5, 100.5]
+    assert sorted(late.loc[late["point"] == 1, "timestamp"]) == [100.5, 101.0]
+    assert early.attrs["set_name"] == "set_1"
+    tr = pabr.load_pabr_tracks("walk", tiny)
+    first, second = pabr.pabr_time_split(tr, fraction=0.25)      # 10.0-12.1 s: cut at 10.525
+    np.testing.assert_allclose(first["timestamp"], [10.0, 10.4])
+    with pytest.raises(ValueError, match="fraction"):
+        pabr.pabr_time_split(fp, fraction=1.0)
+    with pytest.raises(ValueError, match="lacks the column"):
+        pabr.pabr_time_split(fp.drop(columns="timestamp"))
+
+
+def test_vector_motion_of_packet_blocks_and_time_windows(tiny):
+    tr = pabr.load_pabr_tracks("walk", tiny)
+    blocks = pabr.pabr_vectors(tr, window_packets=1)
+    # block 0: the first packet of each receiver, 10.0 (x = 1.0) to 12.1 s (x = 1.8); block 1: s10 at 11.2 alone
+    motion = pabr.pabr_vector_motion(tr, blocks)
+    np.testing.assert_allclose(motion["span_s"], [2.1, 0.0])
+    np.testing.assert_allclose(motion["moved_m"], [0.8, 0.0], atol=1e-12)
+    windows = pabr.pabr_vectors(tr, window_s=1.0)
+    np.testing.assert_allclose(pabr.pabr_vector_motion(tr, windows)["span_s"], [0.4, 0.0, 0.0])
+    with pytest.warns(UserWarning, match="heard no valid packet"):
+        other = pabr.load_pabr_tracks("other", tiny)
+    with pytest.raises(ValueError, match="not in tracks"):
+        pabr.pabr_vector_motion(other, blocks)

@@ -198,3 +198,91 @@ def test_heatmap_panels_share_one_colour_scale_and_validate():
     with pytest.raises(ValueError, match="no finite value"):
         plotting.plot_heatmap_panels({"a": np.full((2, 3), np.nan)}, [1, 2], [1, 2, 3], axes=axes)
     plt.close(fig)
+
+
+@pytest.mark.parametrize(("low", "high"), [(40.0, 90.0), (0.02, 0.5), (1.5e4, 6e4), (3.0, 3e5)])
+def test_log_axes_are_labelled_with_plain_numbers(low, high):
+    """Issue 26: "6×10¹" becomes "60", on major and minor ticks, for every log axis after use_style()."""
+    import pandas as pd
+
+    plotting.use_style()
+    fig, (ax_a, ax_b) = plt.subplots(1, 2)
+    ax_a.plot([1, 2], [low, high])
+    ax_a.set_yscale("log")
+    pd.Series([low, high]).plot(ax=ax_b, logy=True)      # pandas' own route to a log axis
+    fig.canvas.draw()
+    for ax in (ax_a, ax_b):
+        ticks = [*ax.yaxis.get_major_ticks(), *ax.yaxis.get_minor_ticks()]
+        labels = {(tick.get_loc(), tick.label1.get_text()) for tick in ticks if tick.label1.get_text()}
+        assert labels, "no tick is labelled"
+        for value, text in labels:
+            assert text == plotting.plain_number(value), (value, text)
+            assert float(text) == pytest.approx(value, rel=1e-3), (value, text)
+    plt.close(fig)
+
+
+def test_plain_number_keeps_three_significant_digits_and_no_exponent():
+    assert [plotting.plain_number(v) for v in (60.0, 0.02, 2e5, 1.0, 0.000123456, 12345.0)] == [
+        "60", "0.02", "200000", "1", "0.000123", "12300"]
+
+
+def test_trace_panels_shade_each_panels_own_loss_and_validate(output_dir, monkeypatch):
+    monkeypatch.setenv("WSNLIB_BATCH", "1")
+    plotting.use_style()
+    t = np.arange(100) / 50.0
+    received = np.ones((2, 100), bool)
+    received[0, 40:46] = False
+    received[1, 40:70] = False
+    fig = plotting.plot_trace_panels(t, {"short": {"truth": t, "data fusion": t + 1},
+                                         "long": {"truth": t, "data fusion": t + 2}},
+                                     received, ylabel="pitch (°)", window=t < 1.8, suptitle="two losses")
+    axes = fig.axes
+    spans = [[patch.get_x() for patch in ax.patches] for ax in axes]
+    assert len(axes) == 2 and spans == [[pytest.approx(0.8)], [pytest.approx(0.8)]]
+    widths = [ax.patches[0].get_width() for ax in axes]
+    assert widths == [pytest.approx(6 / 50.0), pytest.approx(30 / 50.0)]
+    assert axes[0].get_xlabel() == "" and axes[1].get_xlabel() == "time (s)"
+    plotting.savefig(fig, "trace_panels")     # legible in the batch
+    plt.close(fig)
+    with pytest.raises(ValueError, match="received"):
+        plotting.plot_trace_panels(t, {"one": {"truth": t}}, received, ylabel="x")
+
+
+def test_option_tradeoffs_draw_one_line_per_option_from_the_lowest_loss_rate():
+    import pandas as pd
+
+    plotting.use_style()
+    results = pd.DataFrame({"option": ["hold_last"] * 3 + ["hybrid"] * 3, "loss rate": [0.0, 0.1, 0.2] * 2,
+                            "err": [1.0, 2.0, 3.0, 1.0, 1.5, 2.0], "step": [0.0, 0.1, 0.2, 0.0, 1.0, 2.0]})
+    fig, axes = plt.subplots(1, 1, squeeze=False)
+    plotting.plot_option_tradeoffs(results, axes=axes, error_columns=["err"], smoothness_columns={"step": "step (°)"})
+    lines = axes[0, 0].get_lines()
+    assert [line.get_label() for line in lines] == ["hold_last", "hybrid"]
+    assert list(lines[1].get_xdata()) == [1.5, 2.0]          # the lossless row is left out
+    assert axes[0, 0].get_yscale() == "log" and [t.get_text() for t in axes[0, 0].texts] == ["20%", "20%"]
+    with pytest.raises(ValueError, match="axes must be"):
+        plotting.plot_option_tradeoffs(results, axes=axes, error_columns=["err", "err"],
+                                       smoothness_columns={"step": "step (°)"})
+    plt.close(fig)
+
+
+def test_slerp_on_the_sphere_follows_the_quaternion_slerp():
+    from wsnlib import quaternion
+
+    q_single = quaternion.from_axis_angle([0.0, 0.0, 1.0], 0.0)
+    q_fusion = quaternion.from_axis_angle([0.0, 0.0, 1.0], np.radians(60.0))     # 60° about up
+    tips = plotting.slerp_tips(q_single, q_fusion, [0.0, 0.25, 0.5, 1.0])
+    angles = np.radians([0.0, 15.0, 30.0, 60.0])                                   # constant speed along the arc
+    np.testing.assert_allclose(tips, np.stack([np.cos(angles), np.sin(angles), np.zeros(4)], axis=-1), atol=1e-12)
+    plotting.use_style()
+    fig = plt.figure(figsize=(7.0, 4.0))
+    ax_whole, ax_zoom = fig.add_subplot(1, 2, 1, projection="3d"), fig.add_subplot(1, 2, 2, projection="3d")
+    plotting.plot_slerp_on_sphere(q_single, q_fusion, [0.0, 0.5, 1.0], ax=ax_whole)
+    plotting.plot_slerp_on_sphere(q_single, q_fusion, [0.0, 0.5, 1.0], ax=ax_zoom, zoom=True, mu_marked=(0.2, "μ"))
+    path = [line for line in ax_whole.get_lines() if line.get_label() == "SLERP path"][0]
+    xs, ys, zs = path.get_data_3d()
+    np.testing.assert_allclose(np.hypot(np.hypot(xs, ys), zs), 1.0)               # on the unit sphere
+    labels = [text.get_text().strip() for text in ax_zoom.texts]
+    assert labels == ["μ = 0", "μ = 0.5", "μ = 1"]
+    assert {"single frame (μ = 0)", "data fusion (μ = 1)", "μ"} <= set(ax_zoom.get_legend_handles_labels()[1])
+    plt.close(fig)

@@ -61,8 +61,8 @@ def test_both_paths_give_the_one_type():
     assert type(simulated) is RssVectors and type(pabr) is RssVectors
     assert simulated.anchors == pabr.anchors == ANCHORS
     names = [f.name for f in dataclasses.fields(RssVectors)]
-    assert names == ["rss", "n_readings", "time_s", "position", "label", "target", "session", "user", "window",
-                     "n_packets", "anchors"]
+    assert names == ["rss", "n_readings", "time_s", "first_time_s", "position", "label", "target", "session", "user",
+                     "window", "n_packets", "anchors"]
 
 
 @pytest.mark.parametrize("window", [{"window_s": 1.0}, {"window": "point"}])
@@ -72,6 +72,7 @@ def test_both_paths_cut_the_same_windows(window):
     np.testing.assert_array_equal(simulated.n_readings, pabr.n_readings)
     np.testing.assert_array_equal(simulated.position, pabr.position)
     np.testing.assert_array_equal(simulated.time_s, pabr.time_s)
+    np.testing.assert_array_equal(simulated.first_time_s, pabr.first_time_s)
     np.testing.assert_array_equal(simulated.window, pabr.window)
     assert list(pabr.label) == [0] * (len(pabr) - 1) + [1]  # the point's label (old name: groups)
     assert list(simulated.label) == ["P1"] * (len(simulated) - 1) + ["P2"]
@@ -85,6 +86,7 @@ def test_windows_by_time_and_per_point():
     np.testing.assert_array_equal(simulated.n_readings, [[2, 2, 0], [2, 0, 0], [2, 0, 0], [2, 0, 1]])
     np.testing.assert_array_equal(simulated.window, [0, 1, 2, 0])
     np.testing.assert_array_equal(simulated.time_s, [0.5, 1.5, 2.5, 3.5])  # the window's last reading
+    np.testing.assert_array_equal(simulated.first_time_s, [0.0, 1.0, 2.0, 3.0])  # and its first
     point, _ = both(window="point")
     np.testing.assert_array_equal(point.rss, [[-60.5, -81.0, np.nan], [-51.0, np.nan, -70.0]])
 

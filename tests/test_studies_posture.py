@@ -179,3 +179,81 @@ def test_selected_errors_chain_target2_from_the_elbow_of_target1(campaign):
                                                  selection[selection["target"] == 2].drop(columns="target"))
     assert np.abs(shoulder_start["pe_m"] - chain["T2"]["pe_m"]).max() > 1e-3
 
+
+
+def test_kinect_frames_point_at_the_rows_kinect_positions(campaign):
+    inputs = study_inputs(campaign)
+    for index, user in enumerate(inputs.target1):
+        stream = campaign.kinect_streams[index]
+        frames = inputs.kinect_frame[user]
+        for t in (0, 1):   # the sample table keeps 1 µm
+            np.testing.assert_allclose(stream.targets[frames[:, t], t], inputs.kinect[user][:, t], atol=1e-6)
+
+
+def test_kinect_sensitivity_equals_simulating_each_model_and_scoring_it(campaign):
+    import dataclasses
+
+    from wsnlib.sim.optical import kinect_target_positions, simulate_kinect
+    from wsnlib.studies.posture import kinect_sensitivity, user_pe_cm
+
+    inputs = study_inputs(campaign)
+    sweep = kinect_sensitivity(campaign, inputs, bias_std_m=(0.0, 0.05), glitch_scales=(0.0, 3.0), n_draws=3, seed=4)
+    assert len(sweep) == 2 * 2 * 3 * 2 and list(sweep.columns) == ["glitch_scale", "bias_std_m", "draw", "user", "T1",
+                                                                   "T2", "pe_cm"]
+    base = campaign.kinect_model
+    model = dataclasses.replace(base, bias_std_m=0.05, glitch_rate_hz=3 * base.glitch_rate_hz,
+                                glitch_rate_occluded_hz=3 * base.glitch_rate_occluded_hz)
+    index, user = 1, "U2"
+    stream, person = campaign.kinect_streams[index], campaign.online_users[index]
+    truth = np.broadcast_to(stream.true_joints, (3,) + stream.true_joints.shape)
+    joints = simulate_kinect(truth, rng=np.random.default_rng([4, index]), camera_position=stream.camera_position,
+                             camera_axis=stream.camera_axis, model=model)
+    d1, d2 = person.target_distances_m
+    targets = kinect_target_positions(joints, fractions=(d1 / person.upper_arm_m,
+                                                         (d2 - person.upper_arm_m) / person.forearm_m))
+    frames, data1, data2 = inputs.kinect_frame[user], inputs.target1[user], inputs.target2[user]
+    for draw in range(3):
+        errors = {f"T{t + 1}": 100 * np.linalg.norm(targets[draw, frames[:, t], t] - data.true_positions, axis=-1)
+                  for t, data in enumerate((data1, data2))}
+        expected = user_pe_cm({**errors, "movement": data1.movement, "user": np.full(data1.movement.size, user)})
+        row = sweep.query("glitch_scale == 3.0 and bias_std_m == 0.05 and draw == @draw and user == @user")
+        np.testing.assert_allclose(row[["T1", "T2"]].to_numpy()[0], expected.loc[user].to_numpy(), rtol=1e-12)
+    # More bias, more error (the same draws); without bias and glitches only the small jitter is left.
+    wide = sweep.pivot_table(index=["glitch_scale", "draw", "user"], columns="bias_std_m", values="pe_cm")
+    assert (wide[0.05] > wide[0.0]).all()
+    assert sweep.query("glitch_scale == 0 and bias_std_m == 0")["pe_cm"].max() < 2.0
+
+
+def test_joint_errors_split_height_from_horizontal_offset(campaign):
+    from wsnlib import optimize
+    from wsnlib.studies.posture import joint_errors_cm, true_joints_straight_arm
+
+    inputs = study_inputs(campaign)
+    setting = optimize.Setting("deterministic", anchors=(1, 2, 3, 4, 5, 6, 7), k=1, metric="euclidean")
+    chains = {user: optimize.evaluate_chain(data1, inputs.target2[user], setting)
+              for user, data1 in inputs.target1.items()}
+    errors = joint_errors_cm(inputs, chains)
+    assert list(errors["joint"].unique()) == ["elbow", "wrist"] and len(errors) == 2 * sum(
+        d.movement.size for d in inputs.target1.values())
+    np.testing.assert_allclose(np.hypot(errors["vertical_cm"], errors["horizontal_cm"]), errors["error_cm"])
+    wrist = errors[(errors["user"] == "U1") & (errors["joint"] == "wrist")]
+    truth = true_joints_straight_arm(inputs, "U1")["wrist"]
+    np.testing.assert_allclose(wrist["vertical_cm"], 100 * np.abs(chains["U1"]["T2"]["joints"][:, 2] - truth[:, 2]))
+    # The true joints themselves have no error.
+    exact = {user: {"T1": {"joints": true_joints_straight_arm(inputs, user)["elbow"]},
+                    "T2": {"joints": true_joints_straight_arm(inputs, user)["wrist"]}} for user in inputs.target1}
+    assert joint_errors_cm(inputs, exact)["error_cm"].max() == 0.0
+
+
+def test_kinect_crossing_interpolates_the_mean_curve():
+    import pandas as pd
+
+    from wsnlib.studies.posture import kinect_crossing
+
+    # Mean over draws (and users) of the PE: 4, 6, 10 cm at 2, 4, 6 cm of bias; never 20 cm.
+    sweep = pd.DataFrame({"glitch_scale": 1.0, "bias_std_m": np.repeat([0.02, 0.04, 0.06], 2), "draw": [0, 1] * 3,
+                          "user": "U1", "pe_cm": [3.0, 5.0, 6.0, 6.0, 9.0, 11.0]})
+    assert kinect_crossing(sweep, 8.0)[1.0] == pytest.approx(0.05)
+    assert kinect_crossing(sweep, 6.0)[1.0] == pytest.approx(0.04)
+    assert kinect_crossing(sweep, 2.0)[1.0] == pytest.approx(0.02)   # reached at the smallest bias already
+    assert np.isnan(kinect_crossing(sweep, 20.0)[1.0])

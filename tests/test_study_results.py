@@ -133,3 +133,24 @@ def test_static_fingerprinting_returns_what_the_plot_draws(campaign_vectors):
         static_fingerprinting.static_fingerprinting(train, online, n_neighbors=1, power=1, anchors=())
     with pytest.raises(ValueError, match="not in train.anchors"):
         static_fingerprinting.static_fingerprinting(train, online, n_neighbors=1, power=1, anchors=("A99",))
+
+
+def test_own_posture_marks_the_estimates_at_the_vectors_own_fingerprint(campaign_vectors):
+    train, online = campaign_vectors
+    estimate = radio.fit_predict_by_group(radio.KNNFingerprint(1), train.rss, train.position, train.map_key,
+                                          online.rss, online.map_key)
+    own = static_fingerprinting.own_posture(train, online, estimate)
+    assert own.dtype == bool and own.shape == (len(online),) and own.any()
+    # An own-posture estimate is the training position of the same user, target and posture.
+    row = int(np.flatnonzero(own)[0])
+    same = (train.map_key == online.map_key[row]) & (train.label == online.label[row])
+    np.testing.assert_array_equal(estimate[row], train.position[same][0])
+    # The fingerprint of another posture is never "own"; an estimate between postures neither.
+    other = (train.map_key == online.map_key[row]) & (train.label != online.label[row])
+    moved = estimate.copy()
+    moved[row] = train.position[other][0]
+    assert not static_fingerprinting.own_posture(train, online, moved)[row]
+    moved[row] = 0.5 * (train.position[same][0] + train.position[other][0])
+    assert not static_fingerprinting.own_posture(train, online, moved)[row]
+    with pytest.raises(ValueError, match="without training vectors"):
+        static_fingerprinting.own_posture(train.select(label=["P1", "P2"]), online, estimate)

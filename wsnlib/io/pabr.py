@@ -66,8 +66,10 @@ Within each point (fingerprints) or track, either
 * ``window_packets=n``: per receiver, its packets in time order cut into blocks of ``n``
   (block ``j`` = that receiver's packets ``j·n … j·n + n − 1``; the last incomplete block is
   dropped), so each value averages exactly ``n`` packets.  Use this to study how the error
-  depends on the number of packets averaged; for a moving beacon prefer ``window_s``, since
-  the receivers' ``j``-th blocks need not cover the same moment; or
+  depends on the number of packets averaged at a stationary point.  Not for a moving beacon:
+  the receivers log independently, so their ``j``-th blocks need not cover the same moment
+  (on the tracks of the shared subset, blocks of 30 packets span a median 21 s, in which the
+  beacon moves a median 4.8 m; :func:`pabr_vector_motion` measures it): use ``window_s``; or
 * ``window="point"`` (fingerprints only): one vector per point, each receiver's mean over
   all its packets there — the classic radio-map fingerprint.
 
@@ -84,6 +86,11 @@ one position (a fingerprint point: the position parsed from the file names, so e
 of a point has the same position and the estimators see one fingerprint per point); else
 (tracks) the mean ground-truth position of its packets.  Its time ``time_s`` is the timestamp
 of its last packet (when the vector is available; the mean timestamp before issue 13).
+
+Two helpers for the notebook's tests: :func:`pabr_time_split` cuts every point's (or
+track's) packets in time (a same-day test: the map from the earlier packets, the test
+vectors from the later ones), and :func:`pabr_vector_motion` says how long each vector of a
+track spans and how far the beacon moved meanwhile.
 
 Tests that replace the registry patch :data:`PABR_REGISTRY` of this module.
 """
@@ -643,3 +650,85 @@ def pabr_vectors(table: pd.DataFrame, *, window_s: float | None = None, window_p
         "y_m": df["y"].to_numpy(dtype=float), "z_m": df["z"].to_numpy(dtype=float)})
     return window_readings(readings, tuple(names), window_packets=window_packets, window_s=window_s, window=window,
                            complete_windows=True, fill=fill, floor_dbm=floor_dbm, min_anchors=min_receivers)
+
+
+def _group_column(table: pd.DataFrame, group: str | None) -> str:
+    group = ("point" if "point" in table.columns else "track") if group is None else group
+    if group not in table.columns or "timestamp" not in table.columns:
+        raise ValueError(f"table lacks the column(s) {[c for c in (group, 'timestamp') if c not in table.columns]} "
+                         "(expected a load_pabr_* table)")
+    return group
+
+
+def pabr_time_split(table: pd.DataFrame, fraction: float = 0.5, *,
+                    group: str | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Every point's (or track's) packets cut in time: ``(earlier, later)``.
+
+    Within each group the cut is at ``t0 + fraction · (t1 − t0)``, ``t0`` and ``t1`` its first
+    and last packet: packets before the cut go to ``earlier``, the others to ``later``.  A
+    same-day test: the radio map from the earlier packets, the online vectors from the later
+    ones, at the same points.
+
+    Parameters
+    ----------
+    table : DataFrame
+        From :func:`load_pabr_fingerprints` or :func:`load_pabr_tracks`.
+    fraction : float
+        Share of each group's time span that goes to ``earlier``, in (0, 1).
+    group : str, optional
+        Default ``"point"`` if present, else ``"track"``.
+
+    Returns
+    -------
+    tuple of DataFrame
+        The rows of ``table`` in their order (index reset), ``attrs`` kept.
+    """
+    fraction = float(fraction)
+    if not 0.0 < fraction < 1.0:
+        raise ValueError(f"fraction must lie strictly between 0 and 1, got {fraction!r}")
+    group = _group_column(table, group)
+    times = table.groupby(group, observed=True)["timestamp"]
+    start, end = times.transform("min"), times.transform("max")
+    earlier = (table["timestamp"] < start + fraction * (end - start)).to_numpy()
+    parts = []
+    for keep in (earlier, ~earlier):
+        part = table.loc[keep].reset_index(drop=True)
+        part.attrs = dict(table.attrs)
+        parts.append(part)
+    return parts[0], parts[1]
+
+
+def pabr_vector_motion(tracks: pd.DataFrame, vectors: RssVectors) -> pd.DataFrame:
+    """How long each vector of a track spans, and how far the beacon moved meanwhile.
+
+    Parameters
+    ----------
+    tracks : DataFrame
+        From :func:`load_pabr_tracks` (the ground truth ``x``, ``y``, ``z`` of every packet).
+    vectors : RssVectors
+        :func:`pabr_vectors` of ``tracks`` (``label`` = the track).
+
+    Returns
+    -------
+    DataFrame
+        One row per vector: ``span_s`` (s), from its first to its last reading
+        (``time_s − first_time_s``), and ``moved_m`` (m), the distance between the beacon's
+        ground-truth positions at those two instants (linear between the packets' positions).
+    """
+    if "track" not in tracks.columns:
+        raise ValueError("tracks must be a load_pabr_tracks table (a 'track' column)")
+    moved = np.full(len(vectors), np.nan)
+    labels = np.asarray(vectors.label).astype(str)
+    for name, packets in tracks.groupby("track", observed=True):
+        rows = labels == str(name)
+        if not rows.any():
+            continue
+        packets = packets.sort_values("timestamp", kind="stable")
+        time = packets["timestamp"].to_numpy()
+        at = [np.column_stack([np.interp(t, time, packets[c].to_numpy()) for c in ("x", "y", "z")])
+              for t in (vectors.first_time_s[rows], vectors.time_s[rows])]
+        moved[rows] = np.linalg.norm(at[1] - at[0], axis=1)
+    if np.isnan(moved).any():
+        missing = sorted(set(labels[np.isnan(moved)]))
+        raise ValueError(f"vectors of track(s) {missing} not in tracks")
+    return pd.DataFrame({"span_s": vectors.time_s - vectors.first_time_s, "moved_m": moved})

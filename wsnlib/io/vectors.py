@@ -76,6 +76,9 @@ class RssVectors:
         Readings averaged into each entry (0: none received, the entry is NaN or filled).
     time_s : numpy.ndarray (n,)
         Time (s) of the window's last reading: when the vector becomes available online.
+    first_time_s : numpy.ndarray (n,)
+        Time (s) of the window's first reading; ``time_s − first_time_s`` is the time the
+        vector spans (a moving transmitter moves during it).
     position : numpy.ndarray (n, 3)
         True transmitter position (m).  Exactly the point's position where the point has one
         (a held posture, a fingerprint reference point: every vector of it has the same
@@ -99,6 +102,7 @@ class RssVectors:
     rss: np.ndarray
     n_readings: np.ndarray
     time_s: np.ndarray
+    first_time_s: np.ndarray
     position: np.ndarray
     label: np.ndarray
     target: np.ndarray
@@ -216,9 +220,11 @@ def window_readings(readings: pd.DataFrame, anchors, *, window_packets: int | No
     if missing:
         raise ValueError(f"readings lacks the column(s) {missing}; expected {list(READING_COLUMNS)}")
     n_anchors = len(anchors)
-    anchor_index = pd.Series(readings["anchor"].to_numpy(dtype=object)).map(
-        {name: i for i, name in enumerate(anchors)}).to_numpy()
-    if len(readings) and np.any(pd.isna(anchor_index)):
+    if len(set(anchors)) != len(anchors):
+        raise ValueError(f"anchors holds duplicate names: {list(anchors)}")
+    # One hash lookup per reading (-1: not an anchor); Series.map is far slower on pandas' string dtype.
+    anchor_index = pd.Index(list(anchors), dtype=object).get_indexer(readings["anchor"].to_numpy(dtype=object))
+    if len(readings) and np.any(anchor_index < 0):
         stray = sorted(set(readings["anchor"].astype(str)) - set(anchors))
         raise ValueError(f"readings has anchor(s) {stray} not in anchors {list(anchors)}")
     if len(readings) == 0:
@@ -306,6 +312,7 @@ def window_readings(readings: pd.DataFrame, anchors, *, window_packets: int | No
     exact = (low[point_of_vector] == high[point_of_vector]).all(axis=1)
     position[exact] = low[point_of_vector[exact]]
     last_time = np.maximum.reduceat(time, first)
+    first_time = np.minimum.reduceat(time, first)
 
     if fill == "last":
         stream = pd.DataFrame({c: rows[c].to_numpy(dtype=object)[first] for c in ("user", "session", "target")})
@@ -316,7 +323,8 @@ def window_readings(readings: pd.DataFrame, anchors, *, window_packets: int | No
 
     take = (counts > 0).sum(axis=1) >= min_anchors
     meta = {c: rows[c].to_numpy(dtype=object)[first][take] for c in ("user", "session", "target", "label")}
-    return RssVectors(rss=rss[take], n_readings=counts[take], time_s=last_time[take], position=position[take],
+    return RssVectors(rss=rss[take], n_readings=counts[take], time_s=last_time[take],
+                      first_time_s=first_time[take], position=position[take],
                       window=win[first][take], n_packets=n_packets[take], anchors=anchors, **meta)
 
 
@@ -324,6 +332,6 @@ def _empty(anchors: tuple[str, ...]) -> RssVectors:
     n_anchors = len(anchors)
     empty = np.empty((0,), dtype=object)
     return RssVectors(rss=np.empty((0, n_anchors)), n_readings=np.zeros((0, n_anchors), dtype=np.int64),
-                      time_s=np.empty(0), position=np.empty((0, 3)), label=empty, target=empty, session=empty,
-                      user=empty, window=np.zeros(0, dtype=np.int64), n_packets=np.zeros(0, dtype=np.int64),
-                      anchors=anchors)
+                      time_s=np.empty(0), first_time_s=np.empty(0), position=np.empty((0, 3)), label=empty,
+                      target=empty, session=empty, user=empty, window=np.zeros(0, dtype=np.int64),
+                      n_packets=np.zeros(0, dtype=np.int64), anchors=anchors)

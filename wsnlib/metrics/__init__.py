@@ -5,7 +5,8 @@
 * :mod:`wsnlib.metrics.smoothness` — RMS jerk, the step at each gap's end and the jitter
   without those steps (ours: the paper calls single-frame estimates "jerky" without a number).
 * :mod:`wsnlib.metrics.loss` — figures of merit under loss: maximum, time above a threshold,
-  recovery time, quantile, error by phase, :func:`loss_figures_of_merit`, burst response.
+  recovery time, quantile, error by phase, :func:`loss_figures_of_merit`, burst response (per gap
+  against the run without loss, or one burst per run against the error just before it).
 * :mod:`wsnlib.metrics.position` — position error and precision at an accuracy (paper 002).
 
 Every public name is re-exported here, so ``from wsnlib import metrics; metrics.x`` and
@@ -31,6 +32,7 @@ from wsnlib.metrics.loss import (
     max_abs_error,
     quantile_error,
     recovery_time_s,
+    single_burst_response,
     summary_table,
     time_above_s,
 )
@@ -56,4 +58,4 @@ __all__ = ["BROAD_ERROR_KEYS", "GAP_STEP_MAX", "GAP_STEP_MEAN", "JERK", "JITTER"
            "angular_jerk_rms_deg", "broad_errors_deg", "broad_rmse_deg", "burst_response", "elbow_angle_deg",
            "error_by_phase", "gap_end_mask", "gap_end_steps_deg", "loss_figures_of_merit", "max_abs_error",
            "position_error", "precision_at_accuracy", "quantile_error", "quat_gap_end_steps_deg", "recovery_time_s",
-           "segment_pitch_deg", "summary_table", "time_above_s"]
+           "segment_pitch_deg", "single_burst_response", "summary_table", "time_above_s"]

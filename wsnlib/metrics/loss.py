@@ -5,8 +5,9 @@
 * Under loss: :func:`quantile_error` (a quantile instead of a maximum that shrinks as loss
   rises) and :func:`error_by_phase` (lost samples, the seconds after a gap, the rest).
 * :func:`loss_figures_of_merit` (the columns used across notebooks), :func:`summary_table`
-  (Monte Carlo median and range) and :func:`burst_response` (burst by burst, against the same
-  run without loss).
+  (Monte Carlo median and range), :func:`burst_response` (burst by burst, against the same
+  run without loss) and :func:`single_burst_response` (one burst per run, against the error just
+  before it: paper 001's protocol).
 
 Every function returns degrees or seconds, as its name says, and broadcasts over leading
 batch dimensions ``(..., T)``.
@@ -365,3 +366,101 @@ def burst_response(error_lossy_deg, error_lossless_deg, burst_ends, fs, *, windo
     recovery = np.where(still_above, np.inf, recovery)
     return {"mean_increase_deg": mean_increase, "peak_increase_deg": peak_increase, "recovery_s": recovery,
             "kept": kept, "dropped": int(ends.size - kept.size)}
+
+
+def single_burst_response(error_deg, received, fs, *, before_s: float = 0.5, window_s: float = 4.0,
+                          threshold_deg: float = 2.0, level_deg: float = 10.0,
+                          min_valid_fraction: float = 0.5) -> dict[str, np.ndarray]:
+    """How one burst of loss changes the error, against the error just before it (one burst per run).
+
+    Paper 001's protocol: a run loses a single burst (Section IV: four packets after 80 samples),
+    so nothing before it carries an earlier burst's error.  Each run (a row of ``error_deg``)
+    holds exactly one run of lost samples, from its first lost sample ``s`` to its first received
+    sample after it ``e``:
+
+    * ``before_deg``: mean error over the ``before_s`` seconds before ``s`` — where the method was;
+    * ``peak_increase_deg``: largest error from ``s`` to the end of the window, minus ``before_deg``;
+    * ``mean_increase_deg``: mean error over the ``window_s`` seconds from ``e``, minus ``before_deg``;
+    * ``recovery_s``: time from ``e`` until the error stays within ``threshold_deg`` of
+      ``before_deg`` for the rest of the window (0 if it never leaves it after ``e``; ``inf`` if it
+      is still out at the window's last valid sample).  A method with a low error before the
+      burst must come back closer, in degrees, than one with a high error: hence also
+    * ``level_recovery_s``: the same against an absolute level, the time until the error stays at
+      or below ``level_deg`` (``inf`` also when it was above that level before the burst and stays so).
+
+    Samples where the error is NaN (no reference) are skipped; a run whose before- or
+    after-window holds fewer than ``min_valid_fraction`` valid samples gets NaN everywhere.
+
+    Parameters
+    ----------
+    error_deg : array_like, shape (..., T)
+        Error magnitude (°) of each run.
+    received : array_like of bool, shape (..., T)
+        Each run's mask (broadcast with ``error_deg``), with exactly one run of lost samples that
+        ends before the record does, and at least one sample before it.
+    fs : float
+        Sampling rate (Hz).
+    before_s, window_s : float
+        The window before the burst and the one after it (s), > 0.
+    threshold_deg, level_deg : float
+        Relative and absolute recovery thresholds (°), >= 0.
+    min_valid_fraction : float
+
+    Returns
+    -------
+    dict of numpy.ndarray, shape (...)
+        ``before_deg``, ``peak_increase_deg``, ``mean_increase_deg``, ``recovery_s``,
+        ``level_recovery_s``; and ``start``, ``end`` (int, the indices ``s`` and ``e``).
+    """
+    error = np.asarray(error_deg, dtype=float)
+    mask = np.asarray(received)
+    if mask.dtype != np.bool_:
+        raise ValueError(f"received must be a boolean mask, got dtype {mask.dtype}")
+    if error.ndim == 0 or not np.all(np.isfinite(error) | np.isnan(error)):
+        raise ValueError("error_deg must be an array (..., T) of finite errors or NaN")
+    error, mask = np.broadcast_arrays(error, mask)
+    fs = check_positive(fs, "fs")
+    before = int(round(check_positive(before_s, "before_s") * fs))
+    window = int(round(check_positive(window_s, "window_s") * fs))
+    threshold_deg = check_nonnegative(threshold_deg, "threshold_deg")
+    level_deg = check_nonnegative(level_deg, "level_deg")
+    shape = error.shape[:-1]
+    n = error.shape[-1]
+    flat_error, flat_mask = error.reshape(-1, n), mask.reshape(-1, n)
+    out = {key: np.full(flat_error.shape[0], np.nan) for key in
+           ("before_deg", "peak_increase_deg", "mean_increase_deg", "recovery_s", "level_recovery_s")}
+    starts, ends = np.zeros(flat_error.shape[0], dtype=int), np.zeros(flat_error.shape[0], dtype=int)
+    for k, (e, m) in enumerate(zip(flat_error, flat_mask, strict=True)):
+        lost = np.flatnonzero(~m)
+        if lost.size == 0 or lost[-1] - lost[0] + 1 != lost.size:
+            raise ValueError(f"received must hold exactly one run of lost samples per run; run {k} has "
+                             f"{'none' if lost.size == 0 else 'several'}")
+        start, end = int(lost[0]), int(lost[-1]) + 1
+        if start == 0 or end >= n:
+            raise ValueError(f"run {k}: the burst must leave a sample before it and one after it")
+        starts[k], ends[k] = start, end
+        ahead, after = e[max(start - before, 0):start], e[end:min(end + window, n)]
+        if (np.isfinite(ahead).sum() < min_valid_fraction * before
+                or np.isfinite(after).sum() < min_valid_fraction * window):
+            continue
+        base = float(np.nanmean(ahead))
+        out["before_deg"][k] = base
+        out["peak_increase_deg"][k] = float(np.nanmax(e[start:min(end + window, n)])) - base
+        out["mean_increase_deg"][k] = float(np.nanmean(after)) - base
+        out["recovery_s"][k] = _time_until_within(after, base + threshold_deg, fs)
+        out["level_recovery_s"][k] = _time_until_within(after, level_deg, fs)
+    result = {key: value.reshape(shape) for key, value in out.items()}
+    result.update(start=starts.reshape(shape), end=ends.reshape(shape))
+    return result
+
+
+def _time_until_within(after: np.ndarray, limit: float, fs: float) -> float:
+    """Time (s) from the first sample of ``after`` until its valid samples stay ``<= limit``: 0 if they
+    always do, ``inf`` if the last valid one does not."""
+    valid = np.flatnonzero(np.isfinite(after))
+    above = valid[after[valid] > limit]
+    if above.size == 0:
+        return 0.0
+    if above[-1] == valid[-1]:
+        return float("inf")
+    return (int(above[-1]) + 1) / fs

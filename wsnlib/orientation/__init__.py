@@ -22,6 +22,8 @@ mask ``(..., T)``.  One door each:
 * :func:`offline_vqf_orientation`, :func:`forward_backward_orientation` — the smoother's
   offline peers: VQF's acausal variant on a gap-filled recording, and any causal estimator
   averaged with its run on the time-reversed recording (:mod:`.offline_peers`);
+* :mod:`.fixed_lag` (fixed-lag RTS smoothing on the filter's stored states) and :mod:`.bridging`
+  (a Kalman step turned by a measured rotation): the live receiver's filter, :mod:`wsnlib.stream`;
 * :func:`triad`, :func:`tilt_quaternion`, :func:`davenport`, :func:`quest`,
   :func:`svd_single_frame` — single-frame solvers (no memory, nothing to lose).
 
@@ -71,6 +73,7 @@ holds the argument checks (the vocabulary's among them) the public functions sha
 from wsnlib.orientation import _numba_cache
 
 with _numba_cache.caching_into_this_version():
+    from wsnlib.orientation import bridging, fixed_lag  # noqa: F401  (wsnlib.stream's receiver)
     from wsnlib.orientation.hybrid_blend import SingleFrameGate, single_frame_trusted
     from wsnlib.orientation.kalman import (
         KalmanReference,

@@ -45,13 +45,14 @@ def version_folder(digest: str = SOURCES_DIGEST) -> Path:
 
 
 @contextlib.contextmanager
-def caching_into_this_version() -> Iterator[None]:
-    """numba's ``CACHE_DIR`` is :func:`version_folder` while the kernel modules are imported.
+def caching_into_this_version(subfolder: str = "") -> Iterator[None]:
+    """numba's ``CACHE_DIR`` is :func:`version_folder` (or a ``subfolder`` of it: another package whose
+    kernels call these) while the kernel modules are imported.
 
     A jitted function picks its cache folder when it is defined; the user's setting is restored
     afterwards, so numba code outside this package is not affected.
     """
-    folder = version_folder()
+    folder = version_folder() / subfolder if subfolder else version_folder()
     saved = numba.config.CACHE_DIR
     numba.config.CACHE_DIR = str(folder)
     try:

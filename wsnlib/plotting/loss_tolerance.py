@@ -32,10 +32,11 @@ def plot_error_vs_loss_rate(loss_rates, bands, groups, *, axes, ylabel="total RM
     profiles = list(loss_rates)
     x = 100.0 * np.asarray([loss_rates[p] for p in profiles], dtype=float)
     for ax, (title, methods) in zip(axes, groups.items(), strict=True):
+        colors = _distinct_colors(methods)
         for method in methods:
             rows = bands.loc[[(p, method) for p in profiles]]
-            ax.fill_between(x, rows["ci_low"], rows["ci_high"], color=METHOD_COLORS[method], alpha=0.15, lw=0)
-            ax.plot(x, rows["mean"], **method_style(method, ms=5))
+            ax.fill_between(x, rows["ci_low"], rows["ci_high"], color=colors[method], alpha=0.15, lw=0)
+            ax.plot(x, rows["mean"], **method_style(method, ms=5, color=colors[method]))
         ax.set_title(title)
         ax.set_xlabel("packets lost (%)")
         if logy:
@@ -43,6 +44,27 @@ def plot_error_vs_loss_rate(loss_rates, bands, groups, *, axes, ylabel="total RM
         ax.legend(fontsize=8, loc="upper left")
     axes[0].set_ylabel(ylabel)
     return axes
+
+
+def _distinct_colors(methods) -> dict[str, str]:
+    """A colour per method for lines that sit together in one panel: each method's own colour
+    (:data:`METHOD_COLORS`), except that a method whose colour an earlier one already took (a
+    variant shares its base method's colour) gets the first Okabe–Ito colour not yet in the panel
+    (never grey or yellow, which are hard to see as lines).  Markers still tell the variants apart."""
+    spare = [OKABE_ITO[name] for name in ("blue", "orange", "bluish green", "vermillion", "sky blue",
+                                          "reddish purple", "black")]
+    taken, out = set(), {}
+    for method in methods:
+        color = METHOD_COLORS[method]
+        if color in taken:
+            free = [c for c in spare if c not in taken and c not in {METHOD_COLORS[m] for m in methods}]
+            free = free or [c for c in spare if c not in taken]
+            if not free:
+                raise ValueError(f"more methods in one panel than distinct colours: {list(methods)}")
+            color = free[0]
+        taken.add(color)
+        out[method] = color
+    return out
 
 
 def plot_burst_traces(time_s, errors, received, *, ax, title=None, reference=None):
@@ -64,8 +86,9 @@ def plot_burst_traces(time_s, errors, received, *, ax, title=None, reference=Non
     if reference is not None:
         label, trace = reference
         ax.plot(time_s, trace, color=OKABE_ITO["grey"], ls=":", lw=1.0, label=label)
+    colors = _distinct_colors(list(errors))
     for method, trace in errors.items():
-        ax.plot(time_s, trace, **method_style(method, marker="", lw=1.3))
+        ax.plot(time_s, trace, **method_style(method, marker="", lw=1.3, color=colors[method]))
     ax.set_xlabel("time (s)")
     ax.set_ylabel("total error (°)")
     if title:

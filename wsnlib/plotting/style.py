@@ -20,6 +20,8 @@ import warnings
 from pathlib import Path
 
 import matplotlib as mpl
+import numpy as np
+from matplotlib.scale import LogScale
 from matplotlib.text import Text
 
 from wsnlib import paths
@@ -111,13 +113,20 @@ METHOD_COLORS.update({"gated hybrid (feedback)": METHOD_COLORS["hybrid (feedback
                       "Fusion, constant rate": METHOD_COLORS["Fusion"], "VQF, constant rate": METHOD_COLORS["VQF"],
                       "offline VQF": METHOD_COLORS["VQF"], "VQF forward-backward": METHOD_COLORS["VQF"],
                       "RIANN": OKABE_ITO["yellow"], "Fusion, AR + replay": METHOD_COLORS["Fusion"],
-                      "VQF, AR + replay": METHOD_COLORS["VQF"]})
+                      "VQF, AR + replay": METHOD_COLORS["VQF"], "Kalman, hold": METHOD_COLORS["Kalman"],
+                      "Kalman, constant rate": METHOD_COLORS["Kalman"], "Kalman, AR": METHOD_COLORS["Kalman"],
+                      "Fusion, AR": METHOD_COLORS["Fusion"], "VQF, AR": METHOD_COLORS["VQF"],
+                      "Fusion (defaults)": METHOD_COLORS["Fusion"],
+                      "Fusion (defaults), constant rate": METHOD_COLORS["Fusion"],
+                      "VQF (defaults), constant rate": METHOD_COLORS["VQF"]})
 METHOD_MARKERS.update({"constant_rate": ">", "hybrid (feedback)": "D", "Kalman": "*", "smoother": "P",
                        "VQF (defaults)": "X"})
 METHOD_MARKERS.update({"gated hybrid (feedback)": "d", "Fusion + gated hybrid (feedback)": "H",
                        "Fusion, constant rate": "1", "VQF, constant rate": "2", "offline VQF": "<",
                        "VQF forward-backward": "8", "RIANN": "p", "Fusion, AR + replay": "3",
-                       "VQF, AR + replay": "4"})
+                       "VQF, AR + replay": "4", "Kalman, hold": "o", "Kalman, constant rate": ">", "Kalman, AR": "s",
+                       "Fusion, AR": "s", "VQF, AR": "s", "Fusion (defaults)": "X",
+                       "Fusion (defaults), constant rate": "x", "VQF (defaults), constant rate": "x"})
 
 
 def method_style(name: str, **overrides) -> dict:
@@ -192,8 +201,39 @@ ANNOTATION_FONT_PT = 8.0
 
 
 def use_style() -> None:
-    """Apply the project's plot style to matplotlib's rcParams (call once per notebook)."""
+    """Apply the project's plot style (call once per notebook): matplotlib's rcParams, and log axes
+    labelled with plain numbers (:class:`PlainLogScale`)."""
     mpl.rcParams.update(_STYLE)
+    mpl.scale.register_scale(PlainLogScale)
+
+
+def plain_number(value: float) -> str:
+    """``value`` as a plain decimal number, at most 3 significant digits: 0.02, 6, 60, 20000 (never 6×10¹)."""
+    return np.format_float_positional(float(value), precision=3, unique=True, fractional=False, trim="-")
+
+
+class PlainLogFormatter(mpl.ticker.LogFormatter):
+    """Matplotlib's log-axis labels (the same ticks get a label) written as plain numbers (:func:`plain_number`)."""
+
+    def _num_to_string(self, x, vmin, vmax):
+        return plain_number(x)
+
+
+class PlainLogScale(LogScale):
+    """Matplotlib's ``"log"`` scale with :class:`PlainLogFormatter` on its major and minor ticks.
+
+    :func:`use_style` registers it under the name ``"log"``, so every log axis drawn afterwards —
+    ``set_yscale("log")`` in a notebook, pandas' ``logy``, the helpers of :mod:`wsnlib.plotting` —
+    reads "60", not "6×10¹".
+    """
+
+    def __init__(self, *, base=10, subs=None, nonpositive="clip"):   # no ``axis``: matplotlib ≥ 3.11's signature
+        super().__init__(None, base=base, subs=subs, nonpositive=nonpositive)
+
+    def set_default_locators_and_formatters(self, axis):
+        super().set_default_locators_and_formatters(axis)
+        axis.set_major_formatter(PlainLogFormatter(self.base))
+        axis.set_minor_formatter(PlainLogFormatter(self.base, labelOnlyBase=self.subs is not None))
 
 
 def savefig(fig: mpl.figure.Figure, name: str, formats: tuple[str, ...] = ("png", "pdf")) -> list[Path]:

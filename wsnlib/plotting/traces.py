@@ -39,6 +39,46 @@ def plot_angle_traces(time_s, traces: dict, *, ax=None, ylabel="angle (°)", los
     return ax
 
 
+def plot_trace_panels(time_s, panels: dict, received, *, ylabel: str, window=None, suptitle=None,
+                      panel_height_in: float = 2.5):
+    """Stacked panels of angle traces (shared axes), one per case, each with its own lost interval shaded.
+
+    Paper 001's Figs. 2 and 3 for several loss lengths: one panel per loss.
+
+    Parameters
+    ----------
+    time_s : array_like, shape (T,)
+    panels : dict title → dict label → array_like (T,)
+        One entry per panel, drawn by :func:`plot_angle_traces` (colours by label).
+    received : array_like of bool, shape (len(panels), T)
+        Each panel's loss mask.
+    ylabel : str
+    window : array_like of bool, shape (T,), optional
+        Samples shown (default all).
+    suptitle : str, optional
+    panel_height_in : float
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    time_s = np.asarray(time_s, dtype=float)
+    received = np.asarray(received, dtype=bool)
+    if received.shape != (len(panels), time_s.size):
+        raise ValueError(f"received must have shape ({len(panels)}, {time_s.size}), got {received.shape}")
+    window = np.ones(time_s.size, bool) if window is None else np.asarray(window, dtype=bool)
+    fig, axes = plt.subplots(len(panels), 1, sharex=True, sharey=True, squeeze=False,
+                             figsize=(7.5, panel_height_in * len(panels)), layout="constrained")
+    for ax, (title, traces), mask in zip(axes[:, 0], panels.items(), received, strict=True):
+        plot_angle_traces(time_s[window], {label: np.asarray(trace)[window] for label, trace in traces.items()},
+                          ax=ax, ylabel=ylabel, title=title, loss_spans=loss_spans(time_s[window], mask[window]))
+    for ax in axes[:-1, 0]:
+        ax.set_xlabel("")
+    if suptitle:
+        fig.suptitle(suptitle)
+    return fig
+
+
 def loss_spans(time_s, received) -> list[tuple[float, float]]:
     """Intervals ``(start_s, end_s)`` of consecutive lost samples in a 1-D ``received`` mask.
 

@@ -14,6 +14,10 @@ from wsnlib._validation import as_float_array, check_count, check_positive
 METRICS = ("euclidean", "manhattan")
 PMF_METHODS = ("histogram", "parzen", "gmm")
 
+#: What the estimators do with a missing reading (NaN) in an online vector: ``"raise"`` a
+#: ``ValueError`` (fill it first), or ``"skip"`` that anchor for that vector.
+ONLINE_MISSING = ("raise", "skip")
+
 #: Largest number of (subset, vector, fingerprint) distances held in memory at once by the
 #: batch functions (they process anchor subsets in chunks of this size), and of (vector,
 #: fingerprint, anchor) values by the estimators' online methods (they process vectors in
@@ -40,6 +44,12 @@ def _check_metric(metric) -> str:
     if metric not in METRICS:
         raise ValueError(f"metric must be one of {METRICS}, got {metric!r}")
     return metric
+
+
+def _check_online_missing(online_missing) -> str:
+    if online_missing not in ONLINE_MISSING:
+        raise ValueError(f"online_missing must be one of {ONLINE_MISSING}, got {online_missing!r}")
+    return online_missing
 
 
 def _check_power(power) -> float:

@@ -22,6 +22,7 @@ from wsnlib.radio._checks import (
     RSS_RANGE_DBM,
     _check_metric,
     _check_n_neighbors,
+    _check_online_missing,
     _check_power,
     _check_training,
     _group_positions,
@@ -47,6 +48,7 @@ class _FingerprintEstimator(BaseEstimator):
         if not lo <= floor <= hi:
             raise ValueError(f"floor_rss must be a finite number in [{lo:g}, {hi:g}] dBm, got {self.floor_rss!r}")
         n_vectors, n_anchors = X.shape
+        _check_online_missing(self.online_missing)
         self.anchor_mask_ = _resolve_anchors(self.anchors, n_anchors)
         positions, inverse = _group_positions(y)
         n_fp = positions.shape[0]
@@ -61,7 +63,10 @@ class _FingerprintEstimator(BaseEstimator):
         self.n_features_in_ = n_anchors
         return X, inverse
 
-    def _check_online(self, X) -> np.ndarray:
+    def _check_online(self, X, *, selected: bool = False) -> np.ndarray:
+        """The online vectors as a float array (n, A), checked.  NaN (a missing reading) raises, or with
+        ``online_missing="skip"`` stays; then every vector needs a reading on some anchor (``selected``:
+        on some selected anchor), else there is nothing to compare."""
         check_is_fitted(self, "radio_map_")
         try:
             X = np.asarray(X, dtype=float)
@@ -72,13 +77,20 @@ class _FingerprintEstimator(BaseEstimator):
         if X.shape[1] != self.n_features_in_:
             raise ValueError(f"X has vectors of length {X.shape[1]}, the estimator was fitted with "
                              f"{self.n_features_in_} anchors")
-        if np.any(np.isnan(X)):
-            bad = tuple(int(i) for i in np.argwhere(np.isnan(X))[0])
+        missing = np.isnan(X)
+        if np.any(missing) and _check_online_missing(self.online_missing) == "raise":
+            bad = tuple(int(i) for i in np.argwhere(missing)[0])
             raise ValueError(f"X contains NaN (a missing reading, first at index {bad}); online vectors must be "
                              "complete: fill missing readings first, e.g. "
-                             f"np.where(np.isnan(X), {self.floor_rss!r}, X) (the floor_rss level)")
+                             f"np.where(np.isnan(X), {self.floor_rss!r}, X) (the floor_rss level) or with the "
+                             "anchor's last reading, or leave them out with online_missing='skip'")
         if np.any(np.isinf(X)):
             raise ValueError("X contains inf")
+        heard = ~missing[:, self.anchor_mask_] if selected else ~missing
+        if X.shape[0] and not np.all(heard.any(axis=1)):
+            row = int(np.argmin(heard.any(axis=1)))
+            raise ValueError(f"X row {row} has no reading on any {'selected ' if selected else ''}anchor (all NaN): "
+                             "with online_missing='skip' a vector needs at least one reading")
         return X
 
     def _query_chunks(self, n_vectors: int) -> list[slice]:
@@ -89,7 +101,7 @@ class _FingerprintEstimator(BaseEstimator):
 
     def _neighbors(self, X):
         """Estimates, neighbour scores and indices of the checked online vectors, chunk by chunk."""
-        X = self._check_online(X)
+        X = self._check_online(X, selected=True)
         k = _check_n_neighbors(self.n_neighbors, self.positions_.shape[0])
         parts = [self._neighbors_chunk(X[chunk], k) for chunk in self._query_chunks(X.shape[0])]
         return tuple(np.concatenate(arrays) for arrays in zip(*parts, strict=True))
@@ -114,6 +126,10 @@ class KNNFingerprint(_FingerprintEstimator):
         Anchors used for the distances (default all); ``X`` keeps all ``A`` columns.
     floor_rss : float
         Radio-map value (dBm) of an anchor with no reading at a position (default −100).
+    online_missing : {"raise", "skip"}
+        A missing reading (NaN) in an online vector: ``"raise"`` (default; fill it first) or
+        ``"skip"``: the distance of that vector sums the terms of the anchors it has readings
+        from only (the same anchors for every fingerprint, so the ranking stays fair).
 
     Attributes
     ----------
@@ -129,12 +145,14 @@ class KNNFingerprint(_FingerprintEstimator):
         ``A``.
     """
 
-    def __init__(self, n_neighbors=3, metric="euclidean", power=1, anchors=None, floor_rss=-100.0):
+    def __init__(self, n_neighbors=3, metric="euclidean", power=1, anchors=None, floor_rss=-100.0,
+                 online_missing="raise"):
         self.n_neighbors = n_neighbors
         self.metric = metric
         self.power = power
         self.anchors = anchors
         self.floor_rss = floor_rss
+        self.online_missing = online_missing
 
     def fit(self, X, y):
         """Build the radio map from training vectors ``X`` (n, A; NaN = missing) at positions ``y`` (n, D)."""
@@ -148,12 +166,17 @@ class KNNFingerprint(_FingerprintEstimator):
 
         ``|x_a − m_la|`` (dB) for Manhattan, ``(x_a − m_la)²`` (dB²) for Euclidean; a subset's
         Manhattan distance is the sum of its terms, its Euclidean distance the root of the sum.
+        A skipped reading (``online_missing="skip"``) has the term 0 at every fingerprint.
         """
         return self._terms(self._check_online(X))
 
     def _terms(self, X: np.ndarray) -> np.ndarray:
         diff = X[:, None, :] - self.radio_map_[None, :, :]
-        return np.abs(diff) if _check_metric(self.metric) == "manhattan" else diff * diff
+        terms = np.abs(diff) if _check_metric(self.metric) == "manhattan" else diff * diff
+        missing = np.isnan(X)
+        if np.any(missing):  # online_missing="skip" (checked): the anchor adds nothing for that vector
+            terms[np.broadcast_to(missing[:, None, :], terms.shape)] = 0.0
+        return terms
 
     def _neighbors_chunk(self, X: np.ndarray, k: int):
         terms = self._terms(X)
@@ -213,6 +236,10 @@ class ProbabilisticKNN(_FingerprintEstimator):
         Bins added on each side of the range of training readings (and ``floor_rss``).
     random_state : None, int or numpy.random.Generator
         Seeds the GMM fits (ignored by the other PMFs).
+    online_missing : {"raise", "skip"}
+        A missing reading (NaN) in an online vector: ``"raise"`` (default; fill it first) or
+        ``"skip"``: that anchor is left out of that vector's likelihood (marginalised: its
+        log-PMF term is 0 at every position).
 
     Attributes
     ----------
@@ -229,7 +256,8 @@ class ProbabilisticKNN(_FingerprintEstimator):
     """
 
     def __init__(self, n_neighbors=3, pmf="histogram", floor_probability=1e-4, bandwidth_db=None, min_bandwidth_db=0.5,
-                 n_components=2, anchors=None, floor_rss=-100.0, grid_margin_db=10, random_state=None):
+                 n_components=2, anchors=None, floor_rss=-100.0, grid_margin_db=10, random_state=None,
+                 online_missing="raise"):
         self.n_neighbors = n_neighbors
         self.pmf = pmf
         self.floor_probability = floor_probability
@@ -240,6 +268,7 @@ class ProbabilisticKNN(_FingerprintEstimator):
         self.floor_rss = floor_rss
         self.grid_margin_db = grid_margin_db
         self.random_state = random_state
+        self.online_missing = online_missing
 
     def _check_params(self):
         if self.pmf not in PMF_METHODS:
@@ -332,7 +361,7 @@ class ProbabilisticKNN(_FingerprintEstimator):
         weights = np.zeros((n_fp, n_anchors, n_max))
         order = np.argsort(inverse, kind="stable")
         bounds = np.searchsorted(inverse[order], np.arange(n_fp + 1))
-        serial, threaded = [], []  # cells to fit: (position, anchor, readings, components)
+        cells = []  # cells to fit: (position, anchor, readings, components)
         for pos in range(n_fp):
             rows = X[order[bounds[pos] : bounds[pos + 1]]]
             for anchor in range(n_anchors):
@@ -345,24 +374,18 @@ class ProbabilisticKNN(_FingerprintEstimator):
                 if n_comp == 1 and np.ptp(values) == 0:
                     means[pos, anchor, 0], sigmas[pos, anchor, 0], weights[pos, anchor, 0] = values[0], min_bw, 1.0
                     continue
-                # The k-means start of a fit sums readings per OpenMP thread (chunks of 256); one
-                # thread gives the same bits for one chunk or whole-dBm readings (exact sums), and
-                # spares these tiny fits the threads' cost (most of their time on a busy machine).
-                exact = values.size <= 256 or np.all(values == np.round(values))
-                (serial if exact else threaded).append((pos, anchor, values, n_comp))
+                cells.append((pos, anchor, values, n_comp))
 
-        def fit_cells(cells):
-            for pos, anchor, values, n_comp in cells:
+        # One thread (OpenMP and BLAS) for these tiny 1-D fits: the threads of their k-means start
+        # cost far more than they save (on two busy cores, 72 s instead of 6 s for PABR's 81 x 12
+        # cells of 300 two-packet means), and one thread gives the same bits on every machine.
+        with config_context(assume_finite=True, skip_parameter_validation=True), threadpool_limits(limits=1):
+            for pos, anchor, values, n_comp in cells:  # the readings are checked
                 gmm = GaussianMixture(n_components=n_comp, covariance_type="spherical", reg_covar=min_bw**2,
                                       random_state=int(seeds[pos, anchor])).fit(values[:, None])
                 means[pos, anchor, :n_comp] = gmm.means_[:, 0]
                 sigmas[pos, anchor, :n_comp] = np.sqrt(gmm.covariances_)
                 weights[pos, anchor, :n_comp] = gmm.weights_
-
-        with config_context(assume_finite=True, skip_parameter_validation=True):  # the readings are checked
-            with threadpool_limits(limits=1, user_api="openmp"):
-                fit_cells(serial)
-            fit_cells(threaded)
         offset = self.grid_[None, None, :, None] - means[:, :, None, :]  # (L, A, G, C)
         mass = _bin_mass(offset, sigmas[:, :, None, :])
         return np.einsum("lagc,lac->lag", mass, weights)
@@ -371,14 +394,20 @@ class ProbabilisticKNN(_FingerprintEstimator):
         """``log P(r_a | s_l)`` per online vector, fingerprint position and anchor, shape (n, L, A).
 
         Every anchor is returned (``anchors`` ignored); a subset's log-likelihood is the sum
-        of its columns.  Readings are rounded to 1 dBm and clipped to ``grid_``.
+        of its columns.  Readings are rounded to 1 dBm and clipped to ``grid_``.  A skipped
+        reading (``online_missing="skip"``) has the term 0 (log 1) at every position.
         """
         return self._loglik(self._check_online(X))
 
     def _loglik(self, X: np.ndarray) -> np.ndarray:
-        bins = np.clip(_round_db(X) - self.grid_[0], 0, self.grid_.size - 1).astype(np.intp)  # (n, A)
+        missing = np.isnan(X)
+        rounded = _round_db(np.where(missing, self.grid_[0], X))
+        bins = np.clip(rounded - self.grid_[0], 0, self.grid_.size - 1).astype(np.intp)  # (n, A)
         anchor_idx = np.arange(X.shape[1])
-        return np.transpose(self.log_pmf_[:, anchor_idx[None, :], bins], (1, 0, 2))
+        loglik = np.transpose(self.log_pmf_[:, anchor_idx[None, :], bins], (1, 0, 2))
+        if np.any(missing):  # online_missing="skip" (checked): marginalised out
+            loglik[np.broadcast_to(missing[:, None, :], loglik.shape)] = 0.0
+        return loglik
 
     def _neighbors_chunk(self, X: np.ndarray, k: int):
         est, lp, idx = _pknn_batch(self._loglik(X), self.anchor_mask_[None, :], self.positions_, k)
@@ -386,7 +415,7 @@ class ProbabilisticKNN(_FingerprintEstimator):
 
     def predict_log_proba(self, X) -> np.ndarray:
         """Log posterior ``log P(s_l | r)`` (eq. (4), uniform prior), shape (n, L), over the selected anchors."""
-        X = self._check_online(X)
+        X = self._check_online(X, selected=True)
         out = np.empty((X.shape[0], self.positions_.shape[0]))
         for chunk in self._query_chunks(X.shape[0]):
             loglik = _subset_sums(self.anchor_mask_[None, :], self._loglik(X[chunk]))[0]  # as kneighbors sums

@@ -2,9 +2,10 @@
 
 :func:`hybrid_sweep` runs the hybrid over a ρ × τ grid on simulated trials for each (schedule,
 blend) pair and scores it (figures of merit of :mod:`wsnlib.metrics`); :func:`candidate_table`
-and :func:`recommend_hybrid` turn that into the Pareto front of error against jerk and its knee
-(:mod:`wsnlib.tuning`) with a bootstrap interval; :data:`RECOMMENDED_HYBRID` is the setting
-notebooks 04, 05 and 10 use (notebook 03 checks in full mode that it still recommends it), and
+and :func:`recommend_hybrid` turn that into the Pareto front of error against jitter
+(:data:`RECOMMENDATION_COST`) and its knee (:mod:`wsnlib.tuning`) with a bootstrap interval;
+:data:`RECOMMENDED_HYBRID` is the setting notebooks 04, 05 and 10 use (notebook 03 checks in full
+mode that it still recommends it), and
 :func:`mu_options` / :func:`hybrid_options` turn a setting into keywords of
 :func:`wsnlib.orientation.estimate_orientation`.  The sentences notebook 03 prints are generated
 here from the numbers.
@@ -16,7 +17,7 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
-from wsnlib import loss, metrics, paths
+from wsnlib import loss, metrics, paths, stats
 from wsnlib._files import write_csv
 from wsnlib.orientation import estimate_orientation, triad
 from wsnlib.tuning import bootstrap_knee, knee_point, pareto_front
@@ -86,6 +87,12 @@ CANDIDATE_COLUMNS = {"mean max error (°)": metrics.MAX_ERROR, "mean jerk (°/s�
                      "mean gap-end step (°)": metrics.GAP_STEP_MEAN, "mean jitter (°/s³)": metrics.JITTER,
                      "mean time above (s)": metrics.TIME_ABOVE}
 
+#: The smoothness cost the recommendation trades against the mean max error: the jitter (RMS jerk
+#: with the jerk windows around gap ends left out, :func:`wsnlib.metrics.angle_jerk_rms_deg`).  The
+#: RMS jerk of the whole record, the criterion before issue 26, is dominated by the one step at
+#: each gap's end (notebook 02), which :data:`SMOOTHNESS_CRITERIA` shows on its own.
+RECOMMENDATION_COST = "mean jitter (°/s³)"
+
 
 def candidate_table(foms: dict, rho_grid, tau_grid, configurations=HYBRID_CONFIGURATIONS):
     """Every (schedule, blend, ρ, τ) with its mean figures of merit, and the per-trial costs.
@@ -101,7 +108,7 @@ def candidate_table(foms: dict, rho_grid, tau_grid, configurations=HYBRID_CONFIG
     -------
     candidates : pandas.DataFrame
         Columns ``schedule``, ``blend``, ``rho``, ``tau``, the :data:`CANDIDATE_COLUMNS` (means
-        over trials) and ``pareto`` (on mean max error vs mean jerk).
+        over trials) and ``pareto`` (on mean max error vs :data:`RECOMMENDATION_COST`).
     costs : dict[str, numpy.ndarray]
         Column name → per-trial costs ``(n_candidates, R)``, rows in the table's order.
     """
@@ -112,13 +119,13 @@ def candidate_table(foms: dict, rho_grid, tau_grid, configurations=HYBRID_CONFIG
         per_trial = [foms[c][key].reshape(len(rho_grid) * len(tau_grid), -1) for c in configurations]
         costs[column] = np.concatenate(per_trial)
         candidates[column] = costs[column].mean(axis=1)
-    candidates["pareto"] = pareto_front(candidates["mean max error (°)"], candidates["mean jerk (°/s³)"])
+    candidates["pareto"] = pareto_front(candidates["mean max error (°)"], candidates[RECOMMENDATION_COST])
     return candidates, costs
 
 
 def recommend_hybrid(candidates, costs: dict, *, rng: np.random.Generator, n_boot: int, progress: bool = False,
                      **extra) -> tuple[dict, int, np.ndarray]:
-    """The knee of mean max error vs mean jerk, with a bootstrap interval of its ρτ.
+    """The knee of mean max error vs :data:`RECOMMENDATION_COST` (jitter), with a bootstrap interval of its ρτ.
 
     Parameters
     ----------
@@ -142,8 +149,8 @@ def recommend_hybrid(candidates, costs: dict, *, rng: np.random.Generator, n_boo
     boot : numpy.ndarray of int, shape (n_boot,)
         Knee row of each resample.
     """
-    knee = knee_point(candidates["mean max error (°)"], candidates["mean jerk (°/s³)"])
-    boot = bootstrap_knee(costs["mean max error (°)"], costs["mean jerk (°/s³)"], rng=rng, n_boot=n_boot,
+    knee = knee_point(candidates["mean max error (°)"], candidates[RECOMMENDATION_COST])
+    boot = bootstrap_knee(costs["mean max error (°)"], costs[RECOMMENDATION_COST], rng=rng, n_boot=n_boot,
                           progress=progress)
     picked = candidates.iloc[boot]
     recommended = candidates.iloc[knee]
@@ -160,18 +167,20 @@ def recommend_hybrid(candidates, costs: dict, *, rng: np.random.Generator, n_boo
     return recommendation, knee, boot
 
 
-#: The hybrid setting notebook 03 recommends in full mode (the knee of its Pareto front):
-#: later notebooks use this constant, so that each runs on its own; notebook 03 asserts that
-#: its own full-mode run still recommends it.
+#: The hybrid setting notebook 03 recommends in full mode (the knee of its Pareto front of mean
+#: max error against :data:`RECOMMENDATION_COST`; the whole-record jerk, the criterion before issue
+#: 26, picked the same setting): later notebooks use this constant, so that each runs on its own;
+#: notebook 03 asserts that its own full-mode run still recommends it.
 #:
 #: It is the knee on the *clean* simulator.  Notebook 03 also sweeps trials of the simulator
 #: calibrated to BROAD (:data:`wsnlib.sim.disturbance.UNDISTURBED_BROAD`), where the knee moves to
-#: the ``output`` blend at the grid's largest ρτ (the hybrid stops helping on the elbow-angle
-#: criterion); that knee is not adopted, because the criterion cannot see heading, which is what
-#: the ``feedback`` blend repairs on real recordings: on the 17 BROAD trials at GE 10 % (β = 0.041,
-#: 3 loss draws per trial; measured once, November 2026, by a script outside the repository) the
-#: realistic knee (decay/output, ρτ = 192) gave a mean total RMSE of 77° — as bad as hold-last
-#: Madgwick, 78° — against 38° for this setting.
+#: the ``output`` blend at the grid's largest ρτ and data fusion alone has a lower mean error and
+#: jitter than every hybrid setting (the hybrid stops helping on the elbow-angle criterion; notebook
+#: 03's :func:`hybrids_against_data_fusion`); that knee is not adopted, because the criterion
+#: cannot see heading, which is what the ``feedback`` blend repairs on real recordings: on the 17
+#: BROAD trials at GE 10 % (β = 0.041, 3 loss draws per trial; measured once, November 2026, by a
+#: script outside the repository) the realistic knee (decay/output, ρτ = 192) gave a mean total
+#: RMSE of 77° — as bad as hold-last Madgwick, 78° — against 38° for this setting.
 RECOMMENDED_HYBRID = {"schedule": "decay", "blend": "feedback", "rho": 3.0, "tau": 6.0}
 
 #: File (in the processed-data folder) where notebook 03 stores its recommended hybrid setting.
@@ -222,10 +231,10 @@ def hybrid_options(setting: dict) -> dict:
 # --- Tables and sentences of notebook 03 ------------------------------------------------------------------------
 
 #: Smoothness costs of notebook 03's Pareto figures: candidate column → (label, figure of merit, log scale).
-#: The first is the recommendation criterion; the other two split it (step at gap ends, jitter).
-SMOOTHNESS_CRITERIA = {"mean jerk (°/s³)": ("RMS jerk, whole record (°/s³)", metrics.JERK, True),
-                       "mean gap-end step (°)": ("mean step at gap ends (°)", metrics.GAP_STEP_MEAN, False),
-                       "mean jitter (°/s³)": ("jitter, gap ends excluded (°/s³)", metrics.JITTER, True)}
+#: The first is the recommendation criterion (:data:`RECOMMENDATION_COST`, the jitter); the second is
+#: the other half of the old whole-record jerk, the step at gap ends.
+SMOOTHNESS_CRITERIA = {RECOMMENDATION_COST: ("jitter, gap ends excluded (°/s³)", metrics.JITTER, True),
+                       "mean gap-end step (°)": ("mean step at gap ends (°)", metrics.GAP_STEP_MEAN, False)}
 
 
 def knee_settings(candidates, criteria=SMOOTHNESS_CRITERIA):
@@ -256,7 +265,7 @@ def knee_settings(candidates, criteria=SMOOTHNESS_CRITERIA):
 
 
 def knee_agreement_sentence(knees, recommendation: dict) -> str:
-    """Whether the knees on the split smoothness figures pick the recommended setting.
+    """Whether the knees on the other smoothness figures pick the recommended setting.
 
     ``knees`` is :func:`knee_settings` (first row: the recommendation criterion);
     ``recommendation`` is from :func:`recommend_hybrid`.
@@ -268,9 +277,9 @@ def knee_agreement_sentence(knees, recommendation: dict) -> str:
             + " ".join(f"On error vs {label} the knee is {row['schedule']}/{row['blend']} with ρτ = {row['rho_tau']:g}"
                        + (" — the same setting." if agrees else " — a different setting.")
                        for (label, row), agrees in list(zip(knees.iterrows(), same, strict=True))[1:])
-            + (" The split figures agree with the recommendation." if all(same)
-               else " The recommendation keeps the jerk criterion (see above); the fronts on the split figures show "
-                    "where a user who weighs gap-end steps or continuous jitter instead would land."))
+            + (" Both criteria agree on the recommendation." if all(same)
+               else " The recommendation keeps the jitter criterion (see above); the other front shows where a user "
+                    "who weighs the steps at gap ends instead would land."))
 
 
 def configuration_comparison(candidates, reference_foms: dict, configurations=HYBRID_CONFIGURATIONS):
@@ -288,17 +297,16 @@ def configuration_comparison(candidates, reference_foms: dict, configurations=HY
     -------
     pandas.DataFrame
         Index estimator; ``rho``, ``tau`` (NaN for the references) and the means over trials of
-        max error (°), time above the threshold (s), RMS jerk (°/s³), gap-end step (°) and
-        jitter (°/s³); the hybrids at the knee of max error vs jerk.
+        max error (°), time above the threshold (s), gap-end step (°) and jitter (°/s³); the
+        hybrids at the knee of max error vs :data:`RECOMMENDATION_COST`.
     """
-    figures = ("mean max error (°)", "mean time above (s)", "mean jerk (°/s³)", "mean gap-end step (°)",
-               "mean jitter (°/s³)")
+    figures = ("mean max error (°)", "mean time above (s)", "mean gap-end step (°)", "mean jitter (°/s³)")
     rows = []
     for schedule, blend in configurations:
         own = candidates[(candidates["schedule"] == schedule) & (candidates["blend"] == blend)]
         if own.empty:
             raise ValueError(f"candidates has no row for schedule {schedule!r}, blend {blend!r}")
-        best = own.iloc[knee_point(own["mean max error (°)"], own["mean jerk (°/s³)"])]
+        best = own.iloc[knee_point(own["mean max error (°)"], own[RECOMMENDATION_COST])]
         rows.append({"estimator": f"hybrid, {schedule}, {blend}", "rho": best["rho"], "tau": best["tau"],
                      **{column: best[column] for column in figures}})
     for name, f in reference_foms.items():
@@ -320,7 +328,7 @@ def recommendation_comparison(runs: dict):
     pandas.DataFrame
         One column per run (``"<name> simulator"``): schedule, blend, ρτ (samples) with its
         2.5–97.5 % bootstrap interval, the share of resamples on the same (schedule, blend), and
-        the mean max error (°) of the knee, data fusion and single frame, the knee's mean jerk (°/s³).
+        the mean max error (°) of the knee, data fusion and single frame, the knee's mean jitter (°/s³).
     """
     return pd.DataFrame({
         f"{name} simulator": {
@@ -330,7 +338,7 @@ def recommendation_comparison(runs: dict):
             "knee: mean max error (°)": candidates.iloc[knee]["mean max error (°)"],
             "data fusion: mean max error (°)": refs["data fusion"][metrics.MAX_ERROR].mean(),
             "single frame: mean max error (°)": refs["single frame"][metrics.MAX_ERROR].mean(),
-            "knee: mean jerk (°/s³)": candidates.iloc[knee]["mean jerk (°/s³)"],
+            "knee: mean jitter (°/s³)": candidates.iloc[knee][RECOMMENDATION_COST],
         } for name, (rec, candidates, knee, refs) in runs.items()})
 
 
@@ -351,8 +359,6 @@ def realistic_shift_sentence(clean: tuple, realistic: tuple, largest_product: fl
     real_df = refs_real["data fusion"][metrics.MAX_ERROR].mean()
     knee_error = cand_real.iloc[knee_real]["mean max error (°)"]
     best_error = cand_real["mean max error (°)"].min()
-    real_df_jerk = refs_real["data fusion"][metrics.JERK].mean()
-    data_fusion_dominates = bool(real_df < best_error and real_df_jerk < cand_real["mean jerk (°/s³)"].min())
     same_setting = all(recommendation[key] == rec_real[key] for key in ("schedule", "blend", "rho_tau"))
     return (
         f"Single frame's mean max elbow error grows from {clean_sf:.1f}° on the clean trials to "
@@ -367,8 +373,92 @@ def realistic_shift_sentence(clean: tuple, realistic: tuple, largest_product: fl
         + f"Its mean max error, {knee_error:.1f}°, "
         + ("beats" if knee_error < real_df else "does not beat")
         + f" data fusion's; the lowest of any candidate is {best_error:.1f}°. "
-        + ("Data fusion alone beats every hybrid candidate on both costs (in the right panel its cross lies left of "
-           "and below every candidate). " if data_fusion_dominates else "")
-        + ("With TRIAD as wrong as on BROAD, trading elbow error against jerk favours single frame much less: "
+        + ("With TRIAD as wrong as on BROAD, trading elbow error against jitter favours single frame much less: "
            "its jitter costs more than its correction after a gap gains."
            if rec_real["rho_tau"] > recommendation["rho_tau"] else ""))
+
+
+def hybrids_against_data_fusion(candidates, costs: dict, reference_foms: dict, *, rng: np.random.Generator,
+                                n_boot: int = 1000):
+    """How every hybrid setting fares against data fusion alone, on the recommendation's two costs.
+
+    Parameters
+    ----------
+    candidates, costs
+        From :func:`candidate_table`.
+    reference_foms : dict
+        From :func:`hybrid_sweep` (``"data fusion"``: figures of merit per trial).
+    rng : numpy.random.Generator
+        For the bootstrap interval.
+    n_boot : int
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per cost (``"mean max error (°)"``, :data:`RECOMMENDATION_COST`): ``data fusion``
+        and ``best hybrid`` (means over trials; the best is the hybrid setting with the lowest
+        mean), ``best hybrid setting`` (schedule/blend, ρτ), ``hybrids below data fusion`` (how
+        many settings have a lower mean), ``hybrid settings``, and ``difference`` (best hybrid −
+        data fusion) with ``ci_low``, ``ci_high``: its 95 % bootstrap interval paired over the
+        ``trials`` (:func:`wsnlib.stats.paired_difference_ci`).
+    """
+    rows = {}
+    for column in ("mean max error (°)", RECOMMENDATION_COST):
+        per_trial = costs[column]                                                    # (n_candidates, R)
+        reference = np.asarray(reference_foms["data fusion"][CANDIDATE_COLUMNS[column]], dtype=float)
+        if per_trial.shape[1:] != reference.shape:
+            raise ValueError(f"costs[{column!r}] has {per_trial.shape[1:]} trials per candidate, data fusion "
+                             f"{reference.shape}: they must come from the same trials")
+        best = int(np.argmin(candidates[column].to_numpy()))
+        row = candidates.iloc[best]
+        difference = stats.paired_difference_ci(per_trial[best], reference, rng=rng, n_boot=n_boot)
+        rows[column] = {"data fusion": float(reference.mean()), "best hybrid": float(per_trial[best].mean()),
+                        "best hybrid setting": f"{row['schedule']}/{row['blend']}, ρτ = {row['rho'] * row['tau']:g}",
+                        "hybrids below data fusion": int(np.sum(candidates[column].to_numpy() < reference.mean())),
+                        "hybrid settings": len(candidates), "trials": reference.size,
+                        "difference": float(difference.estimate), "ci_low": float(difference.low),
+                        "ci_high": float(difference.high)}
+    return pd.DataFrame.from_dict(rows, orient="index")
+
+
+def _difference_text(row, unit: str, decimals: int) -> str:
+    """``"−1.2° [−1.5, −0.9]"``: a :func:`hybrids_against_data_fusion` row's difference and interval."""
+    return f"{row['difference']:+,.{decimals}f}{unit} [{row['ci_low']:+,.{decimals}f}, {row['ci_high']:+,.{decimals}f}]"
+
+
+def _how_many(count: int, total: int, *, again: bool = False) -> str:
+    """``"none of the 256"``, ``"every one of the 256"``, ``"3 of the 256"``; again: ``"none"``, ``"all"``, ``"3"``."""
+    if again:
+        return "none" if count == 0 else "all" if count == total else f"{count}"
+    return f"none of the {total}" if count == 0 else f"every one of the {total}" if count == total else \
+        f"{count} of the {total}"
+
+
+def data_fusion_sentence(simulator: str, comparison) -> str:
+    """What :func:`hybrids_against_data_fusion` says, as one sentence, generated from its numbers.
+
+    Parameters
+    ----------
+    simulator : str
+        Names the trials, e.g. ``"the BROAD-calibrated simulator"``.
+    comparison : pandas.DataFrame
+        From :func:`hybrids_against_data_fusion`.
+    """
+    error, jitter = comparison.loc["mean max error (°)"], comparison.loc[RECOMMENDATION_COST]
+    n = int(error["hybrid settings"])
+    scope = f"95 % intervals paired over {int(error['trials'])} trials"
+    below_error, below_jitter = int(error["hybrids below data fusion"]), int(jitter["hybrids below data fusion"])
+    error_tie = error["ci_low"] <= 0.0 <= error["ci_high"]
+    error_part = (f"the best, {error['best hybrid setting']}, has {error['best hybrid']:.1f}° against data fusion's "
+                  f"{error['data fusion']:.1f}° (difference {_difference_text(error, '°', 1)}"
+                  + (": the interval holds 0, a tie)" if error_tie else ")"))
+    jitter_part = (f"the smoothest, {jitter['best hybrid setting']}, has {jitter['best hybrid']:,.0f} °/s³ against "
+                   f"data fusion's {jitter['data fusion']:,.0f} "
+                   f"(difference {_difference_text(jitter, '', 0)}; {scope})")
+    if below_error == 0 and below_jitter == 0:
+        return (f"On {simulator}, data fusion alone has a lower mean max elbow error and a lower mean jitter than "
+                f"every one of the {n} hybrid settings: on the error, {error_part}; on the jitter, {jitter_part}.")
+    verb = "has" if below_error in (0, n) else "have"
+    return (f"On {simulator}, {_how_many(below_error, n)} hybrid settings {verb} a lower mean max elbow error than "
+            f"data fusion — {error_part} — and {_how_many(below_jitter, n, again=True)} a lower mean jitter — "
+            f"{jitter_part}.")

@@ -17,7 +17,12 @@ Two checks of how far the Table 2–3 comparison can be trusted:
 * :func:`with_reference_error`: score everything against a reference derived by hand as the
   paper's was (:func:`wsnlib.sim.optical.hand_derived_reference`), not against the truth;
 * :func:`radio_sensitivity`: rerun a small Table 2 with the assumed radio-channel numbers of
-  :class:`wsnlib.sim.radio.RadioChannel` perturbed (:data:`RADIO_ASSUMPTIONS`).
+  :class:`wsnlib.sim.radio.RadioChannel` perturbed (:data:`RADIO_ASSUMPTIONS`);
+* :func:`kinect_sensitivity`: score the Kinect-like baseline again with its assumed per-joint
+  bias and glitch rates (:mod:`wsnlib.sim.optical`, "not verified") moved over a grid.
+
+:func:`joint_errors_cm` says where the estimated elbow and wrist sit against the true ones
+(height against horizontal offset), :func:`user_pe_cm` averages errors per user as Table 3.
 """
 
 from __future__ import annotations
@@ -28,17 +33,24 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from wsnlib._validation import check_count, check_rng, check_type
+from wsnlib._validation import check_count, check_nonnegative, check_rng, check_type
 from wsnlib.io.rss import rss_vectors
 from wsnlib.optimize import SearchData, SearchGrid, evaluate_chain, paper_tables
 from wsnlib.posture import pitch_from_acc
 from wsnlib.sim.campaign import simulate_dynamic_campaign
-from wsnlib.sim.optical import REFERENCE_ROTATION_STD_DEG, REFERENCE_TIMING_STD_S, hand_derived_reference
+from wsnlib.sim.optical import (
+    REFERENCE_ROTATION_STD_DEG,
+    REFERENCE_TIMING_STD_S,
+    hand_derived_reference,
+    kinect_target_positions,
+)
+from wsnlib.sim.optical import kinect_errors as optical_kinect_errors
 from wsnlib.sim.radio import RadioChannel
 
-__all__ = ["RADIO_ASSUMPTIONS", "RadioSensitivity", "StudyInputs", "kinect_errors", "perturbed_channel",
+__all__ = ["KINECT_BIAS_STD_M", "KINECT_GLITCH_SCALES", "RADIO_ASSUMPTIONS", "RadioSensitivity", "StudyInputs",
+           "joint_errors_cm", "kinect_crossing", "kinect_errors", "kinect_sensitivity", "perturbed_channel",
            "pitch_errors_deg", "radio_sensitivity", "selected_errors", "sensitivity_grid", "study_inputs",
-           "true_joints_straight_arm", "with_reference_error"]
+           "true_joints_straight_arm", "user_pe_cm", "with_reference_error"]
 
 
 @dataclass(frozen=True)
@@ -53,12 +65,16 @@ class StudyInputs:
         Per user, Kinect-estimated target positions ``(n, 2, 3)`` (m) at the same rows.
     time_s : dict[str, numpy.ndarray]
         Per user, time of each row (the target-2 packet, s).
+    kinect_frame : dict[str, numpy.ndarray]
+        Per user, ``(n, 2)`` index of the Kinect frame (of ``campaign.kinect_streams``) each
+        row's Kinect position of T1 and T2 comes from.
     """
 
     target1: dict
     target2: dict
     kinect: dict
     time_s: dict
+    kinect_frame: dict
 
 
 def _pitch_stream(rows, method: str, fs: float, **options) -> np.ndarray:
@@ -88,7 +104,8 @@ def study_inputs(campaign, *, pitch_method: str = "gating", fs: float = 30.0, **
     data = campaign.data
     training = rss_vectors(campaign.training_rss)
     chains = campaign.chains
-    target1, target2, kinect, times = {}, {}, {}, {}
+    target1, target2, kinect, times, frames = {}, {}, {}, {}, {}
+    frame_rate = campaign.kinect_model.frame_rate_hz
     for user in dict.fromkeys(data.user):
         rows = {t: data.select(user=user, target=t) for t in ("T1", "T2")}
         pitch = {t: _pitch_stream(r, pitch_method, fs, **pitch_options) for t, r in rows.items()}
@@ -110,8 +127,10 @@ def study_inputs(campaign, *, pitch_method: str = "gating", fs: float = 30.0, **
                                       pitch=pitch[key][pick], segment=segment, training_rss=train.rss,
                                       training_positions=train.position, **shared)
         kinect[user] = np.stack([rows["T1"].kinect[pick1], rows["T2"].kinect[pick2]], axis=1)
+        frames[user] = np.rint(np.stack([rows["T1"].kinect_time_s[pick1], rows["T2"].kinect_time_s[pick2]], axis=1)
+                               * frame_rate).astype(np.intp)
         times[user] = rows["T2"].time_s[pick2]
-    return StudyInputs(target1=target1, target2=target2, kinect=kinect, time_s=times)
+    return StudyInputs(target1=target1, target2=target2, kinect=kinect, time_s=times, kinect_frame=frames)
 
 
 def selected_errors(inputs: StudyInputs, tables, *, approach: str, per_movement: bool) -> dict[str, np.ndarray]:
@@ -164,6 +183,143 @@ def _pooled(inputs: StudyInputs, errors: dict) -> dict[str, np.ndarray]:
             "user": np.concatenate(users)}
 
 
+def user_pe_cm(errors: dict) -> pd.DataFrame:
+    """Each user's PE (cm) per target as Table 3 averages: the mean over movements of each movement's mean.
+
+    Parameters
+    ----------
+    errors : dict
+        :func:`selected_errors` or :func:`kinect_errors` (``"T1"``, ``"T2"``, ``"movement"``,
+        ``"user"``).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Index ``user`` (sorted), columns ``T1``, ``T2``.
+    """
+    frame = pd.DataFrame(errors)
+    return frame.groupby(["user", "movement"])[["T1", "T2"]].mean().groupby("user").mean()
+
+
+#: The assumed Kinect numbers :func:`kinect_sensitivity` varies by default: the per-joint bias's
+#: standard deviation per axis (m; nominal 0.02) and a factor on both glitch hazards (nominal 1).
+KINECT_BIAS_STD_M = (0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08)
+KINECT_GLITCH_SCALES = (1.0, 2.0, 4.0)
+
+
+def kinect_sensitivity(campaign, inputs: StudyInputs, *, bias_std_m=KINECT_BIAS_STD_M,
+                       glitch_scales=KINECT_GLITCH_SCALES, n_draws: int = 10, seed: int = 0) -> pd.DataFrame:
+    """The Kinect-like baseline's per-user PE when its assumed bias and glitch rate move.
+
+    :mod:`wsnlib.sim.optical` marks the per-joint bias (``bias_std_m`` = 2 cm per axis) and the
+    glitch hazards as assumed, not verified.  For every glitch scale ``g`` (both hazards of
+    ``campaign.kinect_model`` times ``g``) and every bias ``b``, every user's Kinect is
+    simulated again ``n_draws`` times on the campaign's true joints and camera
+    (:func:`wsnlib.sim.optical.kinect_errors`, shoulder referencing as in the campaign:
+    the tracked shoulder) and scored at the rows of ``inputs``, against their
+    ``true_positions``, as :func:`kinect_errors` does.
+
+    The draws of user ``u`` come from ``numpy.random.default_rng([seed, u])`` at every grid
+    point (common random numbers: the draws' amounts depend only on the shapes), and the
+    reported error is linear in the bias (``b`` times a unit-variance draw), so a bias grid
+    costs one simulation per glitch scale and user.
+
+    Parameters
+    ----------
+    campaign : wsnlib.sim.campaign.DynamicCampaign
+        The campaign ``inputs`` were built from (:func:`study_inputs`).
+    inputs : StudyInputs
+    bias_std_m : sequence of float
+        Per-axis standard deviations of the per-joint bias (m).
+    glitch_scales : sequence of float
+        Factors on ``glitch_rate_hz`` and ``glitch_rate_occluded_hz`` (0 switches glitches off).
+    n_draws : int
+        Kinect sessions simulated per user and grid point.
+    seed : int
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``glitch_scale``, ``bias_std_m``, ``draw``, ``user``, ``T1``, ``T2`` (PE, cm, as
+        :func:`user_pe_cm`) and ``pe_cm`` (their mean: Table 3's average of the two targets).
+    """
+    check_type(inputs, StudyInputs, "inputs")
+    check_count(n_draws, "n_draws")
+    biases = [check_nonnegative(b, "bias_std_m") for b in np.atleast_1d(bias_std_m)]
+    scales = [check_nonnegative(g, "glitch_scales") for g in np.atleast_1d(glitch_scales)]
+    base = campaign.kinect_model
+    users = {user.name: (index, user) for index, user in enumerate(campaign.online_users)}
+    missing = [user for user in inputs.target1 if user not in users]
+    if missing:
+        raise ValueError(f"users {missing} of inputs are not in the campaign")
+    rows = []
+    for scale in scales:
+        model = dataclasses.replace(base, bias_std_m=1.0, glitch_rate_hz=base.glitch_rate_hz * scale,
+                                    glitch_rate_occluded_hz=base.glitch_rate_occluded_hz * scale)
+        for user, data1 in inputs.target1.items():
+            index, person = users[user]
+            stream = campaign.kinect_streams[index]
+            truth = np.broadcast_to(stream.true_joints, (n_draws,) + stream.true_joints.shape)
+            errors = optical_kinect_errors(truth, rng=np.random.default_rng([seed, index]), fs=model.frame_rate_hz,
+                                           camera_position=stream.camera_position, camera_axis=stream.camera_axis,
+                                           model=model)
+            d1, d2 = person.target_distances_m
+            fractions = (d1 / person.upper_arm_m, (d2 - person.upper_arm_m) / person.forearm_m)
+            frames = inputs.kinect_frame[user]
+            true = np.stack([data1.true_positions, inputs.target2[user].true_positions], axis=1)   # (n, 2, 3)
+            # Table 3's averaging (user_pe_cm): each movement's mean, then the mean over movements.
+            _, movement = np.unique(data1.movement, return_inverse=True)
+            weights = np.eye(movement.max() + 1)[movement]                           # (n, M)
+            weights = weights / weights.sum(axis=0) / weights.shape[1]
+            for bias in biases:
+                error = bias * errors.bias + errors.jitter + errors.glitch
+                joints = errors.truth + (error - error[..., :1, :])            # referenced to the tracked shoulder
+                targets = kinect_target_positions(joints, fractions=fractions)   # (draws, K, 2, 3)
+                reported = np.stack([targets[:, frames[:, t], t] for t in (0, 1)], axis=2)  # (draws, n, 2, 3)
+                pe = 100 * np.linalg.norm(reported - true, axis=-1)             # (draws, n, 2) cm
+                pe = np.einsum("dnt,nm->dt", pe, weights)                       # (draws, 2)
+                rows.append(pd.DataFrame({"glitch_scale": scale, "bias_std_m": bias, "draw": np.arange(n_draws),
+                                          "user": user, "T1": pe[:, 0], "T2": pe[:, 1]}))
+    out = pd.concat(rows, ignore_index=True)
+    out["pe_cm"] = out[["T1", "T2"]].mean(axis=1)
+    return out
+
+
+def kinect_crossing(sweep: pd.DataFrame, level_cm: float) -> pd.Series:
+    """Per glitch scale, the bias at which the Kinect-like baseline's mean PE reaches ``level_cm``.
+
+    Parameters
+    ----------
+    sweep : DataFrame
+        :func:`kinect_sensitivity`'s output.
+    level_cm : float
+        E.g. the deterministic approach's mean PE over users (cm).
+
+    Returns
+    -------
+    pandas.Series
+        Index ``glitch_scale``; the per-axis bias (m), linear between the grid's biases, at
+        which the mean over draws of the users' mean PE first reaches ``level_cm``: the
+        smallest bias of the grid if it does there already (smaller ones are not searched),
+        NaN if it does nowhere in the grid.
+    """
+    curve = sweep.groupby(["glitch_scale", "bias_std_m", "draw"])["pe_cm"].mean().groupby(
+        ["glitch_scale", "bias_std_m"]).mean()
+    out = {}
+    for scale, values in curve.groupby(level="glitch_scale"):
+        bias = values.index.get_level_values("bias_std_m").to_numpy()
+        pe = values.to_numpy()
+        above = np.flatnonzero(pe >= level_cm)
+        if above.size == 0:
+            out[scale] = np.nan
+        elif above[0] == 0:
+            out[scale] = float(bias[0])
+        else:
+            i = above[0]
+            out[scale] = float(bias[i - 1] + (level_cm - pe[i - 1]) * (bias[i] - bias[i - 1]) / (pe[i] - pe[i - 1]))
+    return pd.Series(out, name="bias_std_m").rename_axis("glitch_scale")
+
+
 def pitch_errors_deg(data, *, method: str, fs: float = 30.0, **options):
     """Accelerometer pitch minus true pitch (°) for every aligned row of a dynamic campaign.
 
@@ -196,6 +352,36 @@ def true_joints_straight_arm(inputs: StudyInputs, user: str) -> dict[str, np.nda
     lengths = data1.chain.segment_lengths_m
     direction = data1.true_positions / np.linalg.norm(data1.true_positions, axis=1, keepdims=True)
     return {"elbow": direction * lengths[0], "wrist": direction * (lengths[0] + lengths[1])}
+
+
+def joint_errors_cm(inputs: StudyInputs, chains: dict) -> pd.DataFrame:
+    """How far the estimated elbow and wrist are from the true ones, and in which direction.
+
+    Parameters
+    ----------
+    inputs : StudyInputs
+    chains : dict
+        Per user, :func:`wsnlib.optimize.evaluate_chain`'s output for that user's rows
+        (``"T1"["joints"]`` the elbow, ``"T2"["joints"]`` the wrist).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per user, paired row and joint: ``user``, ``movement``, ``joint`` (``"elbow"``,
+        ``"wrist"``), ``error_cm`` (distance to the true joint of the straight arm,
+        :func:`true_joints_straight_arm`), ``vertical_cm`` (|Δz|: height, which the
+        accelerometer's pitch sets) and ``horizontal_cm`` (the horizontal distance, which the
+        radio heading sets), all in cm.
+    """
+    frames = []
+    for user, chain in chains.items():
+        truth = true_joints_straight_arm(inputs, user)
+        for joint, target in (("elbow", "T1"), ("wrist", "T2")):
+            delta = 100 * (np.asarray(chain[target]["joints"]) - truth[joint])
+            frames.append(pd.DataFrame({"user": user, "movement": inputs.target1[user].movement, "joint": joint,
+                                        "error_cm": np.linalg.norm(delta, axis=1), "vertical_cm": np.abs(delta[:, 2]),
+                                        "horizontal_cm": np.hypot(delta[:, 0], delta[:, 1])}))
+    return pd.concat(frames, ignore_index=True)
 
 
 def with_reference_error(inputs: StudyInputs, *, rng: np.random.Generator,

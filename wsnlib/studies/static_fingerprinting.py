@@ -4,6 +4,8 @@
 vector of the static session with kNN (k, Shepard exponent p_s, a chosen anchor set) and
 returns the position errors and their means; :func:`wsnlib.plotting.plot_static_fingerprinting`
 draws them.  Fast enough to rerun whenever a knob of :func:`wsnlib.interactive.explore` moves.
+:func:`own_posture` says which estimates are exactly the fingerprint of the vector's own posture
+(static localisation as classification).
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import pandas as pd
 from wsnlib import metrics
 from wsnlib.radio import KNNFingerprint, fit_predict_by_group
 
-__all__ = ["StaticFingerprinting", "static_fingerprinting"]
+__all__ = ["StaticFingerprinting", "own_posture", "static_fingerprinting"]
 
 
 @dataclass(frozen=True)
@@ -92,3 +94,39 @@ def static_fingerprinting(train, online, *, n_neighbors, power, anchors, metric=
     mean_by_target = pd.Series(error_cm).groupby(target).mean()
     return StaticFingerprinting(error_cm=error_cm, posture=posture, target=target, mean_by_posture=mean_by_posture,
                                 mean_by_target=mean_by_target, anchors=tuple(columns))
+
+
+def own_posture(train, online, estimate) -> np.ndarray:
+    """Whether each estimate is exactly the fingerprint position of its online vector's own posture.
+
+    Static localisation is a classification in disguise: NN (k = 1) and the MAP p-kNN return
+    one fingerprint position, the right posture's or another's.
+
+    Parameters
+    ----------
+    train, online : wsnlib.io.vectors.RssVectors
+        As in :func:`static_fingerprinting` (``label`` is the posture).
+    estimate : array_like (n, 3)
+        Estimated positions (m) of ``online``'s vectors.
+
+    Returns
+    -------
+    numpy.ndarray of bool (n,)
+
+    Raises
+    ------
+    ValueError
+        An online vector whose (user, target, posture) has no training vector.
+    """
+    estimate = np.asarray(estimate, dtype=float)
+    if estimate.shape != online.position.shape:
+        raise ValueError(f"estimate must have shape {online.position.shape} like online.position, got {estimate.shape}")
+    fingerprint = {}
+    for key, label, position in zip(train.map_key, train.label, train.position, strict=True):
+        fingerprint.setdefault((key, label), position)
+    wanted = set(zip(online.map_key, online.label, strict=True))
+    missing = sorted(wanted - set(fingerprint), key=str)
+    if missing:
+        raise ValueError(f"online postures without training vectors: {missing[:5]}")
+    own = np.array([fingerprint[key, label] for key, label in zip(online.map_key, online.label, strict=True)])
+    return np.all(estimate == own, axis=1)

@@ -19,45 +19,50 @@ Your own recording, start to finish::
 
 Fair tuning
 -----------
-Each method has a hand-picked grid of at most :data:`DEFAULT_BUDGET` settings (the same budget
-for the peers and for ours); :func:`with_budget` gives every method any other number, the grid
-first and then quasi-random draws over the method's search space (``--budget 1000`` on the
-command line).  Tuning happens **once**, at the headline profile (:data:`HEADLINE`,
-Gilbert–Elliott 10 %, mean burst 3 packets of 6 samples, for notebook 10; lossless for
-notebook 05): every setting is scored by the trial's total RMSE over movement samples (the
-mean over the headline's loss draws), and leave-one-recording-out
+One budget for every method, the peers' and ours: a method with something to tune is defined by
+its search space (:attr:`Method.space`: each setting's physical bounds, and why — VQF's τ, Fusion's
+1/gain and the Kalman filter's noise densities over its gyroscope noise are correction time
+constants from 0.1 s to 100 s, Madgwick's β is √(3/4) × a gyroscope error from 0.1 to 300 °/s,
+…), and its grid is :data:`DEFAULT_BUDGET` settings log-spaced from bound to bound
+(:func:`space_grid`; 4 × 3 for two settings); :func:`with_budget` gives every method another
+number (``--budget 1000`` on the command line).  A chosen value at a grid edge is at a physical
+bound: :func:`.summary.edge_picks` flags it.  Tuning happens **once**, at the headline profile
+(:data:`HEADLINE`, Gilbert–Elliott 10 %, mean burst 3 packets of 6 samples, for notebook 10;
+lossless for notebook 05): every setting is scored by the trial's total RMSE over movement samples
+(the mean over the headline's loss draws), and leave-one-group-out
 (:func:`wsnlib.loto.leave_one_out_choice` with groups) gives each trial the setting with the
-lowest mean score over the trials of the *other* recordings (a BROAD trial is one recording;
-the nodes of one recording file are held out together: they are not independent).  Under every
-other profile, each trial is scored with the setting chosen for it at the headline profile —
-so a setting is never tuned on the recording it is scored on, and the other profiles show how
-a setting tuned for one loss pattern carries over.  With a single recording there is nothing
-to tune on: every method runs with its documented default (:attr:`Method.default`), and the
-result says so (``setting_source``).
+lowest mean score over the trials of the *other* groups (by default the recordings: the nodes of
+one recording file are held out together; in notebook 10 BROAD's kinds of motion,
+:func:`holdout_groups`).  Under every other profile, each trial is scored with the setting chosen
+for it at the headline profile — so a setting is never tuned on the recording it is scored on,
+and the other profiles show how a setting tuned for one loss pattern carries over.  With a single
+recording there is nothing to tune on: every method runs with its documented default
+(:attr:`Method.default`), and the result says so (``setting_source``).
 
 Loss profiles
 -------------
-Lossless; the paper's burst (4 packets of 6 samples, :func:`wsnlib.loss.burst_train`, one
-burst every 8 s from 4 s on: no randomness); Gilbert–Elliott 5/10/20 % with a mean burst of 3
-packets of 6 samples; and GE 10 % with 1- and 12-sample packets (mean burst 3 *packets*, so the
-gaps scale with the packet).  Profiles are in seconds and packets: at each recording's own rate
-a packet of 6 samples lasts 6 / fs seconds.  Masks are drawn from a child of the ``rng`` passed in, one per
-trial (:meth:`numpy.random.Generator.spawn`), so a trial's masks do not depend on how many
-trials run, and every method sees the same masks (paired comparison).  ``draws`` masks per
-trial for each random profile (one by default); every draw is a row of the results.
+Lossless; the paper's burst, one per run (:class:`BurstPositions`: 4 packets of 6 samples, the
+run repeated with the burst at 8 places over the recording's movement, no randomness; its response
+is measured against the error just before it, :func:`wsnlib.metrics.single_burst_response`);
+Gilbert–Elliott 5/10/20 % with a mean burst of 3 packets of 6 samples; and GE 10 % with 1- and
+12-sample packets (mean burst 3 *packets*, so the gaps scale with the packet).  Profiles are in
+seconds and packets: at each recording's own rate a packet of 6 samples lasts 6 / fs seconds.
+Masks are drawn from a child of the ``rng`` passed in, one per trial
+(:meth:`numpy.random.Generator.spawn`), and within it one generator per profile, so a trial's
+masks depend neither on how many trials nor on which other profiles run, and every method sees
+the same masks (paired comparison).  ``draws`` masks per trial for each random profile (one by
+default); every draw (and every burst position) is a row of the results.
 
-Two options, two questions
---------------------------
-The registry holds two options as methods of their own, so that they are tuned with the same
-budget and scored on the same masks as what they modify: the *gated* hybrid (ours and Fusion's
-wrapped in it), which applies the single frame only where
-:class:`wsnlib.orientation.SingleFrameGate` trusts it, and the peers predicting at the last
-received rate in a gap (``gap="constant_rate"``) instead of holding.  :data:`GATING_PAIRS` and
-:data:`GAP_PREDICTION_PAIRS` name the pairs; :func:`.summary.paired_comparisons` answers
-"does it help?".
-
-The grids are module constants (:data:`KALMAN_GRID`, ...) built with
-:func:`settings_grid`; ``default_methods(grids={...})`` replaces any of them.
+The ablation and the side question
+----------------------------------
+The registry runs each filter with each gap handling (:data:`ABLATION`: Madgwick, Kalman,
+Fusion, VQF × hold, constant rate, linear replay, AR, AR + replay), so that
+:func:`.summary.ablation_table` and :func:`.summary.ratio_table` tell what the filter and what the
+gap handling contribute, and the targets are stated against the best peer with the same gap
+handling as ours and against the peers as users run them today (:data:`AS_USERS_RUN_THEM`).  The
+*gated* hybrid (ours and Fusion's wrapped in it) applies the single frame only where
+:class:`wsnlib.orientation.SingleFrameGate` trusts it; :data:`GATING_PAIRS` and
+:data:`GAP_PREDICTION_PAIRS` name the pairs of :func:`.summary.paired_comparisons`.
 
 Where it runs
 -------------
@@ -115,23 +120,28 @@ from wsnlib.studies.loss_tolerance.recordings import (
     notebook_sources,
 )
 from wsnlib.studies.loss_tolerance.registry import (
-    BETA_GRID,
+    ABLATION,
+    AS_USERS_RUN_THEM,
+    BETA_SPACE,
     DEFAULT_BUDGET,
     DEFAULT_RHO_TAU,
     FUSION_DEFAULT_GAIN,
-    FUSION_GRID,
-    FUSION_HYBRID_GRID,
+    FUSION_HYBRID_SPACE,
+    FUSION_SPACE,
+    GAP_HANDLING_OF,
+    GAP_HANDLINGS,
     GAP_PREDICTION_PAIRS,
     GATING_PAIRS,
     HEADLINE,
-    HYBRID_GRID,
-    KALMAN_GRID,
+    HYBRID_SPACE,
+    KALMAN_SPACE,
     KINDS,
     LATENCY_RULES,
     MADGWICK_BETA,
     PROFILES,
-    VQF_GRID,
-    VQF_HYBRID_GRID,
+    VQF_HYBRID_SPACE,
+    VQF_SPACE,
+    BurstPositions,
     Choice,
     Method,
     Range,
@@ -140,18 +150,19 @@ from wsnlib.studies.loss_tolerance.registry import (
     paper001_methods,
     paper001_profiles,
     settings_grid,
+    space_grid,
+    study_profiles,
     with_budget,
 )
 
 __all__ = [
-    "AFTER_GAP_S", "BETA_GRID", "BROAD_FS", "DEFAULT_RHO_TAU", "FUSION_DEFAULT_GAIN", "FUSION_GRID",
-    "FUSION_HYBRID_GRID", "GAP_PREDICTION_PAIRS", "GATING_PAIRS", "HEADLINE", "HYBRID_GRID", "KALMAN_GRID", "KINDS",
-    "LATENCY_RULES", "MADGWICK_BETA", "DEFAULT_BUDGET", "PROFILES", "RECOVERY_THRESHOLD_DEG",
-    "REGULAR_STEP_TOLERANCE", "RMSE_TABLE_COLUMNS", "SETTING_SOURCES", "SETTINGS_PER_JOB", "VQF_GRID",
-    "VQF_HYBRID_GRID", "LossToleranceResult", "Method", "Choice", "Range", "StudyRecording", "all_broad",
-    "default_methods", "evaluate", "from_broad", "from_recording", "holdout_groups", "inclination_methods",
-    "load_recordings",
-    "notebook_sources",
-    "paper001_methods", "paper001_profiles", "response_window_s", "settings_grid", "single_frame_trust",
-    "with_budget",
+    "ABLATION", "AFTER_GAP_S", "AS_USERS_RUN_THEM", "BETA_SPACE", "BROAD_FS", "DEFAULT_BUDGET", "DEFAULT_RHO_TAU",
+    "FUSION_DEFAULT_GAIN", "FUSION_HYBRID_SPACE", "FUSION_SPACE", "GAP_HANDLING_OF", "GAP_HANDLINGS",
+    "GAP_PREDICTION_PAIRS",
+    "GATING_PAIRS", "HEADLINE", "HYBRID_SPACE", "KALMAN_SPACE", "KINDS", "LATENCY_RULES", "MADGWICK_BETA", "PROFILES",
+    "RECOVERY_THRESHOLD_DEG", "REGULAR_STEP_TOLERANCE", "RMSE_TABLE_COLUMNS", "SETTING_SOURCES", "SETTINGS_PER_JOB",
+    "VQF_HYBRID_SPACE", "VQF_SPACE", "BurstPositions", "Choice", "LossToleranceResult", "Method", "Range",
+    "StudyRecording", "all_broad", "default_methods", "evaluate", "from_broad", "from_recording", "holdout_groups",
+    "inclination_methods", "load_recordings", "notebook_sources", "paper001_methods", "paper001_profiles",
+    "response_window_s", "settings_grid", "single_frame_trust", "space_grid", "study_profiles", "with_budget",
 ]

@@ -22,13 +22,14 @@ PROFILES`, tuned at GE 10 %).
 ``--trials``), resampled to 50 Hz, tuned leave-one-trial-out at Gilbert–Elliott 10 % and scored
 under notebook 10's profiles.  Printed: per-method mean total RMSE per profile with a paired
 95 % bootstrap interval at the headline, the run time per method, the setting chosen most
-often, the issue's three targets with PASS/MISS and margins, the two side questions (does
-gating the single frame help the hybrids, does predicting through a gap help the peers) and
+often, the issue's targets with PASS/MISS and margins, the two side questions (does
+gating the single frame help the hybrids, does each gap handling help each filter) and
 where the best causal filter's error lies.  ``--out FILE.csv`` also writes the per-trial table.
 
 Either way, the runs go to local worker processes (``--jobs``, default one per core), or to a
 Dask cluster (``--scheduler tcp://host:8786``); ``--budget N`` gives every method N settings
-(:func:`~wsnlib.studies.loss_tolerance.with_budget`), e.g. 1,000 over every BROAD trial on a
+(:func:`~wsnlib.studies.loss_tolerance.space_grid`, log-spaced between the physical bounds of its
+search space; default :data:`~wsnlib.studies.loss_tolerance.DEFAULT_BUDGET`), e.g. 1,000 over every BROAD trial on a
 cluster::
 
     python -m wsnlib.studies.loss_tolerance [--quick] [--seed 2021] [--draws 1] [--trials NAME ...]
@@ -92,8 +93,8 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--loss", action="append", type=loss_profile, metavar="SPEC", help=LOSS_HELP)
     parser.add_argument("--quick", action="store_true", help="2 settings per method (and 2 BROAD trials)")
     parser.add_argument("--budget", type=int, metavar="N",
-                        help="settings per method: the grid, then draws over its search space "
-                             "(default: the hand-picked grids, at most 8)")
+                        help="settings per method, log-spaced between the physical bounds of its search space "
+                             f"(default {study.DEFAULT_BUDGET})")
     parser.add_argument("--jobs", type=int, default=-1, metavar="N",
                         help="local worker processes (default -1: one per core; 1: none)")
     parser.add_argument("--scheduler", metavar="ADDRESS",
@@ -167,11 +168,9 @@ def main(argv=None) -> int:
         parser.error("give recording files or --trials (BROAD), not both")
     if args.loss and not args.files:
         parser.error("--loss applies to recording files; the BROAD study runs notebook 10's profiles")
-    loss_rng, boot_rng, budget_rng = np.random.default_rng(args.seed).spawn(3)
-    methods = study.default_methods()
+    loss_rng, boot_rng = np.random.default_rng(args.seed).spawn(2)
     budget = 2 if args.quick and args.budget is None else args.budget
-    if budget is not None:
-        methods = study.with_budget(methods, budget, rng=budget_rng)
+    methods = study.default_methods(study.DEFAULT_BUDGET if budget is None else budget)
     where = f"Dask cluster {args.scheduler}" if args.scheduler else f"{args.jobs} local job(s)"
     if args.files:
         return _main_files(args, methods, loss_rng, where)
@@ -210,7 +209,7 @@ def main(argv=None) -> int:
     print(summary.format_targets(targets))
     for title, pairs, metrics in (("Does gating the single frame help?", study.GATING_PAIRS,
                                    ("rmse_total", "rms_after_gap")),
-                                  ("Does gap prediction help the peers?", study.GAP_PREDICTION_PAIRS,
+                                  ("Does a gap handling help each filter, over holding?", study.GAP_PREDICTION_PAIRS,
                                    ("rmse_total", "rms_lost"))):
         pairs = [pair for pair in pairs if set(pair) <= set(methods)]
         if pairs:

@@ -17,14 +17,14 @@ import pandas as pd
 from wsnlib import loto, metrics, parallel
 from wsnlib._validation import check_count, check_positive, check_rng
 from wsnlib.orientation import SingleFrameGate, single_frame_trusted
-from wsnlib.studies.loss_tolerance.registry import HEADLINE, PROFILES, Method, default_methods
+from wsnlib.studies.loss_tolerance.registry import HEADLINE, PROFILES, BurstPositions, Method, default_methods
 
 #: Length of the "after a gap" phase of :func:`wsnlib.metrics.error_by_phase` (s).
 AFTER_GAP_S = 2.0
 #: Recovery: the error increase over the lossless run back below this (°) for the window's rest.
 RECOVERY_THRESHOLD_DEG = 2.0
-#: Window after each gap in which the error increase and recovery are measured (s): the paper's
-#: bursts come every 8 s (4 s fit between them); random gaps come closer (2 s).
+#: Window after each gap in which the error increase and recovery are measured (s): after a burst
+#: of a repeated burst profile 4 s; random gaps come closer (2 s).
 BURST_RESPONSE_WINDOW_S, GAP_RESPONSE_WINDOW_S = 4.0, 2.0
 #: Where each recording's setting comes from (:attr:`LossToleranceResult.setting_source`): tuned on
 #: the other recordings, or on the other groups (``groups`` of :func:`evaluate`), or, with a
@@ -36,8 +36,37 @@ RMSE_TABLE_COLUMNS = ("recording", "node", "method", "profile", "draw", "rmse_to
 
 
 def response_window_s(profile) -> float:
-    """:data:`BURST_RESPONSE_WINDOW_S` for a burst profile, else :data:`GAP_RESPONSE_WINDOW_S`."""
+    """The window of the gap response: a :class:`BurstPositions` profile's own ``window_s``,
+    :data:`BURST_RESPONSE_WINDOW_S` for another burst profile, else :data:`GAP_RESPONSE_WINDOW_S`."""
+    if profile.model == BurstPositions.model:
+        return profile.window_s
     return BURST_RESPONSE_WINDOW_S if profile.model == "burst" else GAP_RESPONSE_WINDOW_S
+
+
+#: Columns of the one-burst response (:func:`wsnlib.metrics.single_burst_response`), NaN under the
+#: other profiles: the error before the burst, its peak and mean increase over it (°), and the
+#: recoveries (s, censored at the window) back within :data:`RECOVERY_THRESHOLD_DEG` of it and below
+#: :data:`RECOVERY_LEVEL_DEG`, with 1/0 for recovered within the window.
+BURST_COLUMNS = ("burst_before_deg", "burst_peak_increase_deg", "burst_mean_increase_deg", "burst_recovery_s",
+                 "burst_recovered", "burst_level_recovery_s", "burst_level_recovered")
+#: The absolute level of the one-burst recovery (°): paper 001's hybrid stays "≈ 10°" after its loss.
+RECOVERY_LEVEL_DEG = 10.0
+
+
+def _burst_columns(total, received, profile, fs) -> dict:
+    """:data:`BURST_COLUMNS` of one run (``total``: error (°) per sample, NaN without reference)."""
+    if profile.model != BurstPositions.model:
+        return dict.fromkeys(BURST_COLUMNS, np.nan)
+    r = metrics.single_burst_response(total, received, fs, before_s=profile.before_s, window_s=profile.window_s,
+                                      threshold_deg=RECOVERY_THRESHOLD_DEG, level_deg=RECOVERY_LEVEL_DEG)
+    out = {"burst_before_deg": float(r["before_deg"]), "burst_peak_increase_deg": float(r["peak_increase_deg"]),
+           "burst_mean_increase_deg": float(r["mean_increase_deg"])}
+    for key, recovered in (("burst_recovery_s", "burst_recovered"),
+                           ("burst_level_recovery_s", "burst_level_recovered")):
+        seconds = float(r[key.removeprefix("burst_")])
+        out[key] = min(seconds, profile.window_s)
+        out[recovered] = np.nan if np.isnan(seconds) else float(np.isfinite(seconds))
+    return {key: out[key] for key in BURST_COLUMNS}
 
 
 @dataclasses.dataclass
@@ -59,9 +88,11 @@ class LossToleranceResult:
         the method's grid; -1 for a default that is not in it), setting.
     traces : dict
         ``traces[trial]``: ``fs`` (Hz, the trial's rate), ``time_s``, ``received`` and
-        ``burst_ends`` of the paper-burst profile, ``error`` (method → total error (°) per
-        sample under it, NaN where the reference is missing) and ``lossless`` (the same
-        without loss).
+        ``burst_ends`` of one run of the burst profile (of a :class:`~wsnlib.studies.
+        loss_tolerance.BurstPositions` profile, the position whose angular rate over the lost
+        samples is the median of the positions': a typical burst, picked without looking at any
+        error), ``error`` (method → total error (°) per sample under it, NaN where the reference
+        is missing) and ``lossless`` (the same without loss).
     seconds : pandas.Series
         Run time per method (s, tuning and scoring), summed over its jobs wherever they ran
         (compute time, not wall-clock time).
@@ -142,13 +173,13 @@ def _score_rows(name, method, rows, setting, rec, masks, quat):
                     **{f"n_{ph}": int(phases[f"n_{ph}"][k]) for ph in metrics.PHASES},
                     **_gap_response(moving[k], moving[0], masks[k], response_window_s(profile), rec.fs),
                     "gap_end_step_deg": float(steps["mean_deg"][k]) if steps["n_gaps"][k] else np.nan,
-                    "jitter_deg_s3": float(jitter[k]),
+                    "jitter_deg_s3": float(jitter[k]), **_burst_columns(total[k], masks[k], profile, rec.fs),
                     "latency_s": latency, "latency_rule": method.latency})
     return out, total
 
 
-#: Settings per tuning job: a budget of 8 makes one job per method and trial.
-SETTINGS_PER_JOB = 8
+#: Settings per tuning job: the default budget makes one job per method and trial.
+SETTINGS_PER_JOB = 12
 
 
 def _tuning_job(method, rec, received, settings):
@@ -171,26 +202,46 @@ def _scoring_job(name, method, rec, masks, rows, setting, burst):
     return new_rows, total[0], None if burst is None else total[burst], time.perf_counter() - start
 
 
-def _masks(profiles, n_samples: int, fs: float, rng: np.random.Generator, draws: int):
-    """Masks ``(K, T)`` of every profile (``draws`` of each random one) at ``fs`` (Hz), and each row's
-    (profile, draw).  Each profile draws from its own generator, keyed by ``rng``'s seed and the
-    profile's name, so a profile's masks do not depend on which other profiles are run (a second
-    study of a subset of the methods and profiles sees the same masks)."""
+def _masks(profiles, recording, fs: float, rng: np.random.Generator, draws: Mapping[str, int]):
+    """Masks ``(K, T)`` of every profile (``draws[name]`` of each random one, one per position of a
+    :class:`BurstPositions`) at ``fs`` (Hz), and each row's (profile, draw).  Each profile draws from
+    its own generator, keyed by ``rng``'s seed and the profile's name, so a profile's masks do not
+    depend on which other profiles are run (a second study of a subset of the methods and profiles
+    sees the same masks)."""
     seed = rng.bit_generator.seed_seq
     if not isinstance(seed, np.random.SeedSequence):
         raise ValueError("rng must be a numpy.random.Generator seeded from a SeedSequence (np.random.default_rng(...))")
+    n_samples = recording.n_samples
     masks, rows = [], []
     for profile in profiles:
-        n = draws if profile.model == "gilbert_elliott" else 1
-        key = zlib.crc32(profile.name.encode())
-        profile_rng = np.random.default_rng(np.random.SeedSequence(seed.entropy, spawn_key=(*seed.spawn_key, key)))
-        masks.append(profile.mask(n_samples, fs, profile_rng, shape=(n,)))
-        rows += [(profile, d) for d in range(n)]
+        if profile.model == BurstPositions.model:
+            masks.append(profile.masks(np.asarray(recording.movement, dtype=bool), fs))
+        else:
+            n = draws[profile.name] if profile.model == "gilbert_elliott" else 1
+            key = zlib.crc32(profile.name.encode())
+            profile_rng = np.random.default_rng(np.random.SeedSequence(seed.entropy,
+                                                                       spawn_key=(*seed.spawn_key, key)))
+            masks.append(profile.mask(n_samples, fs, profile_rng, shape=(n,)))
+        rows += [(profile, d) for d in range(len(masks[-1]))]
     return np.concatenate(masks), rows
 
 
+def _traced_burst(recording, masks, rows) -> int | None:
+    """Row of the burst traced for the figures: under the first burst profile, the one whose mean
+    angular rate over its lost samples is the median of its positions' (a typical burst, chosen
+    without looking at any method's error); None without a burst profile."""
+    burst = [k for k, (profile, _) in enumerate(rows) if profile.model in ("burst", BurstPositions.model)]
+    if not burst:
+        return None
+    first = [k for k in burst if rows[k][0] is rows[burst[0]][0]]
+    rate = np.linalg.norm(np.asarray(recording.gyr, dtype=float), axis=-1)
+    during = np.array([rate[~masks[k]].mean() for k in first])
+    return first[int(np.argsort(during, kind="stable")[(len(first) - 1) // 2])]
+
+
 def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[str, Method] | None = None,
-             profiles=PROFILES, headline: str = HEADLINE, draws: int = 1, groups: Mapping | None = None,
+             profiles=PROFILES, headline: str = HEADLINE, draws: int | Mapping[str, int] = 1,
+             groups: Mapping | None = None,
              n_jobs: int = -1, scheduler=None, progress: bool = True) -> LossToleranceResult:
     """Tune every method leave-one-group-out at ``headline`` and score it under every profile.
 
@@ -220,8 +271,10 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
         The first must be lossless (the reference of the gap response); one named ``headline``.
     headline : str
         Profile at which the settings are tuned.
-    draws : int
-        Masks drawn per trial for each random (Gilbert–Elliott) profile, ≥ 1.
+    draws : int or mapping profile name → int
+        Masks drawn per trial for each random (Gilbert–Elliott) profile, ≥ 1; a mapping gives
+        each profile its own number (1 for a profile it does not name), e.g. more at the headline,
+        where the settings are tuned and the targets scored, than elsewhere.
     groups : mapping name → str, optional
         The group each trial is held out with (leave-one-group-out: a trial's setting is tuned
         on the trials of the *other* groups), e.g.
@@ -252,11 +305,13 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
         gaps without loss); gap_end_step_deg (mean rotation between the last output before
         and the first after a gap, :func:`wsnlib.metrics.quat_gap_end_steps_deg`; NaN without
         gaps) and jitter_deg_s3 (RMS angular jerk away from gap ends,
-        :func:`wsnlib.metrics.angular_jerk_rms_deg` given the mask); latency_s and latency_rule (package
-        docstring).
+        :func:`wsnlib.metrics.angular_jerk_rms_deg` given the mask); :data:`BURST_COLUMNS` (under a
+        :class:`~wsnlib.studies.loss_tolerance.BurstPositions` profile, one burst per run, ``draw``
+        the position: :func:`wsnlib.metrics.single_burst_response` on the total error of every
+        sample with a reference, against the error just before the burst; NaN under the other
+        profiles); latency_s and latency_rule (package docstring).
     """
     check_rng(rng)
-    check_count(draws, "draws")
     methods = default_methods() if methods is None else dict(methods)
     profiles = tuple(profiles)
     names = list(recordings)
@@ -267,6 +322,7 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
     profile_names = [p.name for p in profiles]
     if headline not in profile_names:
         raise ValueError(f"headline must be one of the profiles {profile_names}, got {headline!r}")
+    draws = _check_draws(draws, profile_names)
     fs = {name: check_positive(getattr(recordings[name], "fs", None), f"recordings[{name!r}].fs") for name in names}
     sources = [str(getattr(recordings[name], "source", name)) for name in names]
     folds = sources if groups is None else _check_groups(groups, names, sources)
@@ -275,7 +331,7 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
     setting_source = SETTING_SOURCES[1] if not tuned else SETTING_SOURCES[0 if by_recording else 2]
     masks, rows = {}, {}
     for name, trial_rng in zip(names, rng.spawn(len(names)), strict=True):
-        masks[name], rows[name] = _masks(profiles, recordings[name].n_samples, fs[name], trial_rng, draws)
+        masks[name], rows[name] = _masks(profiles, recordings[name], fs[name], trial_rng, draws)
     seconds = dict.fromkeys(methods, 0.0)
     if tuned:
         setting, tuning, choices = _tune(recordings, names, folds, methods, masks, rows, headline, seconds,
@@ -289,8 +345,7 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
                                  "setting_index": next((i for i, s in enumerate(methods[m].grid) if s == untuned[m]),
                                                        -1),
                                  "setting": str(untuned[m])} for m in methods for name in names])
-    bursts = {name: next((k for k, (profile, _) in enumerate(rows[name]) if profile.model == "burst"), None)
-              for name in names}
+    bursts = {name: _traced_burst(recordings[name], masks[name], rows[name]) for name in names}
     jobs = [(name, method, recordings[name], masks[name], rows[name], setting[m][j], bursts[name])
             for j, name in enumerate(names) for m, method in methods.items()]
     done = iter(parallel.run_jobs(_scoring_job, jobs, n_jobs=n_jobs, scheduler=scheduler, progress=progress,
@@ -317,6 +372,17 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
     return LossToleranceResult(per_trial=pd.DataFrame(results), tuning=tuning, choices=choices, traces=traces,
                                seconds=pd.Series(seconds, name="seconds"), methods=methods, profiles=profiles,
                                units=units, setting_source=setting_source)
+
+
+def _check_draws(draws, profile_names) -> dict[str, int]:
+    """``draws`` (a count for every random profile, or a mapping profile name → count, 1 for a profile
+    not named) as a count per profile name; ``ValueError`` for a count < 1 or an unknown name."""
+    if isinstance(draws, Mapping):
+        unknown = sorted(set(draws) - set(profile_names))
+        if unknown:
+            raise ValueError(f"draws names unknown profiles {unknown}; the profiles are {profile_names}")
+        return {name: check_count(draws.get(name, 1), f"draws[{name!r}]") for name in profile_names}
+    return dict.fromkeys(profile_names, check_count(draws, "draws"))
 
 
 def _check_groups(groups, names, sources) -> list[str]:

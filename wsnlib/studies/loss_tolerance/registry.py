@@ -2,10 +2,12 @@
 
 :func:`default_methods` and :data:`PROFILES` are notebook 10's (issue 11's study),
 :func:`paper001_methods` and :func:`paper001_profiles` notebook 05's (paper 001's options on real
-recordings).  :func:`with_budget` gives every method of a registry the same number of settings
-(its hand-picked grid first, then quasi-random draws over its search space).  What each method
-and profile is, and why the grids are as they are: the package docstring,
-:mod:`wsnlib.studies.loss_tolerance`.
+recordings).  A method to tune is defined by its search space (each setting's physical bounds,
+and why, in the ``*_SPACE`` constants); its grid is :func:`space_grid` of it within a budget, the
+same for every method (:data:`DEFAULT_BUDGET`; :func:`with_budget` for another).  The ablation
+(:data:`ABLATION`: filter × gap handling) and the peers as users run them today
+(:data:`AS_USERS_RUN_THEM`) name methods of the registry.  What each method and profile is: the
+package docstring, :mod:`wsnlib.studies.loss_tolerance`.
 """
 
 from __future__ import annotations
@@ -13,14 +15,12 @@ from __future__ import annotations
 import dataclasses
 import functools
 import itertools
-import zlib
 from collections.abc import Callable, Mapping
 
 import numpy as np
-from scipy.stats import qmc
 
 from wsnlib._validation import check_count
-from wsnlib.loss import LossProfile, hold_last
+from wsnlib.loss import LossProfile, burst_mask, hold_last
 from wsnlib.orientation import (
     KalmanSettings,
     SingleFrameGate,
@@ -36,9 +36,6 @@ from wsnlib.orientation import (
 )
 from wsnlib.studies.hybrid_tuning import RECOMMENDED_HYBRID, hybrid_options, mu_options
 
-#: The default tuning budget: every hand-picked grid holds at most this many settings (the same
-#: for peers and ours); :func:`with_budget` sets another.
-DEFAULT_BUDGET = 8
 #: Madgwick's recommended β (rad/s), the data-fusion gain inside our hybrid.
 MADGWICK_BETA = 0.041
 #: ρτ (samples) of our hybrid without tuning: notebook 03's recommended ρ × τ (eq. (3) depends on
@@ -55,48 +52,77 @@ LATENCY_RULES = {"none": "0 s: causal, each sample final on arrival",
 
 @dataclasses.dataclass(frozen=True)
 class Range:
-    """A setting's range in a search space: ``low`` to ``high``, uniform on a log scale with
-    ``log``, rounded to an integer with ``integer`` (floats keep 3 significant digits)."""
+    """A setting's range in a search space: its physical bounds ``low`` to ``high`` (in ``unit``,
+    for the reason ``why``), spaced evenly on a log scale with ``log``, rounded to an integer with
+    ``integer`` (floats keep 3 significant digits, so give bounds with at most 3)."""
 
     low: float
     high: float
     log: bool = True
     integer: bool = False
+    unit: str = ""
+    why: str = ""
 
     def __post_init__(self):
         if not (np.isfinite(self.low) and np.isfinite(self.high) and self.low < self.high):
             raise ValueError(f"Range needs finite low < high, got {self.low!r}, {self.high!r}")
         if self.log and self.low <= 0:
             raise ValueError(f"a log Range needs low > 0, got {self.low!r}")
+        if self._round(self.low) != self.low or self._round(self.high) != self.high:
+            precision = "integers" if self.integer else "3 significant digits"
+            raise ValueError(f"Range bounds must keep their value when rounded to {precision}, got {self.low!r}, "
+                             f"{self.high!r}")
 
-    def value(self, u: float):
-        """The value at ``u`` ∈ [0, 1) of the range."""
-        if self.log:
-            x = float(np.exp(np.log(self.low) + u * (np.log(self.high) - np.log(self.low))))
-        else:
-            x = self.low + u * (self.high - self.low)
+    def _round(self, x: float):
         return int(round(x)) if self.integer else float(f"{x:.3g}")
+
+    def levels(self, n: int) -> tuple:
+        """``n`` values from ``low`` to ``high``, both bounds included, evenly spaced (on a log scale
+        with ``log``); ``n = 1``: the middle of the range.  ``ValueError`` when rounding makes two
+        values equal (an integer range too narrow for ``n`` values)."""
+        n = check_count(n, "n")
+        fractions = np.array([0.5]) if n == 1 else np.linspace(0.0, 1.0, n)
+        if self.log:
+            raw = np.exp(np.log(self.low) + fractions * (np.log(self.high) - np.log(self.low)))
+        else:
+            raw = self.low + fractions * (self.high - self.low)
+        values = tuple(self._round(float(x)) for x in raw)
+        if len(set(values)) != n:
+            raise ValueError(f"{n} levels of the Range {self.low:g}-{self.high:g} are not distinct after rounding: "
+                             f"{values}")
+        return values
+
+    def describe(self) -> str:
+        """``"0.1–100 s, log"`` with the reason: the bounds as the notebook's table shows them."""
+        text = f"{self.low:g}–{self.high:g}{' ' + self.unit if self.unit else ''}{', log' if self.log else ''}"
+        return f"{text} ({self.why})" if self.why else text
 
 
 @dataclasses.dataclass(frozen=True)
 class Choice:
-    """A setting taking one of ``values`` (equally often) in a search space."""
+    """A setting taking each of ``values`` in a search space (every value in every budget)."""
 
     values: tuple
+    why: str = ""
 
     def __post_init__(self):
         if len(self.values) == 0:
             raise ValueError("Choice needs at least one value")
 
-    def value(self, u: float):
-        """The value at ``u`` ∈ [0, 1): ``values[floor(u · len(values))]``."""
-        return self.values[min(int(u * len(self.values)), len(self.values) - 1)]
+    def levels(self, n: int | None = None) -> tuple:
+        """Every value (a choice is not thinned by the budget)."""
+        return tuple(self.values)
+
+    def describe(self) -> str:
+        """``"one of True, False"`` with the reason."""
+        text = "one of " + ", ".join(str(v) for v in self.values)
+        return f"{text} ({self.why})" if self.why else text
 
 
 @dataclasses.dataclass(frozen=True)
 class Method:
-    """One entry of the registry: how to run a method with a setting, its grid, kind, latency
-    and search space.
+    """One entry of the registry: how to run a method with a setting, its search space and grid,
+    kind and latency.
 
     Attributes
     ----------
@@ -113,8 +139,10 @@ class Method:
     latency : {"none", "offline"}
         Key of :data:`LATENCY_RULES`.
     space : mapping setting name → Range or Choice
-        Where :func:`with_budget` draws settings beyond ``grid``; empty (default): nothing to
-        tune beyond the grid.
+        The search space: each setting's physical bounds (:class:`Range`) or values
+        (:class:`Choice`).  The registry's grids are :func:`space_grid` of it, and
+        :func:`with_budget` makes the grid again for another budget; empty (default): the grid
+        is fixed (e.g. a peer at its authors' defaults).
     default : dict, optional
         The setting used without tuning (a study of a single recording, where leave-one-out
         has nothing to tune on): the method's documented default.  None (default): the grid's
@@ -169,40 +197,56 @@ def _madgwick(rec, setting, received, **options):
 
 
 def _hybrid(rec, setting, received, *, gated=False):
-    _used(setting, ("rho_tau",), "the hybrid")
-    return estimate_orientation(rec.gyr, rec.acc, rec.mag, fs=rec.fs, beta=MADGWICK_BETA, received=received,
+    _used(setting, ("beta", "rho_tau"), "the hybrid")
+    return estimate_orientation(rec.gyr, rec.acc, rec.mag, fs=rec.fs, beta=setting["beta"], received=received,
                                 blend="feedback", rho=1.0, tau=setting["rho_tau"],
                                 single_frame_gate=SingleFrameGate() if gated else None)
 
 
+#: Fusion's rejection timeout (s) when a setting switches its rejection on: Fusion's example's 5 s.
+FUSION_REJECTION_TIMEOUT_S = 5.0
+
+
+def _fusion_settings(setting) -> dict | None:
+    """``imufusion`` settings of a study setting: ``rejection_deg`` (°) is both the acceleration and
+    the magnetic rejection, with :data:`FUSION_REJECTION_TIMEOUT_S`; absent: Fusion's defaults (off)."""
+    if "rejection_deg" not in setting:
+        return None
+    angle = setting["rejection_deg"]
+    return {"acceleration_rejection": angle, "magnetic_rejection": angle,
+            "rejection_timeout": FUSION_REJECTION_TIMEOUT_S}
+
+
 def _peer(rec, setting, received, *, library, hybrid=False, gated=False, **options):
-    """Fusion (``setting["gain"]``) or VQF (``setting``'s ``tauAcc`` and, if given, ``tauMag``; its
-    authors' values otherwise).  ``hybrid``: wrapped in our hybrid, feedback blend, ρ = 1 and
-    τ = ``setting["rho_tau"]`` (``gated``: behind :class:`~wsnlib.orientation.SingleFrameGate`);
-    ``options``: more keywords of the peer's function (``gap``, or a fixed blend and μ)."""
-    _used(setting, (("gain",) if library == "Fusion" else ("tauAcc", "tauMag")) + (("rho_tau",) if hybrid else ()),
-          library)
+    """Fusion (``setting["gain"]`` and, if given, ``rejection_deg``, :func:`_fusion_settings`) or VQF
+    (``setting``'s ``tauAcc`` and ``tauMag``, its authors' values where not given).  ``hybrid``:
+    wrapped in our hybrid, feedback blend, ρ = 1 and τ = ``setting["rho_tau"]`` (``gated``: behind
+    :class:`~wsnlib.orientation.SingleFrameGate`); ``options``: more keywords of the peer's function
+    (``gap``, ``replay``, or a fixed blend and μ)."""
+    _used(setting, (("gain", "rejection_deg") if library == "Fusion" else ("tauAcc", "tauMag"))
+          + (("rho_tau",) if hybrid else ()), library)
     signals = [np.broadcast_to(x, received.shape + (3,)) for x in (rec.gyr, rec.acc, rec.mag)]
     if hybrid:
         options.update(blend="feedback", rho=1.0, tau=setting["rho_tau"])
     if gated:
         options["single_frame_gate"] = SingleFrameGate()
     if library == "Fusion":
-        return fusion_orientation(*signals, fs=rec.fs, received=received, gain=setting["gain"], **options)
+        return fusion_orientation(*signals, fs=rec.fs, received=received, gain=setting["gain"],
+                                  settings=_fusion_settings(setting), **options)
     params = {key: setting[key] for key in ("tauAcc", "tauMag") if key in setting}
     return vqf_orientation(*signals, fs=rec.fs, received=received, params=params, **options)
 
 
-def _kalman(rec, setting, received, *, offline):
-    """The Kalman filter (or the smoother, whose forward pass it is) with ``setting``: ``replay`` as
-    a keyword, the other entries :class:`~wsnlib.orientation.KalmanSettings` fields."""
-    _used(setting, ("replay", *(field.name for field in dataclasses.fields(KalmanSettings))),
+def _kalman(rec, setting, received, *, offline, gap="ar", replay=True):
+    """The Kalman filter (or the smoother, whose forward pass it is) with ``setting``'s
+    :class:`~wsnlib.orientation.KalmanSettings` fields and the gap handling ``gap``, ``replay``
+    (``"constant_rate"``: constant, as the peers', no decay)."""
+    _used(setting, [field.name for field in dataclasses.fields(KalmanSettings)],
           "the smoother" if offline else "the Kalman filter")
-    setting = dict(setting)
-    replay = setting.pop("replay", True)
+    options = {"gap_time_constant": np.inf} if gap == "constant_rate" else {}
     function = smooth_orientation if offline else kalman_orientation
     return function(rec.gyr, rec.acc, rec.mag, fs=rec.fs, received=received, settings=KalmanSettings(**setting),
-                    replay=replay)
+                    gap=gap, replay=replay, **options)
 
 
 def _offline_vqf(rec, setting, received):
@@ -240,162 +284,209 @@ def settings_grid(fixed: Mapping | None = None, **axes) -> tuple[dict, ...]:
                  for combination in itertools.product(*axes.values()))
 
 
-#: Madgwick's β (rad/s) tried for every Madgwick variant.
-BETA_GRID = settings_grid(beta=(0.01, 0.02, 0.041, 0.07, 0.1, 0.2, 0.4, 0.8))
-BETA_SPACE = {"beta": Range(0.005, 1.0)}
-#: ρτ (samples) of our hybrid, ρ = 1 (plain and gated).
-HYBRID_GRID = settings_grid(rho_tau=(1, 3, 6, 12, 24, 48, 96, 192))
-HYBRID_SPACE = {"rho_tau": Range(1, 384, integer=True)}
-#: Our Kalman filter and smoother (``replay``, and :class:`wsnlib.orientation.KalmanSettings`
-#: fields; the rest at their defaults): gap replay on/off, how strongly the accelerometer's noise
-#: grows with the recent linear-acceleration level, and the span / window (s) of the linear
-#: prediction of the rate in a gap (paired: a longer window carries a longer model).  One grid
-#: for both, since the smoother's forward pass is the filter; each is tuned on its own score.
-KALMAN_GRID = tuple({"replay": replay, "acc_disturbance_factor": factor,
-                     "gap_rate_prediction_span_s": span, "gap_rate_prediction_window_s": window}
-                    for replay in (True, False) for factor in (4.0, 16.0)
-                    for span, window in ((0.48, 3.0), (0.96, 6.0)))
-#: Beyond the grid (:func:`with_budget`), the span and the window vary independently; a window
-#: shorter than 3 × the span makes the filter predict at a constant rate instead.
-KALMAN_SPACE = {"replay": Choice((True, False)), "acc_disturbance_factor": Range(1.0, 64.0),
-                "gap_rate_prediction_span_s": Range(0.08, 1.28),
-                "gap_rate_prediction_window_s": Range(1.0, 10.0)}
-#: Fusion's gain (plain and with constant-rate prediction in a gap).
-FUSION_GRID = settings_grid(gain=(0.1, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0))
-FUSION_SPACE = {"gain": Range(0.05, 32.0)}
-#: Fusion wrapped in our hybrid (plain and gated): gain × ρτ (samples).
-FUSION_HYBRID_GRID = settings_grid(gain=(0.5, 2.0), rho_tau=(6, 24, 96, 384))
-FUSION_HYBRID_SPACE = {"gain": Range(0.25, 8.0), "rho_tau": Range(3, 768, integer=True)}
-#: VQF's τ_acc, τ_mag (s): the first 8 of a 3 × 3 product (plain and with constant-rate prediction).
-VQF_GRID = settings_grid(tauAcc=(1.0, 3.0, 10.0), tauMag=(3.0, 9.0, 30.0))[:DEFAULT_BUDGET]
-VQF_SPACE = {"tauAcc": Range(0.3, 30.0), "tauMag": Range(1.0, 100.0)}
-#: VQF with its authors' defaults, wrapped in our hybrid: ρτ (samples).
-VQF_HYBRID_GRID = settings_grid({"tauAcc": 3.0, "tauMag": 9.0}, rho_tau=(6, 24, 96, 384))
-VQF_HYBRID_SPACE = {"rho_tau": Range(3, 768, integer=True)}
+def _axis_counts(space: Mapping, budget: int) -> dict[str, int]:
+    """How many levels each axis of ``space`` gets within ``budget`` settings: a :class:`Choice` all its
+    values; the :class:`Range` axes as many each as possible (the fewest any gets is the largest
+    that fits), then the largest product that fits, then the most equal counts (earlier axes first
+    to get the larger ones) — exactly ``budget`` when it factors so (12 = 12 = 4 × 3 = 3 × 2 × 2;
+    16 over three ranges: 4 × 2 × 2; 13 over two: 4 × 3)."""
+    counts = {key: len(axis.values) for key, axis in space.items() if isinstance(axis, Choice)}
+    fixed = int(np.prod(list(counts.values()))) if counts else 1
+    if fixed > budget:
+        raise ValueError(f"a budget of {budget} settings cannot hold every value of the choices {sorted(counts)} "
+                         f"({fixed} combinations)")
+    ranges = [key for key, axis in space.items() if isinstance(axis, Range)]
+
+    def splits(room: int, k: int, largest: int):
+        """Non-increasing k-tuples of counts ≥ 1, each at most ``largest``, with product ≤ ``room``."""
+        if k == 0:
+            yield ()
+            return
+        for first in range(min(room, largest), 0, -1):
+            for rest in splits(room // first, k - 1, first):
+                yield (first, *rest)
+
+    best = max(splits(budget // fixed, len(ranges), budget // fixed),
+               key=lambda split: (min(split, default=1), int(np.prod(split)), -max(split, default=1)))
+    levels = dict(zip(ranges, best, strict=True))
+    return {key: counts.get(key, levels.get(key)) for key in space}
 
 
-def default_methods(grids: Mapping[str, tuple] | None = None) -> dict[str, Method]:
+def space_grid(space: Mapping, budget: int) -> tuple[dict, ...]:
+    """The settings tried for a search space within a budget: every combination of each axis's levels.
+
+    Each :class:`Range` gets ``n`` values from its lower to its upper physical bound, both
+    included, evenly spaced on a log scale (:meth:`Range.levels`); each :class:`Choice` all its
+    values.  Every range gets as many values as fit, then the product is the largest that fits
+    in ``budget`` (:func:`_axis_counts`): with the default budget of 12, one axis gets 12 values,
+    two get 4 × 3, three 3 × 2 × 2.  Since both bounds are in the grid, a chosen value
+    at a grid edge is at a physical bound (flagged by :func:`~wsnlib.studies.loss_tolerance.
+    summary.edge_picks`, not chased past it).
+
+    Parameters
+    ----------
+    space : mapping setting name → Range or Choice
+        At least one axis.
+    budget : int
+        Settings at most, ≥ the product of the choices' sizes.
+
+    Returns
+    -------
+    tuple of dict
+        The settings, the first axis varying slowest.
+    """
+    budget = check_count(budget, "budget")
+    if not space:
+        raise ValueError("space must hold at least one setting's Range or Choice")
+    counts = _axis_counts(space, budget)
+    return settings_grid(**{key: axis.levels(counts[key]) for key, axis in space.items()})
+
+
+#: The default tuning budget: settings per method, the same for the peers and for ours.
+DEFAULT_BUDGET = 12
+
+#: Why the bounds of every correction time constant are what they are (VQF's τ, Fusion's 1/gain,
+#: the Kalman filter's measurement noise over its gyroscope noise).
+TIME_CONSTANT_BOUNDS = ("0.1 s, about one 6-sample packet at 50 Hz: faster, the filter is its single-frame "
+                        "measurement; 100 s, longer than BROAD's movement phases: slower, it is its gyroscope alone")
+#: Madgwick's β (rad/s), for every Madgwick variant: Madgwick's β = √(3/4) × the gyroscope's error.
+BETA_SPACE = {"beta": Range(0.00151, 4.53, unit="rad/s",
+                            why="Madgwick's β = √(3/4) × the gyroscope's error: 0.1 °/s, a calibrated MEMS "
+                                "gyroscope's bias; 300 °/s, in a gap the whole motion is error")}
+#: ρτ (samples) of paper 001's eq. (3) with ρ = 1: μ = ρτ / (λ + ρτ), the filter and the single frame
+#: weigh equally after a gap of ρτ samples.
+RHO_TAU = Range(1, 1000, integer=True, unit="samples",
+                why="1: the single frame weighs half after a one-sample gap; 1000 (20 s at 50 Hz): longer than "
+                    "any gap here, the blend never acts")
+#: Our hybrid (plain and gated): Madgwick's β × ρτ, as Fusion's and VQF's hybrids tune their gains × ρτ.
+HYBRID_SPACE = {**BETA_SPACE, "rho_tau": RHO_TAU}
+#: Our Kalman filter and smoother: the noise densities (rad·√s) of the accelerometer's tilt and the
+#: magnetometer's heading (:class:`~wsnlib.orientation.KalmanSettings` fields; the rest at their
+#: defaults).  Over the gyroscope's noise density (0.002 rad/√s) a density is the steady-state
+#: correction time constant (a random walk observed in white noise: τ = r / σ_g), so the bounds are
+#: those of the peers' time constants, 0.1 s and 100 s.
+KALMAN_SPACE = {key: Range(0.0002, 0.2, unit="rad·√s", why=f"time constant / σ_g: {TIME_CONSTANT_BOUNDS}")
+                for key in ("acc_noise_density", "mag_noise_density")}
+#: Fusion's gain (its correction time constant is 1/gain s) and its acceleration and magnetic
+#: rejection (one angle for both, :data:`FUSION_REJECTION_TIMEOUT_S`), for every Fusion variant.
+FUSION_SPACE = {"gain": Range(0.01, 10.0, why=f"1/gain is a time constant: {TIME_CONSTANT_BOUNDS}"),
+                "rejection_deg": Range(5.0, 90.0, unit="°",
+                                       why="5°: rejects most samples in motion; 90°: never rejects (Fusion's "
+                                           "default, off)")}
+#: VQF's τ_acc and τ_mag (s), for every VQF variant and its offline peers.
+VQF_SPACE = {key: Range(0.1, 100.0, unit="s", why=TIME_CONSTANT_BOUNDS) for key in ("tauAcc", "tauMag")}
+#: Fusion and VQF wrapped in our hybrid: as ours, the filter's gain × ρτ (Fusion's gain without
+#: rejection, its default; VQF's τ_acc, τ_mag its authors' 9 s).
+FUSION_HYBRID_SPACE = {"gain": FUSION_SPACE["gain"], "rho_tau": RHO_TAU}
+VQF_HYBRID_SPACE = {"tauAcc": VQF_SPACE["tauAcc"], "rho_tau": RHO_TAU}
+#: VQF's authors' τ_acc and τ_mag (s): "VQF (defaults)".
+VQF_DEFAULTS = {"tauAcc": 3.0, "tauMag": 9.0}
+
+
+def default_methods(budget: int = DEFAULT_BUDGET) -> dict[str, Method]:
     """The registry: method name → :class:`Method` (a new method is one more entry).
 
-    Names follow notebook 05 (and :data:`wsnlib.plotting.METHOD_COLORS`).  ``"VQF (defaults)"``
-    is VQF with its authors' parameters (tuned by them on BROAD), the reference of the lossless
-    target.  Every method's :attr:`~Method.default` (its setting without tuning, e.g. on a single
+    Every method with something to tune has a search space (the ``*_SPACE`` constants: each
+    setting's physical bounds, and why) and, as its grid, ``budget`` settings of it
+    (:func:`space_grid`: log-spaced from bound to bound) — the same budget for the peers and for
+    ours.  Names follow notebook 05 (and :data:`wsnlib.plotting.METHOD_COLORS`).
+
+    * Madgwick's filter (β) holding its output in a gap (``hold_last``), turning at the last
+      rate (``constant_rate``) or replaying the gap with a linear rate (``gyro_interpolation``);
+      our hybrid, plain and *gated* (β × ρτ; the gated one applies the single frame only where
+      :class:`wsnlib.orientation.SingleFrameGate` trusts it).
+    * Our Kalman filter with our gap module (``"Kalman"``: the rate predicted by an AR model in a
+      gap and the gap replayed at its end) and, for the ablation (:data:`ABLATION`), with each
+      other gap handling (``", hold"``, ``", constant rate"``, ``", AR"`` without replay); its
+      smoother.  Tuned: the accelerometer's and magnetometer's noise densities.
+    * The peers, Fusion (gain × rejection) and VQF (τ_acc × τ_mag), with each gap handling
+      (plain = hold; ``", constant rate"``; ``", AR"``; ``", AR + replay"``: the same gap module
+      as ours, :mod:`wsnlib.orientation.gaps`), and wrapped in our hybrid (gain or τ_acc × ρτ;
+      Fusion's also gated).
+    * The peers as users run them today (:data:`AS_USERS_RUN_THEM`): their authors' defaults,
+      holding or turning at the last rate in a gap (nothing to tune).  ``"VQF (defaults)"`` is
+      also the reference of the lossless target.
+    * The smoother's offline peers: ``"offline VQF"`` (:func:`wsnlib.orientation.
+      offline_vqf_orientation`, the gaps filled by linear interpolation) and ``"VQF
+      forward-backward"`` (VQF holding in a gap, run forwards and backwards and averaged,
+      :func:`wsnlib.orientation.forward_backward_orientation`).
+
+    Every method's :attr:`~Method.default` (its setting without tuning, e.g. on a single
     recording) is its documented default: Madgwick's β = :data:`MADGWICK_BETA`; our hybrids'
-    ρτ = :data:`DEFAULT_RHO_TAU`; the Kalman filter's and smoother's
-    :class:`~wsnlib.orientation.KalmanSettings` () with gap replay; Fusion's gain
-    :data:`FUSION_DEFAULT_GAIN`; VQF's own parameters (its authors').  The *gated* hybrids apply
-    the single frame only where :class:`wsnlib.orientation.SingleFrameGate` (its defaults) trusts
-    it; the peers ``", constant rate"`` keep turning at the last received rate in a gap
-    (``gap="constant_rate"``, no decay) instead of holding their output, and the peers ``", AR +
-    replay"`` get the Kalman filter's own gap handling (:mod:`wsnlib.orientation.gaps`: the rate
-    predicted by the AR model in a gap, the gap replayed at its end), the same information as
-    ours.  The smoother's offline
-    peers: ``"offline VQF"`` (:func:`wsnlib.orientation.offline_vqf_orientation`, the gaps filled
-    by linear interpolation) and ``"VQF forward-backward"`` (VQF holding in a gap, run forwards
-    and backwards and averaged, :func:`wsnlib.orientation.forward_backward_orientation`), over
-    VQF's grid.
+    ρτ = :data:`DEFAULT_RHO_TAU`; :class:`~wsnlib.orientation.KalmanSettings` (); Fusion's gain
+    :data:`FUSION_DEFAULT_GAIN` without rejection; VQF's own parameters.
 
     Parameters
     ----------
-    grids : mapping method name → sequence of dict, optional
-        Grids replacing the default ones (module constants such as :data:`KALMAN_GRID`) of the
-        methods named, e.g. ``{"Kalman": settings_grid(replay=(True, False))}``.  For the same
-        number of settings for every method, see :func:`with_budget`.
+    budget : int
+        Settings per method with a search space (default :data:`DEFAULT_BUDGET`); e.g. 2 for a
+        quick run, 1000 on a cluster.  :func:`with_budget` changes it for a registry.
     """
-    beta, rho_tau, gain = {"beta": MADGWICK_BETA}, {"rho_tau": DEFAULT_RHO_TAU}, {"gain": FUSION_DEFAULT_GAIN}
+    budget = check_count(budget, "budget")
+    beta, rho_tau = {"beta": MADGWICK_BETA}, {"rho_tau": DEFAULT_RHO_TAU}
+    fusion, kalman = {"gain": FUSION_DEFAULT_GAIN}, {}
+
+    def tuned(name, kind, space, run, default, **options):
+        return Method(name, kind, space_grid(space, budget), run, space=space, default=default, **options)
+
     entries = [
-        Method("hold_last", "causal", BETA_GRID, _madgwick, space=BETA_SPACE, default=beta),
-        Method("constant_rate", "causal", BETA_GRID, functools.partial(_madgwick, gap="constant_rate"),
-               space=BETA_SPACE, default=beta),
-        Method("gyro_interpolation", "causal", BETA_GRID, functools.partial(_madgwick, replay=True),
-               space=BETA_SPACE, default=beta),
-        Method("hybrid (feedback)", "causal", HYBRID_GRID, _hybrid, space=HYBRID_SPACE, default=rho_tau),
-        Method("gated hybrid (feedback)", "causal", HYBRID_GRID, functools.partial(_hybrid, gated=True),
-               space=HYBRID_SPACE, default=rho_tau),
-        Method("Kalman", "causal", KALMAN_GRID, functools.partial(_kalman, offline=False), space=KALMAN_SPACE,
-               default={}),
-        Method("smoother", "offline", KALMAN_GRID, functools.partial(_kalman, offline=True), latency="offline",
-               space=KALMAN_SPACE, default={}),
-        Method("Fusion", "peer", FUSION_GRID, functools.partial(_peer, library="Fusion"), space=FUSION_SPACE,
-               default=gain),
-        Method("Fusion, constant rate", "peer", FUSION_GRID,
-               functools.partial(_peer, library="Fusion", gap="constant_rate"), space=FUSION_SPACE, default=gain),
-        Method("Fusion + hybrid (feedback)", "peer", FUSION_HYBRID_GRID,
-               functools.partial(_peer, library="Fusion", hybrid=True), space=FUSION_HYBRID_SPACE,
-               default=gain | rho_tau),
-        Method("Fusion + gated hybrid (feedback)", "peer", FUSION_HYBRID_GRID,
-               functools.partial(_peer, library="Fusion", hybrid=True, gated=True), space=FUSION_HYBRID_SPACE,
-               default=gain | rho_tau),
-        Method("VQF", "peer", VQF_GRID, functools.partial(_peer, library="VQF"), space=VQF_SPACE, default={}),
-        Method("VQF, constant rate", "peer", VQF_GRID,
-               functools.partial(_peer, library="VQF", gap="constant_rate"), space=VQF_SPACE, default={}),
-        Method("Fusion, AR + replay", "peer", FUSION_GRID,
-               functools.partial(_peer, library="Fusion", gap="ar", replay=True), space=FUSION_SPACE, default=gain),
-        Method("VQF, AR + replay", "peer", VQF_GRID, functools.partial(_peer, library="VQF", gap="ar", replay=True),
-               space=VQF_SPACE, default={}),
-        Method("VQF (defaults)", "peer", ({"tauAcc": 3.0, "tauMag": 9.0},), functools.partial(_peer, library="VQF")),
-        Method("VQF + hybrid (feedback)", "peer", VQF_HYBRID_GRID,
-               functools.partial(_peer, library="VQF", hybrid=True), space=VQF_HYBRID_SPACE, default=rho_tau),
-        Method("offline VQF", "offline", VQF_GRID, _offline_vqf, latency="offline", space=VQF_SPACE, default={}),
-        Method("VQF forward-backward", "offline", VQF_GRID, _forward_backward_vqf, latency="offline",
-               space=VQF_SPACE, default={}),
+        tuned("hold_last", "causal", BETA_SPACE, _madgwick, beta),
+        tuned("constant_rate", "causal", BETA_SPACE, functools.partial(_madgwick, gap="constant_rate"), beta),
+        tuned("gyro_interpolation", "causal", BETA_SPACE, functools.partial(_madgwick, replay=True), beta),
+        tuned("hybrid (feedback)", "causal", HYBRID_SPACE, _hybrid, beta | rho_tau),
+        tuned("gated hybrid (feedback)", "causal", HYBRID_SPACE, functools.partial(_hybrid, gated=True),
+              beta | rho_tau),
+        tuned("Kalman", "causal", KALMAN_SPACE, functools.partial(_kalman, offline=False), kalman),
+        tuned("Kalman, hold", "causal", KALMAN_SPACE,
+              functools.partial(_kalman, offline=False, gap="hold", replay=False), kalman),
+        tuned("Kalman, constant rate", "causal", KALMAN_SPACE,
+              functools.partial(_kalman, offline=False, gap="constant_rate", replay=False), kalman),
+        tuned("Kalman, AR", "causal", KALMAN_SPACE, functools.partial(_kalman, offline=False, replay=False), kalman),
+        tuned("smoother", "offline", KALMAN_SPACE, functools.partial(_kalman, offline=True), kalman,
+              latency="offline"),
     ]
-    methods = {m.name: m for m in entries}
-    for name, grid in dict(grids or {}).items():
-        if name not in methods:
-            raise ValueError(f"grids names an unknown method {name!r}; known: {', '.join(methods)}")
-        methods[name] = dataclasses.replace(methods[name], grid=tuple(grid))
-    return methods
+    for library, space, hybrid_space, default in (("Fusion", FUSION_SPACE, FUSION_HYBRID_SPACE, fusion),
+                                                  ("VQF", VQF_SPACE, VQF_HYBRID_SPACE, {})):
+        run = functools.partial(_peer, library=library)
+        entries += [
+            tuned(library, "peer", space, run, default),
+            tuned(f"{library}, constant rate", "peer", space, functools.partial(run, gap="constant_rate"), default),
+            tuned(f"{library}, AR", "peer", space, functools.partial(run, gap="ar"), default),
+            tuned(f"{library}, AR + replay", "peer", space, functools.partial(run, gap="ar", replay=True), default),
+            tuned(f"{library} + hybrid (feedback)", "peer", hybrid_space, functools.partial(run, hybrid=True),
+                  default | rho_tau),
+        ]
+        if library == "Fusion":
+            entries.append(tuned("Fusion + gated hybrid (feedback)", "peer", hybrid_space,
+                                 functools.partial(run, hybrid=True, gated=True), default | rho_tau))
+    defaults = {"Fusion": {"gain": FUSION_DEFAULT_GAIN}, "VQF": VQF_DEFAULTS}
+    for library, setting in defaults.items():
+        run = functools.partial(_peer, library=library)
+        entries += [Method(f"{library} (defaults)", "peer", (setting,), run),
+                    Method(f"{library} (defaults), constant rate", "peer", (setting,),
+                           functools.partial(run, gap="constant_rate"))]
+    entries += [tuned("offline VQF", "offline", VQF_SPACE, _offline_vqf, {}, latency="offline"),
+                tuned("VQF forward-backward", "offline", VQF_SPACE, _forward_backward_vqf, {}, latency="offline")]
+    return {m.name: m for m in entries}
 
 
-def _space_draws(method: Method, n: int, seed: int) -> list[dict]:
-    """``n`` settings of ``method``'s space: a scrambled Sobol sequence, the first grid setting's
-    other entries kept.  Seeded by ``seed`` and the space and grid (not the name), so methods that
-    share both (a pair of :data:`GATING_PAIRS`, the Kalman filter and its smoother) share draws."""
-    names = list(method.space)
-    key = zlib.crc32(repr((sorted((k, repr(v)) for k, v in method.space.items()), method.grid)).encode())
-    sobol = qmc.Sobol(len(names), scramble=True, rng=np.random.default_rng([seed, key]))
-    points = sobol.random_base2(int(np.ceil(np.log2(n))))[:n]
-    return [{**method.grid[0], **{name: method.space[name].value(u) for name, u in zip(names, point, strict=True)}}
-            for point in points]
-
-
-def with_budget(methods: Mapping[str, Method], budget: int, *, rng: np.random.Generator | None = None
-                ) -> dict[str, Method]:
+def with_budget(methods: Mapping[str, Method], budget: int) -> dict[str, Method]:
     """The registry with ``budget`` settings per method: the tuning budget, the same for every method.
 
-    A method keeps the first ``budget`` settings of its hand-picked grid; when its grid is
-    shorter, quasi-random draws over its search space (:attr:`Method.space`, a scrambled Sobol
-    sequence, so the draws cover the space evenly) fill it up.  A method without a space (e.g.
-    ``"VQF (defaults)"``: its authors' setting) keeps its grid.  ``with_budget(methods, 2)`` is
-    the quick mode; ``with_budget(methods, 1000, rng=...)`` a cluster's sweep.
-
-    Parameters
-    ----------
-    methods : mapping name → Method
-    budget : int
-        Settings per method, ≥ 1.
-    rng : numpy.random.Generator, optional
-        Seeds the draws; needed only when some grid is shorter than ``budget``.
+    Every method with a search space (:attr:`Method.space`) gets :func:`space_grid` of it as its
+    grid — one way to define what is tuned: the space, with its physical bounds.  A method
+    without a space (e.g. ``"VQF (defaults)"``: its authors' setting) keeps its grid.
+    ``with_budget(methods, 2)`` is the quick mode (each range's two bounds);
+    ``with_budget(methods, 1000)`` a cluster's sweep.
 
     Raises
     ------
     ValueError
-        ``budget`` not a positive integer, or draws needed without ``rng``.
+        ``budget`` not a positive integer.
     """
     budget = check_count(budget, "budget")
-    short = [name for name, m in methods.items() if m.space and len(m.grid) < budget]
-    if short and not isinstance(rng, np.random.Generator):
-        raise ValueError(f"a budget of {budget} draws settings for {', '.join(short)}: pass rng, a "
-                         f"numpy.random.Generator")
-    seed = int(rng.integers(2**63)) if short else 0
-    out = {}
-    for name, method in methods.items():
-        grid = method.grid[:budget]
-        if name in short:
-            grid = grid + tuple(_space_draws(method, budget - len(grid), seed))
-        out[name] = dataclasses.replace(method, grid=grid)
-    return out
+    return {name: dataclasses.replace(method, grid=space_grid(method.space, budget)) if method.space else method
+            for name, method in methods.items()}
 
 
 def inclination_methods() -> dict[str, Method]:
@@ -406,27 +497,124 @@ def inclination_methods() -> dict[str, Method]:
     return {"RIANN": Method("RIANN", "peer", ({},), _riann)}
 
 
-#: Pairs (without, with) of the study's two side questions: does gating the single frame
-#: help the hybrids, and does constant-rate prediction in a gap help the peers?
+#: Gap handlings of the ablation (:data:`ABLATION`), in order: hold the state; turn at the last
+#: received rate; hold, then replay the gap with a linear rate (paper 001's gyroscope
+#: interpolation); the AR prediction of our gap module; the AR prediction and the replay.
+GAP_HANDLINGS = ("hold", "constant rate", "linear replay", "AR", "AR + replay")
+#: The ablation, filter × gap handling → method name (:func:`~wsnlib.studies.loss_tolerance.summary.
+#: ablation_table`): what the filter contributes (down a column) and what the gap module contributes
+#: (along a row).  Madgwick's filter has no AR prediction (its kernel does not fit one); the Kalman
+#: filter and the peers have no linear-replay variant in the registry.
+ABLATION = {
+    "Madgwick": {"hold": "hold_last", "constant rate": "constant_rate", "linear replay": "gyro_interpolation"},
+    "Kalman": {"hold": "Kalman, hold", "constant rate": "Kalman, constant rate", "AR": "Kalman, AR",
+               "AR + replay": "Kalman"},
+    "Fusion": {"hold": "Fusion", "constant rate": "Fusion, constant rate", "AR": "Fusion, AR",
+               "AR + replay": "Fusion, AR + replay"},
+    "VQF": {"hold": "VQF", "constant rate": "VQF, constant rate", "AR": "VQF, AR", "AR + replay": "VQF, AR + replay"},
+}
+#: The gap handling of each method of the ablation, and of the smoother (its forward pass is
+#: ``"Kalman"``'s): which peers have "the same gap handling" as a method of ours.
+GAP_HANDLING_OF = {name: gap for row in ABLATION.values() for gap, name in row.items()} | {"smoother": "AR + replay"}
+#: The peers as users run them today: their authors' defaults, not called while no packet arrives
+#: (holding) or turning at the last rate.
+AS_USERS_RUN_THEM = ("Fusion (defaults)", "Fusion (defaults), constant rate", "VQF (defaults)",
+                     "VQF (defaults), constant rate")
+
+#: Pairs (without, with) of the study's two side questions: does gating the single frame help the
+#: hybrids, and does each gap handling help each filter over holding (from :data:`ABLATION`)?
 GATING_PAIRS = (("hybrid (feedback)", "gated hybrid (feedback)"),
                 ("Fusion + hybrid (feedback)", "Fusion + gated hybrid (feedback)"))
-GAP_PREDICTION_PAIRS = (("Fusion", "Fusion, constant rate"), ("VQF", "VQF, constant rate"),
-                        ("Fusion", "Fusion, AR + replay"), ("VQF", "VQF, AR + replay"))
+GAP_PREDICTION_PAIRS = tuple((row["hold"], row[gap]) for row in ABLATION.values() for gap in GAP_HANDLINGS[1:]
+                             if gap in row)
+
+
+@dataclasses.dataclass(frozen=True)
+class BurstPositions:
+    """Paper 001's protocol for one burst: each run loses one burst, and the run is repeated with
+    the burst at ``positions`` places over the recording's movement.
+
+    Each burst loses ``burst_packets`` whole packets of ``samples_per_packet`` samples
+    (:func:`wsnlib.loss.burst_mask`: on the packet grid, at or after its nominal start).  The
+    nominal starts are the movement samples at the quantiles (k + ½)/``positions`` of those that
+    leave ``before_s`` before the burst and ``window_s`` after it (all samples of that span when
+    none moves), so every burst falls in motion, as the paper's did (an arm extension), and no
+    burst carries an earlier one's error.  One mask per position: a row of the results each
+    (``draw`` = the position's index).  The response is measured against the error just before
+    the burst (:func:`wsnlib.metrics.single_burst_response`).
+
+    Attributes
+    ----------
+    name : str
+    burst_packets, samples_per_packet, positions : int
+    before_s : float
+        The error before the burst is the mean over this long before it (s).
+    window_s : float
+        Its response is scored over this long after the burst (s).
+    """
+
+    name: str = "paper burst"
+    burst_packets: int = 4
+    samples_per_packet: int = 6
+    positions: int = 8
+    before_s: float = 0.5
+    window_s: float = 4.0
+    model = "burst positions"
+    loss_rate = 0.0
+    mean_burst_packets = float("nan")
+
+    def __post_init__(self):
+        for key in ("burst_packets", "samples_per_packet", "positions"):
+            check_count(getattr(self, key), key)
+        for key in ("before_s", "window_s"):
+            if not (np.isfinite(getattr(self, key)) and getattr(self, key) > 0):
+                raise ValueError(f"{key} must be a positive number of seconds, got {getattr(self, key)!r}")
+
+    def starts(self, movement, fs: float) -> np.ndarray:
+        """Nominal start samples of the bursts ``(positions,)`` on a recording with this ``movement``
+        mask ``(T,)`` at ``fs`` (Hz); ``ValueError`` when the recording is too short for one."""
+        movement = np.asarray(movement, dtype=bool)
+        n = movement.size
+        before, after = int(np.ceil(self.before_s * fs)), int(np.ceil(self.window_s * fs))
+        lost = (self.burst_packets + 1) * self.samples_per_packet  # the burst, and its shift onto the packet grid
+        last = n - lost - after
+        if last < before:
+            raise ValueError(f"a recording of {n} samples at {fs:g} Hz is too short for a burst with "
+                             f"{self.before_s:g} s before and {self.window_s:g} s after it")
+        span = np.arange(before, last + 1)
+        moving = span[movement[span]]
+        candidates = moving if moving.size else span
+        quantiles = (np.arange(self.positions) + 0.5) / self.positions
+        return candidates[np.floor(quantiles * candidates.size).astype(int)]
+
+    def masks(self, movement, fs: float) -> np.ndarray:
+        """Received masks ``(positions, T)``, one burst each (at :meth:`starts`)."""
+        n = np.asarray(movement).size
+        return np.stack([burst_mask(n, int(start), self.burst_packets, self.samples_per_packet)
+                         for start in self.starts(movement, fs)])
 
 
 #: Name of the headline profile (tuning and targets).
 HEADLINE = "GE 10 %"
 
-#: The profiles of the study, in order (the first is lossless: the reference of the burst response).
-PROFILES = (
-    LossProfile.none("lossless"),
-    LossProfile.burst(4.0, 4, period_s=8.0, name="paper burst"),
-    LossProfile.gilbert_elliott(0.05),
-    LossProfile.gilbert_elliott(0.10, name=HEADLINE),
-    LossProfile.gilbert_elliott(0.20),
-    LossProfile.gilbert_elliott(0.10, samples_per_packet=1, name="GE 10 %, 1-sample packets"),
-    LossProfile.gilbert_elliott(0.10, samples_per_packet=12, name="GE 10 %, 12-sample packets"),
-)
+def study_profiles(burst_positions: int = 8) -> tuple:
+    """The profiles of the study, in order (the first is lossless: the reference of the gap response):
+    lossless; the paper's burst, one per run at ``burst_positions`` places (:class:`BurstPositions`);
+    Gilbert–Elliott 5, 10 (:data:`HEADLINE`) and 20 % (mean burst 3 packets of 6 samples); and
+    GE 10 % with 1- and 12-sample packets."""
+    return (
+        LossProfile.none("lossless"),
+        BurstPositions(positions=burst_positions),
+        LossProfile.gilbert_elliott(0.05),
+        LossProfile.gilbert_elliott(0.10, name=HEADLINE),
+        LossProfile.gilbert_elliott(0.20),
+        LossProfile.gilbert_elliott(0.10, samples_per_packet=1, name="GE 10 %, 1-sample packets"),
+        LossProfile.gilbert_elliott(0.10, samples_per_packet=12, name="GE 10 %, 12-sample packets"),
+    )
+
+
+#: The profiles of the study with 8 burst positions (:func:`study_profiles`).
+PROFILES = study_profiles()
 
 
 # ------------------------------------------------------------------------------------------

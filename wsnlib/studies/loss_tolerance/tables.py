@@ -3,13 +3,13 @@
 What the notebook shows beyond :mod:`wsnlib.studies.loss_tolerance` (running) and
 :mod:`wsnlib.studies.loss_tolerance.summary` (intervals, rankings, targets): the paper's
 weight μ(λ) beside the Kalman filter's 1 − K, the tables of methods and loss profiles, which
-trials and which burst the burst figure shows, the per-phase table, the paper-vs-ours table and
-the sentences built from them.  Angles in degrees, times in seconds, rates in °/s.
+trials the burst figure shows, the per-phase table, the search spaces, the ablation grid, the
+paper-vs-ours table and the sentences built from them.  Angles in degrees, times in seconds, rates in °/s.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -17,7 +17,7 @@ import pandas as pd
 from wsnlib import paper_values
 from wsnlib.orientation import KalmanSettings, slerp_weight
 from wsnlib.studies.loss_tolerance.evaluation import AFTER_GAP_S
-from wsnlib.studies.loss_tolerance.registry import HEADLINE, LATENCY_RULES, PROFILES
+from wsnlib.studies.loss_tolerance.registry import GAP_HANDLINGS, HEADLINE, LATENCY_RULES, PROFILES
 from wsnlib.studies.loss_tolerance.summary import comparison_sentences, diagnosis_sentence, error_budget
 
 #: Column of :func:`weight_vs_gap` holding the Kalman filter's 1 − K.
@@ -68,11 +68,75 @@ def weight_vs_gap(lost_samples, *, fs: float = 50.0, settings: KalmanSettings | 
                          KALMAN_WEIGHT_COLUMN: 1.0 - gain}).set_index("λ (samples)")
 
 
+def _levels(method) -> dict[str, list]:
+    """Each setting's values in ``method``'s grid, in the order they first appear."""
+    return {key: list(dict.fromkeys(setting[key] for setting in method.grid if key in setting))
+            for key in dict.fromkeys(k for setting in method.grid for k in setting)}
+
+
+def _listed(values, keep: int = 3) -> str:
+    """``"1, 2, 3, …, 12"``: the first ``keep`` values and the last (all when few)."""
+    text = [f"{v:g}" if isinstance(v, float) else str(v) for v in values]
+    return ", ".join(text) if len(text) <= keep + 1 else ", ".join(text[:keep]) + ", …, " + text[-1]
+
+
 def method_table(methods: Mapping) -> pd.DataFrame:
-    """One row per method: kind, number of settings, the grid written out, latency rule."""
+    """One row per method: kind, number of settings, what is tuned (the grid's values per setting,
+    log-spaced between the bounds of :func:`space_table`), latency rule."""
     return pd.DataFrame([{"method": m.name, "kind": m.kind, "settings": len(m.grid),
-                          "grid": "; ".join(", ".join(f"{k}={v}" for k, v in s.items()) for s in m.grid),
+                          "grid": "; ".join(f"{key}: {_listed(values)}" for key, values in _levels(m).items()),
                           "latency": LATENCY_RULES[m.latency]} for m in methods.values()]).set_index("method")
+
+
+def space_table(methods: Mapping) -> pd.DataFrame:
+    """The search spaces, one row per setting and range: its physical bounds, why, the values tried.
+
+    Generated from the registry (:attr:`~wsnlib.studies.loss_tolerance.Method.space` of each
+    method), so the table is the grid the code runs.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Index (setting, bounds); columns unit, why (the bounds' reasons), values tried (of the
+        first method using it; a setting's number of values depends on how many settings share
+        the method's budget), methods (those tuning it).
+    """
+    rows = {}
+    for method in methods.values():
+        levels = _levels(method)
+        for key, axis in method.space.items():
+            bounds = (f"{axis.low:g} – {axis.high:g}" if hasattr(axis, "low")
+                      else "one of " + ", ".join(str(v) for v in axis.values))
+            row = rows.setdefault((key, bounds), {"unit": getattr(axis, "unit", ""), "why": axis.why,
+                                                  "values tried": {},
+                                                  "methods": []})
+            row["values tried"].setdefault(len(levels.get(key, [])), _listed(levels.get(key, []), keep=4))
+            row["methods"].append(method.name)
+    table = pd.DataFrame([{"setting": key, "bounds": bounds, "unit": row["unit"],
+                           "values tried": " or ".join(f"{n}: {text}" for n, text in row["values tried"].items()),
+                           "methods": ", ".join(row["methods"]), "why these bounds": row["why"]}
+                          for (key, bounds), row in rows.items()])
+    return table.set_index(["setting", "bounds"])
+
+
+def budget_sentence(methods: Mapping) -> str:
+    """How many settings each tuned method gets, and how they split over its settings, from the grids."""
+    tuned = {name: m for name, m in methods.items() if m.space}
+    fixed = [name for name, m in methods.items() if not m.space]
+    sizes = sorted({len(m.grid) for m in tuned.values()})
+    if not tuned:
+        return "No method has a search space: every method runs its one setting."
+    splits = {}
+    for name, method in tuned.items():
+        split = " × ".join(f"{len(values)} {key}" for key, values in _levels(method).items())
+        splits.setdefault(split, []).append(name)
+    size = f"{sizes[0]}" if len(sizes) == 1 else f"{sizes[0]}–{sizes[-1]}"
+    text = (f"Every method with something to tune gets the same budget, **{size} settings**, log-spaced from one "
+            f"physical bound of each setting to the other (both bounds included): "
+            + "; ".join(f"{split} for {', '.join(f'`{n}`' for n in names)}" for split, names in splits.items()) + ".")
+    if fixed:
+        text += f" Nothing to tune (their authors' settings): {', '.join(f'`{n}`' for n in fixed)}."
+    return text
 
 
 def profile_table(profiles=PROFILES) -> pd.DataFrame:
@@ -86,7 +150,7 @@ def profile_table(profiles=PROFILES) -> pd.DataFrame:
 #: Panels of the error-vs-loss-rate figure: title → methods (those not run are left out).
 LOSS_RATE_FIGURE_GROUPS = {"Madgwick: bridging a gap": ("hold_last", "constant_rate", "gyro_interpolation"),
                            "ours: hybrid, Kalman, smoother": ("hybrid (feedback)", "Kalman", "smoother"),
-                           "peers": ("Fusion + hybrid (feedback)", "VQF", "VQF + hybrid (feedback)")}
+                           "peers": ("VQF (defaults)", "Fusion, AR + replay", "VQF, AR + replay")}
 
 
 def error_vs_loss_rate_inputs(profiles, means: pd.DataFrame, methods, groups=LOSS_RATE_FIGURE_GROUPS):
@@ -170,15 +234,42 @@ def burst_window(trace: Mapping, end: int, *, before_s: float, after_s: float) -
 #: Columns of :func:`phase_table`: per_trial column → label.
 PHASE_COLUMNS = {"rmse_total": "total RMSE (°)", "rms_lost": "lost samples (°)", "rms_after_gap": "2 s after a gap (°)",
                  "rms_steady": "rest (°)", "peak_increase_deg": "peak increase after a gap (°)",
-                 "recovery_s": "recovery (s)", "recovered_share": "gaps recovered from", "latency_s": "latency (s)"}
+                 "recovery_s": "recovery (s)", "recovered_share": "gaps recovered from",
+                 "jitter_deg_s3": "jitter (°/s³)", "latency_s": "latency (s)"}
+#: The column of :func:`phase_table` that gives jitter its scale: the same method without loss.
+LOSSLESS_JITTER_COLUMN = "jitter without loss (°/s³)"
 
 
 def phase_table(per_trial: pd.DataFrame, profile: str = HEADLINE) -> pd.DataFrame:
-    """Mean over trials, per method, of the phase RMS (°), gap response and latency at ``profile``."""
+    """Mean over trials, per method, of the phase RMS (°), gap response, jitter and latency at ``profile``.
+
+    Jitter (RMS angular jerk away from gap ends, °/s³) has no intuitive scale, so beside it stands
+    the same method's jitter without loss (:data:`LOSSLESS_JITTER_COLUMN`, from the ``"lossless"``
+    rows; NaN when there are none).
+    """
     rows = per_trial[per_trial["profile"] == profile]
     if rows.empty:
         raise ValueError(f"no rows at profile {profile!r}")
-    return rows.groupby("method", sort=False)[list(PHASE_COLUMNS)].mean().rename(columns=PHASE_COLUMNS)
+    table = rows.groupby("method", sort=False)[list(PHASE_COLUMNS)].mean().rename(columns=PHASE_COLUMNS)
+    lossless = per_trial[per_trial["profile"] == "lossless"].groupby("method")["jitter_deg_s3"].mean()
+    table.insert(list(table.columns).index(PHASE_COLUMNS["jitter_deg_s3"]) + 1, LOSSLESS_JITTER_COLUMN,
+                 lossless.reindex(table.index))
+    return table
+
+
+def jitter_sentence(phases: pd.DataFrame, best: Mapping[str, str]) -> str:
+    """Jitter with its scale, from :func:`phase_table`: the best causal method's and holding's jitter
+    under loss against their own without loss."""
+    jitter = PHASE_COLUMNS["jitter_deg_s3"]
+    parts = []
+    for method in dict.fromkeys([best["causal"], "hold_last"]):
+        if method in phases.index:
+            row = phases.loc[method]
+            parts.append(f"{method} {row[jitter]:.0f} °/s³ against {row[LOSSLESS_JITTER_COLUMN]:.0f} °/s³ "
+                         f"without loss ({row[jitter] / row[LOSSLESS_JITTER_COLUMN]:.1f}×)")
+    return ("Jitter (RMS angular jerk away from gap ends) at the headline: " + "; ".join(parts)
+            + ". The same filter without loss is the scale to read the column against: what loss adds is the "
+              "difference.")
 
 
 def error_budgets(per_trial: pd.DataFrame, methods, profile: str = HEADLINE) -> pd.DataFrame:
@@ -197,56 +288,107 @@ def trust_sentence(trust: pd.DataFrame) -> str:
             f"with its own small gain.")
 
 
+#: Columns of :func:`paper_vs_ours` from the one-burst metrics: per_trial column → label.
+PAPER_VS_OURS_COLUMNS = {"burst_before_deg": "error before (°)", "burst_peak_increase_deg": "peak increase (°)",
+                         "burst_recovery_s": "back within 2° (s)", "burst_recovered": "share back within 2°",
+                         "burst_level_recovery_s": "back below 10° (s)"}
+
+
 def paper_vs_ours(means: pd.DataFrame, best_peer: str, profile: str = "paper burst") -> pd.DataFrame:
-    """Paper 001's words after its loss beside our mean burst response (with 95 % intervals).
+    """Paper 001's words after its loss beside our one-burst response (means with 95 % intervals).
 
     Parameters
     ----------
     means : pandas.DataFrame
-        :func:`~wsnlib.studies.loss_tolerance.summary.summary_table` (with ``peak_increase_deg``
-        and ``recovery_s``).
+        :func:`~wsnlib.studies.loss_tolerance.summary.summary_table` with the one-burst metrics
+        (:data:`~wsnlib.studies.loss_tolerance.evaluation.BURST_COLUMNS`) at ``profile``.
     best_peer : str
         The peer shown beside ours.
     profile : str
+        A :class:`~wsnlib.studies.loss_tolerance.BurstPositions` profile.
 
     Returns
     -------
     pandas.DataFrame
-        Index method (hold_last, hybrid (feedback), Kalman, smoother, ``best_peer``); the
-        paper's words, peak increase (°) and recovery (s) with their interval bounds.
+        Index method (hold_last, hybrid (feedback), Kalman, smoother, ``best_peer``); the paper's
+        words, then per :data:`PAPER_VS_OURS_COLUMNS` the mean over trials (each the mean over
+        its burst positions) and, for the peak increase and the recovery, the interval bounds.
     """
     burst_means = means[means["profile"] == profile].set_index(["metric", "method"])
     words = {"hold_last": paper_values.PAPER001_SECTION4_AFTER_LOSS["data fusion"]["words"],
              "hybrid (feedback)": paper_values.PAPER001_SECTION4_AFTER_LOSS["hybrid"]["words"]}
     rows = {}
-    for method in ["hold_last", "hybrid (feedback)", "Kalman", "smoother", best_peer]:
-        peak = burst_means.loc[("peak_increase_deg", method)]
-        recovery = burst_means.loc[("recovery_s", method)]
-        rows[method] = {"paper (Sec. IV, simulated arm)": words.get(method, "—"),
-                        "ours: peak increase (°)": peak["mean"], "low": peak["ci_low"], "high": peak["ci_high"],
-                        "ours: recovery (s)": recovery["mean"], "recovery low": recovery["ci_low"],
-                        "recovery high": recovery["ci_high"]}
+    for method in dict.fromkeys(["hold_last", "hybrid (feedback)", "Kalman", "smoother", best_peer]):
+        row = {"paper (Sec. IV, simulated arm)": words.get(method, "—")}
+        for metric, label in PAPER_VS_OURS_COLUMNS.items():
+            value = burst_means.loc[(metric, method)]
+            row[label] = value["mean"]
+            if metric in ("burst_peak_increase_deg", "burst_recovery_s"):
+                row[f"{label} low"], row[f"{label} high"] = value["ci_low"], value["ci_high"]
+        rows[method] = row
     return pd.DataFrame.from_dict(rows, orient="index").rename_axis("method")
 
 
-def paper_vs_ours_sentence(table: pd.DataFrame, *, broad: bool = True) -> str:
-    """The paper's hybrid after its loss against ours and our Kalman filter, from :func:`paper_vs_ours`.
+def paper_vs_ours_sentence(table: pd.DataFrame, peaks: pd.DataFrame, *, broad: bool = True,
+                           positions: int | None = None) -> str:
+    """The paper's hybrid after its loss against ours, holding and our Kalman filter.
 
-    ``broad``: the trials are BROAD's (:func:`~wsnlib.studies.loss_tolerance.all_broad`), whose
-    kinds of motion the sentence names; otherwise it speaks of "these recordings".
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        :func:`paper_vs_ours`.
+    peaks : pandas.DataFrame
+        :func:`~wsnlib.studies.loss_tolerance.summary.paired_comparisons` of ``burst_peak_increase_deg``
+        with the pair (hold_last, hybrid (feedback)): whether the hybrid's peak exceeds holding's.
+    broad : bool
+        The trials are BROAD's, whose kinds of motion the sentence names; otherwise it speaks of
+        "these recordings".
+    positions : int, optional
+        Bursts per trial (the profile's positions), said in the sentence.
     """
     hybrid_paper = paper_values.PAPER001_SECTION4_AFTER_LOSS["hybrid"]
-    hybrid, kalman = table.loc["hybrid (feedback)"], table.loc["Kalman"]
+    fusion_paper = paper_values.PAPER001_SECTION4_AFTER_LOSS["data fusion"]
+    hybrid, hold, kalman = table.loc["hybrid (feedback)"], table.loc["hold_last"], table.loc["Kalman"]
+    pair = peaks.set_index(["without", "with"]).loc[("hold_last", "hybrid (feedback)")]
+    verdict = {"hurts": "**higher than holding's**, against the paper's claim that the hybrid recovers better",
+               "helps": "lower than holding's, as the paper claims",
+               "tie": "a tie with holding's, so the paper's advantage does not show"}[pair["verdict"]]
+    peak, recovery = "peak increase (°)", "back within 2° (s)"
+    where = "BROAD" if broad else "these recordings"
     motion = ("the trials include fast rotations, translations and magnetic disturbances (the per-trial dots above)"
               if broad else "the per-trial dots above show how these recordings differ from it")
+    bursts = f"one burst per run at {positions} positions over each trial's movement" if positions else \
+        "one burst per run"
     return (f"The paper's hybrid stays around {hybrid_paper['error_deg']:g}° for about "
-            f"{hybrid_paper['duration_s']:g} s after its loss. On {'BROAD' if broad else 'these recordings'}, "
-            f"the burst adds a peak of "
-            f"{hybrid['ours: peak increase (°)']:.1f}° "
-            f"[{hybrid['low']:.1f}, {hybrid['high']:.1f}] to the hybrid's error, back below 2° after "
-            f"{hybrid['ours: recovery (s)']:.2f} s on average; our Kalman filter's peak is "
-            f"{kalman['ours: peak increase (°)']:.1f}° [{kalman['low']:.1f}, {kalman['high']:.1f}] and its recovery "
-            f"{kalman['ours: recovery (s)']:.2f} s. The paper's arm raise is one slow, smooth movement; {motion}.")
+            f"{hybrid_paper['duration_s']:g} s after its loss, while data fusion holding its output "
+            f"{fusion_paper['words']}. On {where} ({bursts}), the burst adds a peak of "
+            f"{hybrid[peak]:.1f}° [{hybrid[f'{peak} low']:.1f}, {hybrid[f'{peak} high']:.1f}] to the hybrid's error "
+            f"and {hold[peak]:.1f}° [{hold[f'{peak} low']:.1f}, {hold[f'{peak} high']:.1f}] to holding's: the "
+            f"hybrid's peak is {verdict} (difference {pair['difference']:+.1f}° [{pair['ci_low']:+.1f}, "
+            f"{pair['ci_high']:+.1f}]; the hybrid's lower on {pair['n_better']} of {pair['n_trials']} trials). "
+            f"The hybrid is "
+            f"back within 2° of its error before the burst after {hybrid[recovery]:.2f} s on average, holding "
+            f"after {hold[recovery]:.2f} s; our Kalman filter's peak is "
+            f"{kalman[peak]:.1f}° [{kalman[f'{peak} low']:.1f}, {kalman[f'{peak} high']:.1f}] and it is back "
+            f"after {kalman[recovery]:.2f} s. The paper's arm raise is one slow, smooth movement; {motion}.")
+
+
+def recovery_sentence(table: pd.DataFrame, method: str = "Kalman", against: str = "hold_last") -> str:
+    """Why a method with a lower error "recovers" more slowly, from :func:`paper_vs_ours`: the error
+    before the burst, back within 2° of it, and back below the absolute 10°."""
+    a, b = table.loc[method], table.loc[against]
+    before, relative, level = "error before (°)", "back within 2° (s)", "back below 10° (s)"
+    slower = a[relative] > b[relative]
+    lower = a[before] < b[before]
+    text = (f"Before the burst, {method}'s error was {a[before]:.1f}° and {against}'s {b[before]:.1f}°. "
+            f"Back within 2° of it: {method} after {a[relative]:.2f} s, {against} after {b[relative]:.2f} s")
+    if slower and lower:
+        text += (f" — {method} takes longer because it has to come back closer, in degrees, to a lower error, "
+                 f"not because it ends up worse")
+    text += (f". Against one absolute level instead (the error back below 10°, counted as the whole "
+             f"window when it does not get there): {method} after {a[level]:.2f} s, {against} after "
+             f"{b[level]:.2f} s.")
+    return text
 
 
 def why_missed_sentence(per_trial: pd.DataFrame, best: Mapping[str, str], values: pd.DataFrame) -> str:
@@ -263,7 +405,7 @@ def why_missed_sentence(per_trial: pd.DataFrame, best: Mapping[str, str], values
 
 
 def summary_bullets(per_trial: pd.DataFrame, *, ranking_sentence: str, targets: pd.DataFrame, best: Mapping[str, str],
-                    comparisons: Mapping[str, pd.DataFrame]) -> list[str]:
+                    comparisons: Mapping[str, pd.DataFrame], ablation: Sequence[str] = ()) -> list[str]:
     """The notebook's closing summary, one Markdown bullet per finding.
 
     Parameters
@@ -278,11 +420,14 @@ def summary_bullets(per_trial: pd.DataFrame, *, ranking_sentence: str, targets: 
         :func:`~wsnlib.studies.loss_tolerance.summary.best_methods`.
     comparisons : mapping question → table
         :func:`~wsnlib.studies.loss_tolerance.summary.paired_comparisons`; the total-RMSE rows are told.
+    ablation : sequence of str
+        :func:`ablation_sentences`, told in one bullet (none: no bullet).
     """
     return ([f"* **Ranking at {HEADLINE}.** {ranking_sentence}",
              "* **Targets.** " + "; ".join(f"{name}: {row['verdict']}" for name, row in targets.iterrows()) + ".",
              f"* **Where the best causal estimator ({best['causal']}) loses.** "
              + diagnosis_sentence(per_trial, best["causal"])]
+            + (["* **What the filter and the gap handling contribute.** " + " ".join(ablation)] if ablation else [])
             + [f"* **{question}** " + " ".join(comparison_sentences(table[table["metric"] == "rmse_total"]))
                for question, table in comparisons.items()])
 
@@ -309,8 +454,10 @@ def optimism_sentence(optimism: pd.DataFrame, edges: pd.DataFrame) -> str:
                            for r in narrow.itertuples())
         text += f" **At a grid edge inside the search space (the grid is too narrow there):** {listed}."
     if not bound.empty:
-        text += (f" {len(bound)} chosen value(s) sit at a bound of their search space "
-                 f"({', '.join(sorted(set(bound['method'])))}): flagged, not chased past it.")
+        listed = "; ".join(f"{r.method} {r.setting} = {r.value:g} ({r.edge} bound, {r.n_trials} of {r.n_total} "
+                           f"trials)" for r in bound.itertuples())
+        text += (f" **At a physical bound of the search space** (flagged, not chased past it: beyond it the "
+                 f"setting means something else, table of search spaces above): {listed}.")
     return text
 
 
@@ -333,3 +480,36 @@ def inclination_sentence(means: pd.DataFrame, neural: str, best: Mapping[str, st
     if not parts:
         raise ValueError(f"means has no row of {neural!r}")
     return "Mean inclination RMSE (95 % intervals) — " + "; ".join(parts) + "."
+
+
+def ablation_grid(ablation_rows: pd.DataFrame) -> pd.DataFrame:
+    """The ablation as a grid to read: filters × gap handlings, each cell ``"mean [low, high]"`` (°)
+    (``ablation_rows``: :func:`~wsnlib.studies.loss_tolerance.summary.ablation_table`); "—" where a
+    filter has no such variant."""
+    cells = ablation_rows.assign(cell=[f"{r.mean:.1f} [{r.ci_low:.1f}, {r.ci_high:.1f}]"
+                                       for r in ablation_rows.itertuples()])
+    grid = cells.pivot(index="filter", columns="gap_handling", values="cell")
+    gaps = [g for g in GAP_HANDLINGS if g in grid.columns]
+    return grid.loc[list(dict.fromkeys(ablation_rows["filter"])), gaps].fillna("—")
+
+
+def ablation_sentences(ratios: pd.DataFrame, ablation_rows: pd.DataFrame) -> list[str]:
+    """What the filter and the gap handling contribute, from :func:`~wsnlib.studies.loss_tolerance.
+    summary.ratio_table` of :func:`~wsnlib.studies.loss_tolerance.summary.ablation_pairs` (questions
+    ``"filter"`` and ``"gap handling"``)."""
+    gap_of = ablation_rows.set_index("method")["gap_handling"]
+    filter_of = ablation_rows.set_index("method")["filter"]
+    words = {"lower": "lower (the interval lies below 1)", "higher": "higher (the interval lies above 1)",
+             "tie": "a tie (the interval holds 1)"}
+    out = []
+    for row in ratios[ratios["question"] == "filter"].itertuples():
+        out.append(f"**Filter, {gap_of[row.method]}:** {row.method} {row.mean:.1f}° against the best peer with the "
+                   f"same gap handling, {row.against}, {row.mean_against:.1f}°: ratio {row.ratio:.2f} "
+                   f"[{row.ci_low:.2f}, {row.ci_high:.2f}], {words[row.verdict]}.")
+    gaps = ratios[ratios["question"] == "gap handling"]
+    for filter_name in dict.fromkeys(filter_of[gaps["method"]]):
+        rows = gaps[[filter_of[m] == filter_name for m in gaps["method"]]]
+        parts = [f"{gap_of[r.method]} ×{r.ratio:.2f} [{r.ci_low:.2f}, {r.ci_high:.2f}]" for r in rows.itertuples()]
+        out.append(f"**Gap handling, {filter_name}** (mean RMSE against holding, {rows['mean_against'].iloc[0]:.1f}°): "
+                   + "; ".join(parts) + ".")
+    return out
