@@ -161,7 +161,7 @@ def test_gap_rate_fit_matches_numpy_least_squares_and_predicts_an_oscillation():
                       0.1 + 0.0 * t], axis=1)
     order, window, end = 4, 50, 60
     coef = np.zeros((3, order))
-    largest = ar_fit(rates, end, window, order, coef, np.empty((order, order)), np.empty(order))
+    largest = ar_fit(rates, end, window, order, coef, np.empty((order, order + 1)), np.empty(order + 1))
     for a in range(3):  # reference: ridge least squares with numpy
         x = rates[end - window:end, a]
         X = np.stack([x[i:window - order + i] for i in range(order)], axis=1)

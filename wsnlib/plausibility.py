@@ -27,7 +27,10 @@ one warning per call (one gyro sample of 1e6 rad/s used to corrupt 10 s of outpu
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from numba import njit
 
 #: Above this median ‖gyr‖ (rad/s) a recording's gyro is taken to be in deg/s.
 GYRO_MEDIAN_MAX_RAD_S = 20.0
@@ -48,15 +51,64 @@ SAMPLE_NORM_MAX = {"gyr": 100.0, "acc": 2000.0, "mag": 1e4}
 MEDIAN_SAMPLES = 1 << 16
 
 
+def _squared_norms(vectors: np.ndarray) -> np.ndarray:
+    """``(x² + y²) + z²`` of each vector of ``vectors`` (..., 3) (inf where it overflows)."""
+    x, y, z = vectors[..., 0], vectors[..., 1], vectors[..., 2]
+    with np.errstate(over="ignore", invalid="ignore"):
+        return x * x + y * y + z * z
+
+
+@njit(cache=True)
+def _finite_squared_norms(vectors, keep, step):
+    """``(x² + y²) + z²`` of ``vectors[b, t]`` ``(B, T, 3)`` for every ``b`` and every ``t = 0, step,
+    2 step, …`` with ``keep[t // step]``, where finite (one pass; the order of the result is not
+    meaningful)."""
+    n_t = vectors.shape[1]
+    out = np.empty(vectors.shape[0] * ((n_t + step - 1) // step))
+    n = 0
+    for b in range(vectors.shape[0]):
+        for k in range(keep.shape[0]):
+            if keep[k]:
+                x, y, z = vectors[b, k * step, 0], vectors[b, k * step, 1], vectors[b, k * step, 2]
+                square = x * x + y * y + z * z
+                if math.isfinite(square):
+                    out[n] = square
+                    n += 1
+    return out[:n]
+
+
+@njit(cache=True)
+def _any_beyond(vectors, limit):
+    """Whether some ``(x² + y²) + z²`` of ``vectors`` ``(B, T, 3)`` exceeds ``limit`` (inf does; NaN does not)."""
+    for b in range(vectors.shape[0]):
+        for t in range(vectors.shape[1]):
+            x, y, z = vectors[b, t, 0], vectors[b, t, 1], vectors[b, t, 2]
+            if x * x + y * y + z * z > limit:
+                return True
+    return False
+
+
 def _median_norm(vectors: np.ndarray, received: np.ndarray | None) -> float:
     """Median ‖v‖ over the samples of ``vectors`` (..., T, 3) received in some batch element (NaN if none)."""
+    n_t = vectors.shape[-2]
     step = max(1, vectors.size // 3 // MEDIAN_SAMPLES)
-    with np.errstate(over="ignore"):  # a norm beyond 1e308 is inf, left out below like a lost sample
-        norms = np.linalg.norm(vectors[..., ::step, :], axis=-1)
+    keep = np.ones((n_t + step - 1) // step, dtype=bool)
     if received is not None:
-        norms = norms[..., np.asarray(received)[..., ::step].reshape(-1, norms.shape[-1]).any(axis=0)]
-    norms = norms[np.isfinite(norms)]  # lost samples may hold anything; a single huge sample is no unit mistake
-    return float(np.median(norms)) if norms.size else float("nan")
+        rx = np.asarray(received)[..., ::step]
+        keep = rx.reshape(-1, rx.shape[-1]).any(axis=0) if rx.ndim > 1 else rx
+    rows = vectors[None] if vectors.ndim == 2 else vectors.reshape((-1,) + vectors.shape[-2:])
+    # Lost samples may hold anything, and a single huge sample (a norm beyond 1e308 is inf) is no unit mistake.
+    squares = _finite_squared_norms(rows, keep, step)
+    if not squares.size:
+        return float("nan")
+    # The median of the norms from that of the squares (√ is monotonic): the middle one, or the
+    # mean of the two middle ones.
+    middle = squares.size // 2
+    squares = np.partition(squares, middle)
+    high = np.sqrt(squares[middle])
+    if squares.size % 2:
+        return float(high)
+    return float((np.sqrt(squares[:middle].max()) + high) / 2.0)
 
 
 def imu_unit_problems(gyr: np.ndarray | None, acc: np.ndarray, mag: np.ndarray | None = None,
@@ -128,8 +180,10 @@ def implausible_samples(signals: dict) -> np.ndarray | None:
     None when there is none (the usual case: nothing is allocated beyond the norms)."""
     found = None
     for name, arr in signals.items():
-        with np.errstate(over="ignore", invalid="ignore"):  # an overflowing norm is inf: beyond the limit
-            beyond = np.einsum("...i,...i->...", arr, arr) > SAMPLE_NORM_MAX[name] ** 2
+        limit = SAMPLE_NORM_MAX[name] ** 2
+        if not _any_beyond(arr[None] if arr.ndim == 2 else arr.reshape((-1,) + arr.shape[-2:]), limit):
+            continue  # the usual case: nothing allocated
+        beyond = _squared_norms(arr) > limit  # an overflowing norm is inf: beyond the limit
         if beyond.any():
             found = beyond if found is None else found | beyond
     return found
@@ -145,6 +199,34 @@ MAG_SATURATED_FRACTION = 0.05
 MAG_SATURATION_MIN_UT = 130.0
 
 
+@njit(cache=True)
+def _magnetometer_counts(m, rx):
+    """Over the samples ``t`` of ``m`` (T, 3) with ``rx[t]``: how many there are, how many repeat the
+    previous such sample exactly, each axis' largest |value| (NaN if one is NaN) and how many sit at it."""
+    n = repeats = last = 0
+    peak = np.zeros(3)
+    at_peak = np.zeros(3, dtype=np.int64)
+    for t in range(m.shape[0]):
+        if not rx[t]:
+            continue
+        if n > 0 and m[t, 0] == m[last, 0] and m[t, 1] == m[last, 1] and m[t, 2] == m[last, 2]:
+            repeats += 1
+        for a in range(3):
+            value = abs(m[t, a])
+            if math.isnan(value):
+                peak[a] = math.nan
+            elif value > peak[a]:  # (False once the peak is NaN)
+                peak[a] = value
+        last = t
+        n += 1
+    for t in range(m.shape[0]):
+        if rx[t]:
+            for a in range(3):
+                if abs(m[t, a]) == peak[a]:
+                    at_peak[a] += 1
+    return n, repeats, peak, at_peak
+
+
 def magnetometer_problem(mag: np.ndarray, received: np.ndarray) -> str | None:
     """What is wrong with a magnetometer over a whole recording, in words, or None.
 
@@ -156,15 +238,16 @@ def magnetometer_problem(mag: np.ndarray, received: np.ndarray) -> str | None:
     Checked per batch element of ``mag``'s own leading shape, on the samples received in some
     batch element; the first problem found.
     """
-    rx = np.asarray(received).reshape(-1, mag.shape[-2]).any(axis=0)  # received in some batch element
-    for m in mag.reshape((-1,) + mag.shape[-2:])[:, rx]:
-        if m.shape[0] < 10:
+    rx = np.asarray(received)
+    rx = rx.reshape(-1, mag.shape[-2]).any(axis=0) if rx.ndim > 1 else rx  # received in some batch element
+    for m in mag.reshape((-1,) + mag.shape[-2:]):
+        n, repeats, peak, at_peak = _magnetometer_counts(m, rx)
+        if n < 10:
             continue
-        frozen = float(np.mean(np.all(m[1:] == m[:-1], axis=-1)))
+        frozen = repeats / (n - 1)
         if frozen > MAG_STUCK_FRACTION:
             return f"mag is frozen: {frozen:.0%} of the received samples repeat the previous one exactly"
-        peak = np.abs(m).max(axis=0)
-        at_peak = np.mean(np.abs(m) == peak, axis=0)
+        at_peak = at_peak / n
         if np.any((at_peak > MAG_SATURATED_FRACTION) & (peak > MAG_SATURATION_MIN_UT)):
             axis = int(np.argmax(at_peak))
             return (f"mag looks saturated: {at_peak[axis]:.0%} of the received samples sit at ±{peak[axis]:.4g} µT on "

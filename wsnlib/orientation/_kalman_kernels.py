@@ -27,6 +27,7 @@ from wsnlib.orientation._scalar_kernels import (
     quat_normalize,
     quat_rotate,
     rotation_matrix,
+    squared_norm3,
     vec_norm,
 )
 
@@ -47,19 +48,26 @@ STATE_DTYPE = np.dtype([
     ("mag_cand_time", "f8"), ("mag_reject_time", "f8"), ("mag_gate_norm", "f8"),
     ("mag_ref_time", "f8"),
     ("hi_A", "f8", (6,)), ("hi_r", "f8", (3,)), ("hi_prev_mag", "f8", (3,)), ("hi_prev_rate", "f8", (3,)),
-    ("hi_prev_ok", "?"), ("hard_iron", "f8", (3,)), ("lin_var", "f8"),
+    ("hard_iron", "f8", (3,)), ("lin_var", "f8"), ("hi_prev_ok", "?"),
 ])
 
 #: Entries of a covariance's upper triangle (row by row): how the smoother stores P.
 NP = NX * (NX + 1) // 2
 
+#: Most scalar updates one sensor makes at a sample (the accelerometer's two tilt and three
+#: velocity updates).
+MAX_UPDATES = 5
+
 #: Scratch of one stream, and the prediction of the last sample (``q_pred``, ``bias_pred``,
 #: ``vel_pred``, ``P_pred``; ``R`` = R(q⁻) and ``a_e`` = a_E, which define the transition F)
-#: kept for the smoother.
+#: kept for the smoother.  A sensor's scalar updates (:func:`scalar_updates`) read their
+#: measurements from ``index`` (i of ``H = e_iᵀ``), ``z`` and ``r`` (noise variance), and leave the
+#: covariance's change as products ``P ← P − Σ_u gains_u rows_uᵀ`` (:func:`subtract_products`).
 WORK_DTYPE = np.dtype([
-    ("R", "f8", (3, 3)), ("a_e", "f8", (3,)), ("dx", "f8", (NX,)), ("K", "f8", (NX,)),
-    ("rows", "f8", (3, NX)), ("inv_S", "f8", (3,)),
-    ("ar_A", "f8", (gaps.MAX_ORDER, gaps.MAX_ORDER)), ("ar_r", "f8", (gaps.MAX_ORDER + 1,)),
+    ("R", "f8", (3, 3)), ("a_e", "f8", (3,)), ("dx", "f8", (NX,)),
+    ("index", "i8", (MAX_UPDATES,)), ("z", "f8", (MAX_UPDATES,)), ("r", "f8", (MAX_UPDATES,)),
+    ("gains", "f8", (MAX_UPDATES, NX)), ("rows", "f8", (MAX_UPDATES, NX)),
+    ("ar_A", "f8", (gaps.MAX_ORDER, gaps.MAX_ORDER + 1)), ("ar_r", "f8", (gaps.MAX_ORDER + 1,)),
     ("q_pred", "f8", (4,)), ("bias_pred", "f8", (3,)), ("vel_pred", "f8", (3,)), ("P_pred", "f8", (NX, NX)),
 ])
 
@@ -78,6 +86,21 @@ def initial_state(st, c, q0):
     for a in range(3, 6):
         P[a, a] = c.init_bias_var
         P[a + 3, a + 3] = c.init_vel_var
+
+
+@njit(**COMPILE)
+def small_rotation(v):
+    """``Exp(v) = [cos(θ/2), sin(θ/2) v/θ]`` (θ = ‖v‖, rad) as :func:`quat_exp` gives it, but below
+    θ = 0.1 rad (a step's rotation or correction) by the Taylor series of cos(θ/2) and sin(θ/2)/θ
+    in h = (θ/2)², to h⁵ and h⁴: the first terms left out are below 1e-20 relative, and it costs
+    a fraction of ``sin`` and ``cos``."""
+    sq = squared_norm3(v[0], v[1], v[2])
+    if sq >= 0.01:
+        return quat_exp(v)
+    h = 0.25 * sq
+    w = 1.0 + h * (-1.0 / 2.0 + h * (1.0 / 24.0 + h * (-1.0 / 720.0 + h * (1.0 / 40320.0 + h * (-1.0 / 3628800.0)))))
+    k = 0.5 + h * (-0.5 / 6.0 + h * (0.5 / 120.0 + h * (-0.5 / 5040.0 + h * (0.5 / 362880.0))))
+    return w, k * v[0], k * v[1], k * v[2]
 
 
 # ------------------------------------------------------------------------------------------
@@ -135,20 +158,27 @@ def predict(st, work, c, omega, acc, received, lost_run):
     # --- Strapdown prediction: q⁻ = q ⊗ Exp((ω − b) Δt) -----------------------------------
     q = (st.q[0], st.q[1], st.q[2], st.q[3])
     if omega[0] != 0.0 or omega[1] != 0.0 or omega[2] != 0.0:  # (gap="hold": exactly still)
-        q = quat_normalize(quat_multiply(q, quat_exp((omega[0] * dt, omega[1] * dt, omega[2] * dt))))
+        q = quat_normalize(quat_multiply(q, small_rotation((omega[0] * dt, omega[1] * dt, omega[2] * dt))))
     for a in range(4):
         st.q[a] = q[a]
     R = work.R
     rotation_matrix(q, R)
+    # M = −R(q⁻) Δt and a_E = R(q⁻) a (0 when lost), read once: the updates of P below write
+    # to memory that the compiler cannot tell apart from R's.
+    m00, m01, m02 = -R[0, 0] * dt, -R[0, 1] * dt, -R[0, 2] * dt
+    m10, m11, m12 = -R[1, 0] * dt, -R[1, 1] * dt, -R[1, 2] * dt
+    m20, m21, m22 = -R[2, 0] * dt, -R[2, 1] * dt, -R[2, 2] * dt
+    a_e = (0.0, 0.0, 0.0)
+    if received:
+        a_e = (R[0, 0] * acc[0] + R[0, 1] * acc[1] + R[0, 2] * acc[2],
+               R[1, 0] * acc[0] + R[1, 1] * acc[1] + R[1, 2] * acc[2],
+               R[2, 0] * acc[0] + R[2, 1] * acc[1] + R[2, 2] * acc[2])
+    for a in range(3):
+        work.a_e[a] = a_e[a]
 
     # --- Leaky velocity: v̂ ← c v̂ + (R(q⁻) a − g e_z) Δt (received), v̂ ← c v̂ (lost) -------
     decay = c.vel_decay
     v = st.velocity
-    a_e = (0.0, 0.0, 0.0)
-    if received:
-        a_e = quat_rotate(q, (acc[0], acc[1], acc[2]))
-    for a in range(3):
-        work.a_e[a] = a_e[a]
     if received:
         v[0] = decay * v[0] + a_e[0] * dt
         v[1] = decay * v[1] + a_e[1] * dt
@@ -166,31 +196,41 @@ def predict(st, work, c, omega, acc, received, lost_run):
     # column is the row's mirror (~200 multiply-adds instead of a dense F P Fᵀ's ~1,500; P stays
     # exactly symmetric).
     P = st.P
-    # P ← F_θ P F_θᵀ.  Rows δθ: P_θ· ← P_θ· + M P_b·; block θθ also + (P_θb) Mᵀ.
+    # P ← F_θ P F_θᵀ.  Rows δθ: P_θ· ← P_θ· + M P_b· (every column) ...
     for j in range(NX):
-        r0, r1, r2 = P[3, j], P[4, j], P[5, j]
-        for a in range(3):
-            P[a, j] -= (R[a, 0] * r0 + R[a, 1] * r1 + R[a, 2] * r2) * dt
+        b0, b1, b2 = P[3, j], P[4, j], P[5, j]
+        P[0, j] += m00 * b0 + m01 * b1 + m02 * b2
+        P[1, j] += m10 * b0 + m11 * b1 + m12 * b2
+        P[2, j] += m20 * b0 + m21 * b1 + m22 * b2
+    # ... and block θθ also + P_θb Mᵀ (P_θb as just updated), upper triangle, mirrored.
     for a in range(3):
-        for b in range(a, 3):
-            v = P[a, b] - (P[a, 3] * R[b, 0] + P[a, 4] * R[b, 1] + P[a, 5] * R[b, 2]) * dt
-            P[a, b] = P[b, a] = v
+        p3, p4, p5 = P[a, 3], P[a, 4], P[a, 5]
+        t0 = P[a, 0] + (p3 * m00 + p4 * m01 + p5 * m02)
+        t1 = P[a, 1] + (p3 * m10 + p4 * m11 + p5 * m12)
+        t2 = P[a, 2] + (p3 * m20 + p4 * m21 + p5 * m22)
+        if a == 0:
+            P[0, 0], P[0, 1], P[0, 2] = t0, t1, t2
+        elif a == 1:
+            P[1, 1], P[1, 2] = t1, t2
+        else:
+            P[2, 2] = t2
+    P[1, 0], P[2, 0], P[2, 1] = P[0, 1], P[0, 2], P[1, 2]
     for a in range(3):
         for j in range(3, NX):
             P[j, a] = P[a, j]
-    # P ← F_v P F_vᵀ.  Rows δv: P_v· ← c P_v· + N P_θ·, N u = (u × a_E) Δt; block vv also
-    # + (c P_vθ-part) Nᵀ, i.e. c·(the row's θ entries) crossed with a_E.
+    # P ← F_v P F_vᵀ.  Rows δv: P_v· ← c P_v· + N P_θ·, N u = (u × a_E) Δt = u × n, n = a_E Δt;
+    # block vv also + (c P_vθ part) Nᵀ, i.e. the row's new θ entries crossed with n.
+    n0, n1, n2 = a_e[0] * dt, a_e[1] * dt, a_e[2] * dt
     for j in range(NX):
         u0, u1, u2 = P[0, j], P[1, j], P[2, j]
-        P[6, j] = decay * P[6, j] + (u1 * a_e[2] - u2 * a_e[1]) * dt
-        P[7, j] = decay * P[7, j] + (u2 * a_e[0] - u0 * a_e[2]) * dt
-        P[8, j] = decay * P[8, j] + (u0 * a_e[1] - u1 * a_e[0]) * dt
+        P[6, j] = decay * P[6, j] + (u1 * n2 - u2 * n1)
+        P[7, j] = decay * P[7, j] + (u2 * n0 - u0 * n2)
+        P[8, j] = decay * P[8, j] + (u0 * n1 - u1 * n0)
     for a in range(3):
         u0, u1, u2 = P[6 + a, 0], P[6 + a, 1], P[6 + a, 2]
-        n_row = ((u1 * a_e[2] - u2 * a_e[1]) * dt, (u2 * a_e[0] - u0 * a_e[2]) * dt,
-                 (u0 * a_e[1] - u1 * a_e[0]) * dt)
-        for b in range(3):
-            P[6 + a, 6 + b] = decay * P[6 + a, 6 + b] + n_row[b]
+        P[6 + a, 6] = decay * P[6 + a, 6] + (u1 * n2 - u2 * n1)
+        P[6 + a, 7] = decay * P[6 + a, 7] + (u2 * n0 - u0 * n2)
+        P[6 + a, 8] = decay * P[6 + a, 8] + (u0 * n1 - u1 * n0)
     for a in range(3):
         for b in range(a + 1, 3):
             P[6 + a, 6 + b] = P[6 + b, 6 + a] = 0.5 * (P[6 + a, 6 + b] + P[6 + b, 6 + a])
@@ -218,54 +258,72 @@ def predict(st, work, c, omega, acc, received, lost_run):
 
 
 @njit(inline="always", **COMPILE)
-def scalar_updates(P, dx, first, z, r, rows, inv_S):
-    """Scalar updates (module docstring) with ``H = e_iᵀ``, ``i = first, first + 1, …``, one per
-    measurement ``z[u]`` (≤ 3, noise variance ``r`` each), in one pass over ``P``: with the optimal
-    gain update u is ``P ← P − P_·i P_i·/S`` and needs only row i after the earlier updates, so
-    the rows come first (``rows[u]``, ``inv_S[u]``); then each upper-triangle entry takes the
-    updates in order and is mirrored (the same operations, in the same order, as a pass per update).
-    """
-    for u in range(len(z)):
-        i, row = first + u, rows[u]
-        for a in range(NX):  # row i after updates 0 … u − 1
-            v = P[i, a]
-            for w in range(u):
-                v = v - (rows[w, i] * rows[w, a]) * inv_S[w]
-            row[a] = v
-        inv_S[u] = 1.0 / (row[i] + r)
-        innovation = z[u] - dx[i]
+def subtract_products(P, gains, rows, n):
+    """``P ← P − Σ_{u<n} gains_u rows_uᵀ`` (n ≤ :data:`MAX_UPDATES`) for a sum that is symmetric
+    (as every covariance update below is): its upper triangle, mirrored, in one pass over P.
+    The unused products are zeroed, so each entry is one expression of five."""
+    for u in range(n, MAX_UPDATES):
         for a in range(NX):
-            dx[a] += (row[a] * inv_S[u]) * innovation
+            gains[u, a] = 0.0
+            rows[u, a] = 0.0
+    r0, r1, r2, r3, r4 = rows[0], rows[1], rows[2], rows[3], rows[4]
     for a in range(NX):
+        g0, g1, g2, g3, g4 = gains[0, a], gains[1, a], gains[2, a], gains[3, a], gains[4, a]
         for b in range(a, NX):
-            v = P[a, b]
-            for u in range(len(z)):
-                v = v - (rows[u, a] * rows[u, b]) * inv_S[u]
-            P[a, b] = P[b, a] = v
+            v = P[a, b] - g0 * r0[b] - g1 * r1[b] - g2 * r2[b] - g3 * r3[b] - g4 * r4[b]
+            P[a, b] = v
+            P[b, a] = v
 
 
 @njit(inline="always", **COMPILE)
-def heading_update(P, dx, innovation, r, K, row):
+def scalar_updates(P, dx, work, n):
+    """The scalar updates u = 0 … n − 1 (module docstring) with ``H = e_iᵀ``, ``i = work.index[u]``,
+    measurement ``work.z[u]``, noise variance ``work.r[u]``, in order, then P in one pass.
+
+    With the optimal gain update u is ``P ← P − K_u P_i·`` (``K_u = P_·i/S_u``, ``S_u = P_ii + r_u``)
+    and needs only row i of P after the earlier updates, ``row_u = P_i· − Σ_{w<u} K_w[i] row_w``;
+    so the rows and gains come first (``δx += K_u (z_u − δx_i)``) and P takes
+    ``− Σ_u K_u row_uᵀ`` once (:func:`subtract_products`).
+    """
+    gains, rows = work.gains, work.rows
+    for u in range(n):
+        i, row = work.index[u], rows[u]
+        for a in range(NX):
+            row[a] = P[i, a]
+        for w in range(u):
+            k_wi, earlier = gains[w, i], rows[w]
+            for a in range(NX):
+                row[a] -= k_wi * earlier[a]
+        inv_S = 1.0 / (row[i] + work.r[u])
+        innovation = work.z[u] - dx[i]
+        gain = gains[u]
+        for a in range(NX):
+            gain[a] = row[a] * inv_S
+            dx[a] += gain[a] * innovation
+    subtract_products(P, gains, rows, n)
+
+
+@njit(inline="always", **COMPILE)
+def heading_update(P, dx, innovation, r, work):
     """The heading's scalar update (``H = e_2ᵀ``) with the gain's tilt rows zeroed (the magnetometer
-    must not tilt), so in Joseph form (valid for any gain): ``P − K P_2· − P_·2 Kᵀ + S K Kᵀ``, mirrored."""
-    S = P[2, 2] + r
-    inv_S = 1.0 / S
+    must not tilt), so in Joseph form (valid for any gain): ``P − K P_2· − P_·2 Kᵀ + S K Kᵀ``.
+    Since ``S K_b = P_2b`` wherever K is not zeroed, that is ``P − P_·2 Kᵀ − K tᵀ`` with ``t`` =
+    P_2· on the tilt entries and 0 elsewhere (two products, :func:`subtract_products`)."""
+    left, right = work.gains, work.rows
+    inv_S = 1.0 / (P[2, 2] + r)
     for a in range(NX):
-        row[a] = P[2, a]
-        K[a] = row[a] * inv_S
-    K[0] = 0.0
-    K[1] = 0.0
-    for a in range(NX):
-        for b in range(a, NX):
-            P[a, b] = P[b, a] = P[a, b] - (K[a] * row[b] + row[a] * K[b]) + S * (K[a] * K[b])
-    for a in range(NX):
-        dx[a] += K[a] * innovation
+        p = P[2, a]
+        k = p * inv_S if a >= 2 else 0.0  # K: tilt rows zeroed
+        left[0, a], right[0, a] = p, k  # P_·2 Kᵀ
+        left[1, a], right[1, a] = k, p if a < 2 else 0.0  # K tᵀ
+        dx[a] += k * innovation
+    subtract_products(P, left, right, 2)
 
 
 @njit(inline="always", **COMPILE)
 def inject(st, dx, bias_limit):
     """``q ← Exp(δθ) ⊗ q``, ``b ← b + δb`` (clipped), ``v̂ ← v̂ + δv``, ``δx ← 0``."""
-    q = quat_normalize(quat_multiply(quat_exp((dx[0], dx[1], dx[2])), (st.q[0], st.q[1], st.q[2], st.q[3])))
+    q = quat_normalize(quat_multiply(small_rotation((dx[0], dx[1], dx[2])), (st.q[0], st.q[1], st.q[2], st.q[3])))
     for a in range(4):
         st.q[a] = q[a]
     for a in range(3):
@@ -277,17 +335,18 @@ def inject(st, dx, bias_limit):
 
 @njit(**COMPILE)
 def correct_acc(st, work, c, acc, omega):
-    """Tilt update from the accelerometer (gated), then the leaky velocity's pseudo-measurement
-    ``v = 0``; returns whether the accelerometer was used."""
-    P, dx = st.P, work.dx
-    used = False
+    """The accelerometer's updates: the tilt (gated) and the leaky velocity's pseudo-measurement
+    ``v = 0``, as one sequence of scalar updates and one injection; returns whether the tilt
+    update was used.  Reads a_E = R(q⁻) a from ``work.a_e`` (:func:`predict`)."""
+    P = st.P
+    n = 0
     acc_norm = vec_norm(acc)
     deviation = abs(acc_norm - c.gravity)
     st.lin_var += c.acc_dist_gain * (deviation * deviation - st.lin_var)
     if deviation <= c.acc_norm_gate and vec_norm(omega) <= c.acc_rate_gate:
-        e = quat_rotate((st.q[0], st.q[1], st.q[2], st.q[3]), (acc[0] / acc_norm, acc[1] / acc_norm, acc[2] / acc_norm))
+        e = (work.a_e[0] / acc_norm, work.a_e[1] / acc_norm, work.a_e[2] / acc_norm)  # R(q⁻) a/‖a‖
         cx, cy = e[1], -e[0]  # e × e_z
-        sin_angle = math.hypot(cx, cy)
+        sin_angle = math.sqrt(cx * cx + cy * cy)
         angle = math.atan2(sin_angle, e[2])
         if sin_angle > 0.0:
             phi_x, phi_y = angle * cx / sin_angle, angle * cy / sin_angle
@@ -306,17 +365,19 @@ def correct_acc(st, work, c, acc, omega):
             scale = math.sqrt(d2 / c.acc_innovation_gate)
             tilt_var = 0.5 * (P[0, 0] + P[1, 1])
             r = scale * (tilt_var + r) - tilt_var
-        scalar_updates(P, dx, 0, (phi_x, phi_y), r, work.rows, work.inv_S)  # δθ_x = φ_x, δθ_y = φ_y
-        inject(st, dx, c.bias_limit)
-        used = True
+        work.index[0], work.z[0], work.r[0] = 0, phi_x, r  # δθ_x = φ_x
+        work.index[1], work.z[1], work.r[1] = 1, phi_y, r  # δθ_y = φ_y
+        n = 2
     # --- Leaky velocity: pseudo-measurement v = 0 (every received sample) ----------------
     # Linear acceleration averages out (the position stays bounded), so the horizontal
     # leaky velocity stays small, while a tilt error δθ makes it ramp by g δθ Δt per sample:
     # VQF's low-pass of the earth-frame specific force (τ_acc), as a Kalman measurement.
-    v = st.velocity
-    scalar_updates(P, dx, 6, (-v[0], -v[1], -v[2]), c.vel_var, work.rows, work.inv_S)  # v̂ + δv = 0
-    inject(st, dx, c.bias_limit)
-    return used
+    # v̂ + δv = 0: measurement −v̂ (the innovation −v̂ − δv_i takes in the tilt updates' δv).
+    for a in range(3):
+        work.index[n + a], work.z[n + a], work.r[n + a] = 6 + a, -st.velocity[a], c.vel_var
+    scalar_updates(P, work.dx, work, n + 3)
+    inject(st, work.dx, c.bias_limit)
+    return n > 0
 
 
 @njit(**COMPILE)
@@ -340,7 +401,8 @@ def hard_iron(st, c, mag, omega):
         w = (0.5 * (omega[0] + pw[0]), 0.5 * (omega[1] + pw[1]), 0.5 * (omega[2] + pw[2]))
         mm = (0.5 * (m[0] + pm[0]), 0.5 * (m[1] + pm[1]), 0.5 * (m[2] + pm[2]))
         wxm = (w[1] * mm[2] - w[2] * mm[1], w[2] * mm[0] - w[0] * mm[2], w[0] * mm[1] - w[1] * mm[0])
-        y = ((m[0] - pm[0]) / dt + wxm[0], (m[1] - pm[1]) / dt + wxm[1], (m[2] - pm[2]) / dt + wxm[2])
+        rate = 1.0 / dt
+        y = ((m[0] - pm[0]) * rate + wxm[0], (m[1] - pm[1]) * rate + wxm[1], (m[2] - pm[2]) * rate + wxm[2])
         lam = c.hi_decay
         w2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
         # [ω]×ᵀ[ω]× = ‖ω‖² I − ω ωᵀ;  [ω]×ᵀ y = y × ω
@@ -363,10 +425,10 @@ def hard_iron(st, c, mag, omega):
         c11 = a00 * a22 - a02 * a02
         c12 = a01 * a02 - a00 * a12
         c22 = a00 * a11 - a01 * a01
-        det = a00 * c00 + a01 * c01 + a02 * c02
-        b[0] = (c00 * rr[0] + c01 * rr[1] + c02 * rr[2]) / det
-        b[1] = (c01 * rr[0] + c11 * rr[1] + c12 * rr[2]) / det
-        b[2] = (c02 * rr[0] + c12 * rr[1] + c22 * rr[2]) / det
+        inv_det = 1.0 / (a00 * c00 + a01 * c01 + a02 * c02)
+        b[0] = (c00 * rr[0] + c01 * rr[1] + c02 * rr[2]) * inv_det
+        b[1] = (c01 * rr[0] + c11 * rr[1] + c12 * rr[2]) * inv_det
+        b[2] = (c02 * rr[0] + c12 * rr[1] + c22 * rr[2]) * inv_det
     for k in range(3):
         pm[k] = m[k]
         pw[k] = omega[k]
@@ -390,7 +452,8 @@ def correct_mag(st, work, c, mag, omega):
     mag = hard_iron(st, c, mag, omega)
     m_norm = vec_norm(mag)
     m_e = quat_rotate((st.q[0], st.q[1], st.q[2], st.q[3]), (mag[0], mag[1], mag[2]))
-    dip = math.atan2(-m_e[2], math.hypot(m_e[0], m_e[1]))
+    horizontal = math.sqrt(m_e[0] * m_e[0] + m_e[1] * m_e[1])
+    dip = math.atan2(-m_e[2], horizontal)
     if st.mag_ref_norm == 0.0:  # first sample: a provisional reference (see mag_new_first_time_s)
         st.mag_ref_norm, st.mag_ref_dip, st.mag_gate_norm = m_norm, dip, m_norm
         st.mag_cand_norm, st.mag_cand_dip = m_norm, dip
@@ -440,9 +503,9 @@ def correct_mag(st, work, c, mag, omega):
     if not undisturbed and st.mag_reject_time > c.mag_max_reject:
         use = True
         r *= c.mag_reject_var_factor
-    if use and math.hypot(m_e[0], m_e[1]) > 0.0:
+    if use and horizontal > 0.0:
         psi = math.atan2(m_e[0], m_e[1])  # heading error δθ_z
-        heading_update(P, work.dx, psi - work.dx[2], r, work.K, work.rows[0])
+        heading_update(P, work.dx, psi - work.dx[2], r, work)
         inject(st, work.dx, c.bias_limit)
         return True
     return False
@@ -493,7 +556,7 @@ def _replay(st, gs, history, omega, dt, replayed):
     q = (st.q_last[0], st.q_last[1], st.q_last[2], st.q_last[3])
     for k in range(1, n_lost + 1):
         w = gaps.replay_rate(gs, history, k, omega, use_ar, weights, predicted)
-        q = quat_normalize(quat_multiply(q, quat_exp((w[0] * dt, w[1] * dt, w[2] * dt))))
+        q = quat_normalize(quat_multiply(q, small_rotation((w[0] * dt, w[1] * dt, w[2] * dt))))
         if keep:
             for a in range(4):
                 replayed[k - 1, a] = q[a]

@@ -347,9 +347,17 @@ def run_output_blend(quat_d, acc, mag, received, trusted, i_q, i_acc, i_mag, i_r
             _store(out[b], t, slerp(q_s, q_t, mu) if blended else q_t)
 
 
+@njit(**COMPILE)
+def triad_rows(acc, mag, out):
+    """TRIAD per row: ``acc``, ``mag`` ``(B, 3)`` unit, ``out`` ``(B, 4)``."""
+    for b in range(out.shape[0]):
+        _store(out, b, triad(_vec(acc, b), _vec(mag, b)))
+
+
 @njit(parallel=True, **COMPILE)
 def run_triad(acc, mag, out):
-    """TRIAD per row: ``acc``, ``mag`` ``(B, 3)`` unit, ``out`` ``(B, 4)``."""
+    """:func:`triad_rows` with the rows in parallel (for many rows only: starting the threads costs
+    more than a few thousand rows)."""
     for b in prange(out.shape[0]):
         _store(out, b, triad(_vec(acc, b), _vec(mag, b)))
 

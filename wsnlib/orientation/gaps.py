@@ -110,7 +110,7 @@ def gap_lost(gs, history, work_A, work_r):
     """A lost sample: the rate (3-tuple) to turn the state by, recorded in the history.
 
     At a gap's first sample the AR predictor is fitted if ``mode`` is :data:`AR` and a full
-    window of rates precedes it (``work_A`` (MAX_ORDER, MAX_ORDER) and ``work_r`` (MAX_ORDER + 1,)
+    window of rates precedes it (``work_A`` (MAX_ORDER, MAX_ORDER + 1) and ``work_r`` (MAX_ORDER + 1,)
     are scratch).
     """
     order, window = gs.order, gs.window
@@ -178,6 +178,18 @@ def replay_rate(gs, history, k, measured, use_ar, weights, predicted):
 # ------------------------------------------------------------------------------------------
 
 
+@njit(inline="always", **COMPILE)
+def axpy(y, y0, x, x0, n, alpha):
+    """``y[y0 + j] += alpha · x[x0 + j]`` for ``j < n`` (1-D arrays, offsets ≥ 0).
+
+    The offsets and the counter are unsigned, so numba emits no negative-index wraparound and
+    LLVM vectorises the loop; each element still gets exactly the scalar loop's operations.
+    """
+    y_start, x_start = np.uint64(y0), np.uint64(x0)
+    for j in range(np.uint64(n)):
+        y[y_start + j] += alpha * x[x_start + j]
+
+
 @njit(**COMPILE)
 def ar_fit(rates, end, window, order, coef, A, r):
     """Fit the linear predictor of the rate on the rows ``end − window … end − 1``; returns its largest norm.
@@ -185,9 +197,10 @@ def ar_fit(rates, end, window, order, coef, A, r):
     Per axis ``a``, least squares for ``ω_a[k] ≈ Σ_i c_ai ω_a[k − order + i]`` over the window
     (an autoregressive model of order ``order``: a sum of damped oscillations, which is what
     an arm's swing looks like over a fraction of a second), with ridge ``AR_RIDGE ·
-    max(1, tr(XᵀX)/order)`` on the normal equations, solved by Cholesky.  ``rates`` is the
-    ring history (row ``k mod H``) of the rates the filter used; ``coef`` (3, ≥ order) receives
-    the coefficients; ``A`` (≥ order, ≥ order) and ``r`` (≥ order + 1,) are scratch.
+    max(1, tr(XᵀX)/order)`` on the normal equations ``(XᵀX + λI) c = Xᵀy``, solved by Cholesky.
+    ``rates`` is the ring history (row ``k mod H``) of the rates the filter used; ``coef``
+    (3, ≥ order) receives the coefficients; ``A`` (≥ order, ≥ order + 1) and ``r``
+    (≥ order + 1,) are scratch (``r``: the extended normal matrix's first row).
     """
     lo = end - window
     size = rates.shape[0]
@@ -201,55 +214,51 @@ def ar_fit(rates, end, window, order, coef, A, r):
         row += 1
         if row == size:
             row = 0
+    p = order
+    n = window - p  # equations: k = 0 … n − 1 predict x[k + p] from x[k … k + p − 1]
     for a in range(3):
         x = xs[a]
-        # The normal equations, A_ij = Σ_k x[k + i] x[k + j] (k < n = window − order; upper
-        # triangle), by the first row and the shift A_ij = A_{i−1,j−1} − x[i−1] x[j−1] +
-        # x[n+i−1] x[n+j−1]: O(window · order) instead of O(window · order²).  The right-hand
-        # side r_i = Σ_k x[k + i] x[k + order] is column ``order`` of the same matrix.
-        n = window - order
-        for j in range(order + 1):
-            r[j] = 0.0  # row 0 of the extended matrix, accumulated as axpys (vectorised)
+        # The extended normal matrix E = [X y]ᵀ[X y] ((p + 1) × (p + 1), upper triangle, rows
+        # 0 … p − 1 used): E_ij = Σ_{k<n} x[k + i] x[k + j]; its leading p × p block is XᵀX and
+        # its column p is Xᵀy.  Row 0 as axpys over the lags; then each row from the one above
+        # by the shift E_ij = E_{i−1,j−1} − x[i−1] x[j−1] + x[n+i−1] x[n+j−1]: O(window · p)
+        # instead of O(window · p²).
+        for j in range(p + 1):
+            r[j] = 0.0
         for k in range(n):
-            xk = x[k]
-            for j in range(order + 1):
-                r[j] += xk * x[k + j]
-        for j in range(order):
-            A[0, j] = r[j]
-        r[0] = r[order]
-        for i in range(1, order):
-            for j in range(i, order):
-                A[i, j] = A[i - 1, j - 1] - x[i - 1] * x[j - 1] + x[n + i - 1] * x[n + j - 1]
-        for i in range(order - 1, 0, -1):  # r_i from r_{i−1}'s row: A_{i−1,order−1} …
-            r[i] = A[i - 1, order - 1] - x[i - 1] * x[order - 1] + x[n + i - 1] * x[n + order - 1]
+            axpy(r, 0, x, k, p + 1, x[k])
+        e = A[0]
+        for j in range(p + 1):
+            e[j] = r[j]
+        for i in range(1, p):
+            e, above = A[i], A[i - 1]
+            for j in range(i, p + 1):
+                e[j] = above[j - 1]
+            axpy(e, i, x, i - 1, p + 1 - i, -x[i - 1])
+            axpy(e, i, x, n + i - 1, p + 1 - i, x[n + i - 1])
         trace = 0.0
-        for i in range(order):
+        for i in range(p):
             trace += A[i, i]
-        ridge = AR_RIDGE * max(1.0, trace / order)
-        for i in range(order):
+        ridge = AR_RIDGE * max(1.0, trace / p)
+        for i in range(p):
             A[i, i] += ridge
-        # Cholesky A = Uᵀ U in place (upper triangle, right-looking: each step an axpy on rows).
-        for k in range(order):
-            d = math.sqrt(A[k, k])
-            A[k, k] = d
-            for j in range(k + 1, order):
-                A[k, j] /= d
-            for i in range(k + 1, order):
-                f = A[k, i]
-                for j in range(i, order):
-                    A[i, j] -= f * A[k, j]
+        # Cholesky XᵀX + λI = Uᵀ U in place (right-looking: each step an axpy on the rows below);
+        # column p rides along and becomes z with Uᵀ z = Xᵀy (the forward solve).
+        for k in range(p):
+            u = A[k]
+            d = math.sqrt(u[k])
+            u[k] = d
+            for j in range(k + 1, p + 1):
+                u[j] /= d
+            for i in range(k + 1, p):
+                axpy(A[i], i, u, i, p + 1 - i, -u[i])
         c = coef[a]
-        for i in range(order):  # Uᵀ y = r (forward, column-oriented), then U c = y
-            c[i] = r[i]
-        for k in range(order):
-            c[k] /= A[k, k]
-            for i in range(k + 1, order):
-                c[i] -= A[k, i] * c[k]
-        for i in range(order - 1, -1, -1):
-            acc_i = c[i]
-            for k in range(i + 1, order):
-                acc_i -= A[i, k] * c[k]
-            c[i] = acc_i / A[i, i]
+        for i in range(p - 1, -1, -1):  # U c = z (backward)
+            u = A[i]
+            acc_i = u[p]
+            for k in range(i + 1, p):
+                acc_i -= u[k] * c[k]
+            c[i] = acc_i / u[i]
     return largest
 
 
@@ -346,7 +355,7 @@ def gap_rates(rates, n_lost, measured, mode, factor, order, window):
             row[a] = rates[k, a]
     gs.n = n - 1
     gap_received(gs, history, (rates[n - 1, 0], rates[n - 1, 1], rates[n - 1, 2]))
-    work_A = np.empty((MAX_ORDER, MAX_ORDER))
+    work_A = np.empty((MAX_ORDER, MAX_ORDER + 1))
     work_r = np.empty(MAX_ORDER + 1)
     predicted = np.empty((n_lost, 3))
     for k in range(n_lost):

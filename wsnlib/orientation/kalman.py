@@ -56,9 +56,9 @@ Equations (one sample, Δt = 1/fs; names used in the kernel's comments)
   measured tilt error is the rotation taking ``e`` onto ``e_z``,
   ``φ = atan2(‖e × e_z‖, e·e_z) · (e × e_z)/‖e × e_z‖`` (exact for large errors, e.g. after a
   gap), and ``φ_x = δθ_x``, ``φ_y = δθ_y`` (two scalar updates, ``H = e_0ᵀ, e_1ᵀ``).
-* **Velocity pseudo-measurement** (every received sample, after the accelerometer):
-  ``v = 0`` with noise variance ``σ_v²/Δt`` (three scalar updates, ``H = e_6ᵀ, e_7ᵀ, e_8ᵀ``,
-  innovation ``−v̂_i``).  A tilt error ``δθ`` makes ``v̂`` ramp by ``g δθ Δt`` per sample,
+* **Velocity pseudo-measurement** (every received sample, after the tilt update, before the
+  injection: the accelerometer's updates are one sensor's): ``v = 0`` with noise variance
+  ``σ_v²/Δt`` (three scalar updates, ``H = e_6ᵀ, e_7ᵀ, e_8ᵀ``, innovation ``−v̂_i − δv_i``).  A tilt error ``δθ`` makes ``v̂`` ramp by ``g δθ Δt`` per sample,
   and ``P``'s cross terms from ``F`` turn that ramp into a tilt correction — with no
   accelerometer gate, so tilt stays observed during fast motion, where the gated update
   below almost never fires; and after a gap the ramp starts from the gap's error, with the
@@ -74,8 +74,8 @@ Equations (one sample, Δt = 1/fs; names used in the kernel's comments)
 * **Scalar update** (each of the above, ``H = e_iᵀ``, noise variance ``r``):
   ``S = P_ii + r``, ``K = P_·i / S``, ``δx += K (z − δx_i)``,
   ``P ← P − K P_i· − P_·i Kᵀ + S K Kᵀ`` (Joseph form ``(I − KH)P(I − KH)ᵀ + r K Kᵀ``).
-* **Injection** after each sensor: ``q ← Exp(δθ) ⊗ q``, ``b ← b + δb``, ``v̂ ← v̂ + δv``,
-  ``δx ← 0``
+* **Injection** after each sensor (accelerometer: tilt and velocity; magnetometer):
+  ``q ← Exp(δθ) ⊗ q``, ``b ← b + δb`` (clipped), ``v̂ ← v̂ + δv``, ``δx ← 0``
   (the covariance reset Jacobian is taken as the identity, as usual for small δθ).
 
 Gates (where they come from)
@@ -143,7 +143,8 @@ constants the compiled step reads (``constants.gyro_var``) are in
 :func:`wsnlib.orientation.smooth_orientation`) and the parallel batch
 :func:`~._kalman_kernels.run_kalman` (speed by structure: ``predict`` propagates only the
 non-zero blocks of F, written as two shears ``F = F_v F_θ``, and every measurement update is a
-sequence of scalar ones, those of one sensor in one pass over P); this module holds the public functions
+sequence of scalar ones, those of one sensor in one pass over P, with one injection); this module
+holds the public functions
 (:func:`kalman_orientation` over recordings, :func:`kalman_step` on a :class:`KalmanState` one
 sample at a time) and :class:`KalmanReference`, the same equations as numpy matrices.  What
 happens in a gap (the rates, the replay) is :mod:`wsnlib.orientation.gaps`, shared with
@@ -446,8 +447,14 @@ def kalman_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
     outputs = (np.empty((n_batch, n_t, 4)), np.empty((n_batch, n_t, 3)), np.empty((n_batch, n_t, 3)),
                np.empty((kept, n_t if full_output else 1, NX, NX)), np.empty((n_batch, n_t), dtype=bool),
                np.empty((n_batch, n_t), dtype=bool))
-    run_kalman(inputs.gyr, inputs.acc, inputs.mag, inputs.received, inputs.index, inputs.q_init, inputs.start,
-               inputs.init_only, c, outputs)
+    if n_batch == 1:  # one stream: the loop itself, without starting the thread pool
+        i_gyr, i_acc, i_mag, i_rx = inputs.index[0]
+        K.kalman_stream(inputs.gyr[i_gyr], inputs.acc[i_acc], inputs.mag[i_mag], inputs.received[i_rx],
+                        inputs.q_init[0], inputs.start[0], inputs.init_only, c[0],
+                        tuple(out[0] for out in outputs) + K.new_records(0))
+    else:
+        run_kalman(inputs.gyr, inputs.acc, inputs.mag, inputs.received, inputs.index, inputs.q_init, inputs.start,
+                   inputs.init_only, c, outputs)
     out_q, out_bias, _, out_P, acc_used, mag_used = outputs
     long_rejections = np.zeros(n_batch, dtype=np.int64)
     if inputs.has_mag:
@@ -581,9 +588,9 @@ class KalmanReference:
     require relative 1e-9 over 2,000 samples).  It is slow (one Python step per sample) and covers
     the whole filter except the online hard-iron estimate and the magnetometer's disturbance
     gate: it takes every field as undisturbed, and raises ``ValueError`` on a sample the compiled
-    gate would reject (so a comparison never passes by accident).  The accelerometer's two
-    scalar updates are written as one 2-D update and the velocity's three as one 3-D update
-    (the same result: sequential scalar updates with ``H = e_iᵀ`` equal the joint update).
+    gate would reject (so a comparison never passes by accident).  The accelerometer's two tilt and
+    three velocity scalar updates are written as one joint update (the same result: sequential
+    scalar updates with ``H = e_iᵀ`` equal the joint update), followed by one injection.
 
     Use ``KalmanReference(settings, fs=…, q0=…, gap=…, replay=…)`` then ``step(gyr, acc, mag,
     received)`` per sample, or :meth:`run` over a recording.
@@ -703,14 +710,16 @@ class KalmanReference:
         self.F = F
 
     def _correct(self, H, innovation, r, heading_only=False):
-        """``K = P Hᵀ S⁻¹`` (tilt rows zeroed for the heading), ``δx = K z``, Joseph-form ``P``, then the injection."""
-        S = H @ self.P @ H.T + r * np.eye(H.shape[0])
+        """``K = P Hᵀ S⁻¹`` (tilt rows zeroed for the heading), ``δx = K z``, Joseph-form ``P``, then the
+        injection; ``r`` the noise variance of each measurement (one or one per row of H)."""
+        noise = np.diag(np.broadcast_to(r, (H.shape[0],)))
+        S = H @ self.P @ H.T + noise
         K = self.P @ H.T @ np.linalg.inv(S)
         if heading_only:
             K[:2] = 0.0
         dx = K @ innovation
         IKH = np.eye(9) - K @ H
-        self.P = IKH @ self.P @ IKH.T + r * K @ K.T
+        self.P = IKH @ self.P @ IKH.T + K @ noise @ K.T
         self.q = Q.normalize(Q.multiply(self._exp(dx[:3]), self.q))
         self.b = np.clip(self.b + dx[3:6], -self.s.bias_limit, self.s.bias_limit)
         self.v = self.v + dx[6:]
@@ -720,6 +729,7 @@ class KalmanReference:
         a_norm = np.linalg.norm(acc)
         dev = abs(a_norm - s.gravity)
         self.lin_var += -np.expm1(-dt / s.acc_disturbance_tau_s) * (dev**2 - self.lin_var)
+        rows, z, noise = [6, 7, 8], list(-self.v), [s.velocity_noise_density**2 / dt] * 3  # the leaky velocity: v = 0
         if dev <= s.acc_norm_gate and np.linalg.norm(omega) <= s.acc_rate_gate:  # the tilt update
             e = Q.rotate(self.q, acc / a_norm)
             axis = np.cross(e, [0.0, 0.0, 1.0])
@@ -731,8 +741,8 @@ class KalmanReference:
             if d2 > s.acc_innovation_gate:  # robust: the pull is bounded
                 tilt_var = 0.5 * (self.P[0, 0] + self.P[1, 1])
                 r = np.sqrt(d2 / s.acc_innovation_gate) * (tilt_var + r) - tilt_var
-            self._correct(H, phi, r)
-        self._correct(np.eye(9)[6:], -self.v, s.velocity_noise_density**2 / dt)  # the leaky velocity: v = 0
+            rows, z, noise = [0, 1] + rows, list(phi) + z, [r, r] + noise
+        self._correct(np.eye(9)[rows], np.array(z), np.array(noise))  # tilt and velocity: one update
         if mag is None:
             return
         m_e = Q.rotate(self.q, mag)

@@ -142,7 +142,7 @@ def _predicted_gap(out_q, rates, s0, s1, q0, q1, order, window, dt):
     time order, so a later gap's window before it holds predicted rates)."""
     n = s1 - s0 - 1
     coef = np.zeros((3, order))
-    A = np.empty((order, order))
+    A = np.empty((order, order + 1))
     r = np.empty(order + 1)
     buf = np.empty((window + n, 3))
     fwd = np.empty((n, 3))
@@ -338,6 +338,11 @@ def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
     B.check_memory(8 * inputs.n_t * (4 * inputs.index.shape[0] + 2 * (6 + 7 + 2 * NP + 12 + 3)),
                    f"smooth_orientation's output for batch {inputs.batch}, T = {inputs.n_t}")
     out_q = np.empty((inputs.index.shape[0], inputs.n_t, 4))
-    _smooth_batch(inputs.gyr, inputs.acc, inputs.mag, inputs.received, inputs.index, inputs.q_init,
-                  inputs.start, inputs.init_only, c, out_q, interpolate_gaps)
+    if out_q.shape[0] == 1:  # one stream: the loop itself, without starting the thread pool
+        i_gyr, i_acc, i_mag, i_rx = inputs.index[0]
+        _smooth_stream(inputs.gyr[i_gyr], inputs.acc[i_acc], inputs.mag[i_mag], inputs.received[i_rx], inputs.q_init[0],
+                       inputs.start[0], inputs.init_only, c[0], out_q[0], interpolate_gaps)
+    else:
+        _smooth_batch(inputs.gyr, inputs.acc, inputs.mag, inputs.received, inputs.index, inputs.q_init,
+                      inputs.start, inputs.init_only, c, out_q, interpolate_gaps)
     return check_finite_output(out_q.reshape(inputs.batch + (inputs.n_t, 4)))

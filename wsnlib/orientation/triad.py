@@ -29,6 +29,8 @@ from wsnlib.orientation import _kernels as K
 
 #: Below this |sin(angle)| between acc and mag the heading is undetermined.
 _PARALLEL_SIN_TOL = K.PARALLEL_SIN_TOL
+#: Above this many rows TRIAD runs in parallel.
+PARALLEL_TRIAD_ROWS = 10_000
 
 
 def _unit(v: np.ndarray, name: str, what: str) -> np.ndarray:
@@ -84,7 +86,8 @@ def triad(acc, mag) -> np.ndarray:
     # Body → earth rotation R = M_ref M_obsᵀ (so that R s_i = r_i), in the compiled kernel.
     rows = [np.ascontiguousarray(np.broadcast_to(v, shape).reshape(-1, 3)) for v in (s1, m)]
     out = np.empty(shape[:-1] + (4,))
-    K.run_triad(*rows, out.reshape(-1, 4))
+    run = K.run_triad if rows[0].shape[0] > PARALLEL_TRIAD_ROWS else K.triad_rows
+    run(*rows, out.reshape(-1, 4))
     return out
 
 
