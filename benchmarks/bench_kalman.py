@@ -11,7 +11,8 @@ resampled to 50 Hz and tiled to about 100,000 samples (a mirrored copy after eac
 motion is continuous); loss: Gilbert–Elliott 10 %, mean burst 3 packets of 6 samples, one seeded
 draw.  Timed by CPU time (``time.process_time``: every thread of the process, not the time
 spent waiting for a core on a shared machine), each the best of a few runs in this process after
-a warm-up call (compiled code loaded), the runs interleaved (a round runs each call once): ``vqf.VQF.updateBatch`` without loss (the anchor), ``vqf.offlineVQF`` without loss,
+a warm-up call (compiled code loaded), the runs interleaved (a round runs each call once):
+``vqf.VQF.updateBatch`` without loss (the anchor), ``vqf.offlineVQF`` without loss,
 :func:`wsnlib.orientation.kalman_orientation` without loss and under GE 10 %,
 :func:`wsnlib.orientation.smooth_orientation` under GE 10 %, and Madgwick's filter for scale.
 Printed: samples per second of each, the ratios, and PASS/MISS for the issue's targets (Kalman

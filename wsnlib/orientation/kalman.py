@@ -58,7 +58,8 @@ Equations (one sample, Δt = 1/fs; names used in the kernel's comments)
   gap), and ``φ_x = δθ_x``, ``φ_y = δθ_y`` (two scalar updates, ``H = e_0ᵀ, e_1ᵀ``).
 * **Velocity pseudo-measurement** (every received sample, after the tilt update, before the
   injection: the accelerometer's updates are one sensor's): ``v = 0`` with noise variance
-  ``σ_v²/Δt`` (three scalar updates, ``H = e_6ᵀ, e_7ᵀ, e_8ᵀ``, innovation ``−v̂_i − δv_i``).  A tilt error ``δθ`` makes ``v̂`` ramp by ``g δθ Δt`` per sample,
+  ``σ_v²/Δt`` (three scalar updates, ``H = e_6ᵀ, e_7ᵀ, e_8ᵀ``, innovation ``−v̂_i − δv_i``).  A tilt
+  error ``δθ`` makes ``v̂`` ramp by ``g δθ Δt`` per sample,
   and ``P``'s cross terms from ``F`` turn that ramp into a tilt correction — with no
   accelerometer gate, so tilt stays observed during fast motion, where the gated update
   below almost never fires; and after a gap the ramp starts from the gap's error, with the
