@@ -41,7 +41,7 @@ from wsnlib.orientation._scalar_kernels import (
     quat_multiply,
     quat_normalize,
 )
-from wsnlib.orientation.smoothing import _cholesky_solve
+from wsnlib.orientation.smoothing import cholesky_factor, solve_factored
 
 #: One sample of the ring (module docstring).  ``sample`` −1: empty; ``has_gain``: ``gain`` is set.
 RING_DTYPE = np.dtype([
@@ -80,7 +80,7 @@ def record(ring, st, work, c, sample, received, scratch):
     e.has_gain = False
     prev = ring[(sample - 1) % capacity]
     if capacity > 1 and prev.sample == sample - 1:
-        P_post, P_minus, F, FP, chol, col, x = scratch
+        P_post, P_minus, F, FP, chol = scratch
         unpack_upper(prev.P_post, P_post)
         unpack_upper(e.P_pred, P_minus)
         transition_matrix(e.R, e.a_e, c.vel_decay, c.dt, F)
@@ -90,24 +90,15 @@ def record(ring, st, work, c, sample, received, scratch):
                 for m in range(NX):
                     s += F[a, m] * P_post[m, b]
                 FP[a, b] = s
-        _cholesky_solve(P_minus, FP[:, 0].copy(), chol, x)  # factors P⁻ = L Lᵀ into chol (and solves column 0)
-        for b in range(NX):  # column b of (P⁻)⁻¹ F P⁺ = row b of C (P⁺, P⁻ symmetric): two triangular solves
-            for i in range(NX):
-                acc_i = FP[i, b]
-                for k in range(i):
-                    acc_i -= chol[i, k] * col[k]
-                col[i] = acc_i / chol[i, i]
-            for i in range(NX - 1, -1, -1):
-                acc_i = col[i]
-                for k in range(i + 1, NX):
-                    acc_i -= chol[k, i] * prev.gain[b, k]
-                prev.gain[b, i] = acc_i / chol[i, i]
+        cholesky_factor(P_minus, chol)
+        for b in range(NX):  # column b of (P⁻)⁻¹ F P⁺ = row b of C (P⁺, P⁻ symmetric)
+            solve_factored(chol, FP[:, b], prev.gain[b])
         prev.has_gain = True
 
 
 def new_scratch():
-    """Scratch arrays of :func:`record`: four 9 × 9 matrices, the Cholesky factor, two vectors."""
-    return tuple(np.empty((NX, NX)) for _ in range(5)) + (np.empty(NX), np.empty(NX))
+    """Scratch arrays of :func:`record`: four 9 × 9 matrices and the Cholesky factor."""
+    return tuple(np.empty((NX, NX)) for _ in range(5))
 
 
 @njit(**COMPILE)

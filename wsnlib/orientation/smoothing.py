@@ -177,9 +177,8 @@ def _predicted_gap(out_q, rates, s0, s1, q0, q1, order, window, dt):
 
 
 @njit(**COMPILE)
-def _cholesky_solve(A, b, L, x):
-    """``x = A⁻¹ b`` for a symmetric positive definite ``A`` (9 × 9): ``A = L Lᵀ`` into ``L``, two
-    triangular solves (``b`` is read only)."""
+def cholesky_factor(A, L):
+    """``A = L Lᵀ`` into ``L``'s lower triangle, for a symmetric positive definite ``A`` (n × n)."""
     n = A.shape[0]
     for i in range(n):
         for j in range(i + 1):
@@ -187,6 +186,13 @@ def _cholesky_solve(A, b, L, x):
             for k in range(j):
                 acc_ij -= L[i, k] * L[j, k]
             L[i, j] = math.sqrt(acc_ij) if i == j else acc_ij / L[j, j]
+
+
+@njit(**COMPILE)
+def solve_factored(L, b, x):
+    """``x = (L Lᵀ)⁻¹ b`` by two triangular solves (``L`` from :func:`cholesky_factor`; ``b`` is read
+    only, ``x`` may be any 1-D view)."""
+    n = L.shape[0]
     for i in range(n):
         acc_i = b[i]
         for k in range(i):
@@ -226,7 +232,8 @@ def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, 
             delta[3 + a] = smooth_b[k + 1, a] - smooth_b[k, a]  # b⁻_{k+1} = b⁺_k, not yet smoothed
             delta[6 + a] = smooth_v[k + 1, a] - pred_v[k + 1, a]
         unpack_upper(pred_P[k + 1], P_minus)
-        _cholesky_solve(P_minus, delta, chol, y)
+        cholesky_factor(P_minus, chol)
+        solve_factored(chol, delta, y)
         transition_matrix(pred_R[k + 1], pred_a_e[k + 1], c.vel_decay, c.dt, F)
         unpack_upper(post_P[k], P)
         for a in range(NX):  # delta ← Fᵀ y
