@@ -32,10 +32,13 @@ figures: $(STAMP)
 quick: $(STAMP)
 	$(PY) -m wsnlib.reproduce --quick --jobs $(JOBS)
 
-# Tests in $(JOBS) processes, a test file per process (its fixtures are built once).
+# The notebook tests first and alone (the quick batch runs $(JOBS) notebooks at a time, and no other
+# test compiles kernels meanwhile, which would void its run-time check); then the rest in $(JOBS)
+# processes, a test file per process (its fixtures are built once).
 test: $(STAMP)
 	$(VENV)/bin/ruff check .
-	$(PY) -m pytest -n $(JOBS) --dist loadfile
+	$(PY) -m pytest -m notebook
+	$(PY) -m pytest -n $(JOBS) --dist loadfile -m "not notebook and not browser and not lab"
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
