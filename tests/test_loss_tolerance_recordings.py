@@ -272,6 +272,25 @@ def test_command_line_on_recording_files(tmp_path):
     assert "--loss applies to recording files" in _cli("--loss", "ge:0.1").stderr
 
 
+def test_the_health_check_names_the_unit_whose_field_is_disturbed(tmp_path):
+    rec = simulate_recording(reach_and_flex(fs=50.0, duration_s=6.0), rng=np.random.default_rng(0))
+    mag = rec.mag.copy()
+    mag[1, 100:200] *= 1.5              # the forearm passes a magnet for 2 s (a third of the samples)
+    _simulated(tmp_path / "walk.csv", duration_s=6.0, mag=mag)
+    units = lt.load_recordings([tmp_path / "walk.csv"], progress=False)
+    health = lt.units_health(units)
+    assert list(health.table.index) == ["walk/humerus", "walk/forearm"]
+    assert len(health.findings) == 1 and health.findings[0].startswith("walk/forearm: the magnetic field")
+    assert health.table.loc["walk/forearm", "mag_disturbed_share"] == pytest.approx(1 / 3, abs=0.01)
+    assert health.table.loc["walk/humerus", "mag_disturbed_share"] == 0.0
+    assert (health.table["fs_nominal_hz"] == 50.0).all()
+    # The command line prints it before the study.
+    run = _cli(tmp_path / "walk.csv", "--loss", "none", "--budget", "1", "--jobs", "1")
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert "Recording health: 1 finding(s)\n- walk/forearm: the magnetic field" in run.stdout
+    assert run.stdout.index("Recording health") < run.stdout.index("rmse_total_deg")
+
+
 def test_notebook_sources_take_trials_or_recordings_not_both():
     assert lt.notebook_sources("all", ["a.csv", "b.json"], quick=True) == ["a.csv", "b.json"]  # files all kept
     assert lt.notebook_sources(["02_undisturbed_slow_rotation_B", "07_undisturbed_fast_rotation_B", "x"],

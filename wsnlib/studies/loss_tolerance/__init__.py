@@ -12,6 +12,7 @@ Your own recording, start to finish::
 
     from wsnlib.studies import loss_tolerance as study
     units = study.load_recordings(["walk.csv", "run.csv"])      # one unit per node with a reference
+    print(study.units_health(units))                            # what to fix before a study
     result = study.evaluate(units, rng=np.random.default_rng(0))
     print(result.rmse_table())                                  # recording, node, method, profile, draw, RMSEs
 
@@ -118,6 +119,7 @@ from wsnlib.studies.loss_tolerance.recordings import (
     holdout_groups,
     load_recordings,
     notebook_sources,
+    units_health,
 )
 from wsnlib.studies.loss_tolerance.registry import (
     ABLATION,
@@ -164,5 +166,6 @@ __all__ = [
     "VQF_HYBRID_SPACE", "VQF_SPACE", "BurstPositions", "Choice", "LossToleranceResult", "Method", "Range",
     "StudyRecording", "all_broad", "default_methods", "evaluate", "from_broad", "from_recording", "holdout_groups",
     "inclination_methods", "load_recordings", "notebook_sources", "paper001_methods", "paper001_profiles",
-    "response_window_s", "settings_grid", "single_frame_trust", "space_grid", "study_profiles", "with_budget",
+    "response_window_s", "settings_grid", "single_frame_trust", "space_grid", "study_profiles", "units_health",
+    "with_budget",
 ]

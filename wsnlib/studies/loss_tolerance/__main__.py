@@ -26,7 +26,9 @@ often, the issue's targets with PASS/MISS and margins, the two side questions (d
 gating the single frame help the hybrids, does each gap handling help each filter) and
 where the best causal filter's error lies.  ``--out FILE.csv`` also writes the per-trial table.
 
-Either way, the runs go to local worker processes (``--jobs``, default one per core), or to a
+Either way, the recording health check (:func:`~wsnlib.studies.loss_tolerance.units_health`:
+repeated samples, reference vs gyroscope, magnetic field, units) is printed before the study
+runs.  The runs go to local worker processes (``--jobs``, default one per core), or to a
 Dask cluster (``--scheduler tcp://host:8786``); ``--budget N`` gives every method N settings
 (:func:`~wsnlib.studies.loss_tolerance.space_grid`, log-spaced between the physical bounds of its
 search space; default :data:`~wsnlib.studies.loss_tolerance.DEFAULT_BUDGET`), e.g. 1,000 over every BROAD trial on a
@@ -145,6 +147,7 @@ def _main_files(args, methods, loss_rng, where) -> int:
           + (f"tuned leave-one-recording-out at {headline}" if len(sources) > 1 else
              "one recording: every method with its default setting (nothing to tune on)")
           + f"; {args.draws} draw(s) per random profile, seed {args.seed}, on {where}")
+    print(study.units_health(units))
     start = time.perf_counter()
     result = _evaluate(units, methods, args, loss_rng, profiles=profiles, headline=headline)
     table = result.rmse_table()
@@ -185,6 +188,7 @@ def main(argv=None) -> int:
           f"{max(len(m.grid) for m in methods.values())} settings per method, on {where}")
     start = time.perf_counter()
     recordings = study.load_recordings(names, progress=False)
+    print(study.units_health(recordings))
     result = _evaluate(recordings, methods, args, loss_rng)
     elapsed = time.perf_counter() - start
     if args.out:

@@ -27,10 +27,12 @@ import dataclasses
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 from tqdm.auto import tqdm
 
 from wsnlib._validation import as_float_array, check_positive
 from wsnlib.io.broad import BroadTrial, broad_motion_group, broad_trials, load_broad
+from wsnlib.io.health import RecordingHealth, recording_health
 from wsnlib.io.recording import Recording, read_recording
 from wsnlib.io.resample import resample_broad
 from wsnlib.quaternion import as_quat_with_gaps
@@ -170,6 +172,41 @@ def from_recording(recording: Recording, name: str) -> dict[str, StudyRecording]
     if not units:
         raise ValueError(f"recording {name!r}: no node has a sample with a reference during movement")
     return units
+
+
+def units_health(units) -> RecordingHealth:
+    """:func:`wsnlib.io.health.recording_health` of every study unit, in one table.
+
+    What the study runs before any method sees a unit (:func:`~wsnlib.studies.loss_tolerance.
+    evaluate` keeps it as ``result.health``; the command line prints its findings first): the
+    repeated samples, the reference against the gyroscope (marker swaps), the magnetometer's norm
+    spread and disturbed share, and the units, each unit at its own ``fs`` (the time base itself
+    is regular by construction: BROAD is resampled, a file's steps are checked by
+    :func:`check_regular_time`).
+
+    Parameters
+    ----------
+    units : mapping name → StudyRecording
+        Or any object with ``fs`` (Hz), ``gyr``, ``acc``, ``mag`` ``(T, 3)``, ``quat_ref``
+        ``(T, 4)``.
+
+    Returns
+    -------
+    RecordingHealth
+        ``table`` indexed by unit name (the columns of :func:`~wsnlib.io.health.recording_health`);
+        ``findings`` each prefixed with its unit's name.
+    """
+    tables, findings = [], []
+    for name, unit in units.items():
+        fs = check_positive(getattr(unit, "fs", None), f"units[{name!r}].fs")
+        n = np.shape(unit.gyr)[0]
+        health = recording_health(np.arange(n) / fs, unit.gyr, unit.acc, unit.mag, unit.quat_ref, fs=fs,
+                                  names=[name])
+        tables.append(health.table)
+        findings += [f"{name}: {sentence}" for sentence in health.findings]
+    if not tables:
+        raise ValueError("units must hold at least one unit")
+    return RecordingHealth(table=pd.concat(tables), findings=tuple(findings))
 
 
 def all_broad(names) -> bool:
