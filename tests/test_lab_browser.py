@@ -7,7 +7,8 @@ Marked ``lab`` and deselected from the default run (pyproject ``addopts``); run 
 JupyterLab starts from the venv on a free port of 127.0.0.1 (no token: it answers only
 there), on a temporary copy of ``notebooks/`` whose parameters cell says ``quick = True``, with
 ``WSNLIB_OUTPUT_DIR`` pointing to a temporary folder (the checkout is not written to) and
-fresh user settings.  For each notebook, one kernel at a time, headless Chromium opens it
+fresh user settings (one server and one browser per test process: ``make lab-test`` runs two,
+then notebook 11 alone).  For each notebook, one kernel at a time, headless Chromium opens it
 as a student would, runs Run → Run All Cells and waits for the last cell; the test fails on
 a kernel-picker (or any) dialog, an error or stderr output, or a widget that does not render
 (``Loading widget…``, ``Error displaying widget``).  In notebook 01 it moves the first slider
@@ -20,7 +21,6 @@ status line) while its sender runs in the background.  Screenshots go to
 import json
 import os
 import re
-import shutil
 import socket
 import subprocess
 import sys
@@ -141,10 +141,10 @@ def driver(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def screenshots():
+    """The screenshots' folder; each test first deletes its notebook's old ones (``make lab-test`` runs
+    two processes, so the folder is not emptied here)."""
     folder = paths.output_root() / "build" / "lab-screenshots"
-    if folder.exists():
-        shutil.rmtree(folder)
-    folder.mkdir(parents=True)
+    folder.mkdir(parents=True, exist_ok=True)
     return folder
 
 
@@ -225,6 +225,8 @@ def _live_view_updates(driver, screenshots: Path) -> None:
 def test_notebook_runs_all_cells_cleanly_in_jupyterlab(notebook, lab, driver, screenshots):
     from selenium.webdriver.common.by import By
 
+    for old in screenshots.glob(f"{notebook.name[:2]}_*.png"):
+        old.unlink()
     started = time.monotonic()
     driver.get(f"{lab}/lab/tree/{notebook.name}?reset")
     _wait(lambda: driver.find_elements(By.CSS_SELECTOR, ".jp-NotebookPanel .jp-CodeCell"), 60,

@@ -19,6 +19,7 @@ import nbformat
 import pytest
 
 from wsnlib import batch_manifest, batch_selection, paths
+from wsnlib.run_times import stated_seconds
 
 NOTEBOOKS = batch_selection.list_notebooks()
 EVERY_NOTEBOOK = batch_selection.list_batch()  # the notebooks and the solutions notebooks
@@ -159,18 +160,11 @@ def test_executed_notebooks_show_no_warning_stderr_or_path_list(quick_batch):
 
 
 #: The run-time sentence of every notebook's first cell (seconds measured by the batch runner).
-RUN_TIME = re.compile(r"\*\*Run time\*\* \(measured by the batch runner[^)]*\): (?P<full>\d+) s in full mode, "
-                      r"(?P<quick>\d+) s in quick mode\.")
-
-
-def _stated_run_time(notebook):
-    intro = nbformat.read(notebook, as_version=4).cells[0].source
-    return RUN_TIME.search(" ".join(intro.split()))   # the sentence may wrap across lines
 
 
 def test_every_notebook_states_its_measured_run_time():
     for notebook in EVERY_NOTEBOOK:
-        assert _stated_run_time(notebook), f"{notebook.name}: no measured run time in the first cell"
+        assert stated_seconds(notebook), f"{notebook.name}: no measured run time in the first cell"
 
 
 @pytest.mark.notebook
@@ -186,7 +180,7 @@ def test_stated_quick_run_times_match_the_batch(quick_batch):
         pytest.skip("numba compiled kernels during the batch (a fresh clone or edited sources): its seconds "
                     "include compilation; .ci/run runs `make figures` first, which fills the cache")
     measured = {entry["notebook"]: entry["seconds"] for entry in manifest["notebooks"]}
-    statements = {batch_selection.notebook_name(nb): _stated_run_time(nb) for nb in EVERY_NOTEBOOK}
+    statements = {batch_selection.notebook_name(nb): stated_seconds(nb) for nb in EVERY_NOTEBOOK}
     missing = [name for name, statement in statements.items() if statement is None]
     assert not missing, f"no measured run time in the first cell of {missing}"
     stated = {name: float(statement["quick"]) for name, statement in statements.items()}

@@ -224,6 +224,24 @@ def test_notebooks_side_by_side_each_list_only_what_they_wrote(output_dir, tmp_p
                                                           f"data/processed/a0{i}_late.csv"]
 
 
+def test_side_by_side_the_longest_stated_notebooks_start_first(tmp_path):
+    def stating(name, full, quick):
+        path = tmp_path / name
+        _write_notebook(path, "pass")
+        nb = nbformat.read(path, as_version=4)
+        nb.cells.insert(0, nbformat.v4.new_markdown_cell(
+            "**Run time** (measured by the batch runner, `python -m wsnlib.reproduce --jobs 2`, on a shared 2-core\n"
+            f"machine in November 2026): {full} s in full mode, {quick} s in quick mode."))
+        nbformat.write(nb, path)
+        return path
+
+    notebooks = [stating("01_a.ipynb", 20, 9), stating("02_b.ipynb", 300, 3), tmp_path / "03_c.ipynb",
+                 stating("04_d.ipynb", 20, 30)]
+    _write_notebook(notebooks[2], "pass")  # states nothing: last
+    assert reproduce.longest_first(notebooks, quick=False) == [1, 0, 3, 2]  # name order among equals
+    assert reproduce.longest_first(notebooks, quick=True) == [3, 0, 1, 2]
+
+
 def test_side_by_side_a_failure_starts_nothing_more(output_dir, tmp_path, monkeypatch):
     nb_dir = tmp_path / "nbs"
     _write_notebook(nb_dir / "01_fails.ipynb", "raise RuntimeError('deliberate failure')")

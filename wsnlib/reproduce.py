@@ -7,8 +7,9 @@ Usage::
 Notebooks ``notebooks/NN_*.ipynb`` run in name order with the project's Jupyter kernel
 (:data:`wsnlib.paths.KERNEL_NAME`), then the solutions ``notebooks/solutions/NN_*.ipynb``
 in name order; ``--jobs N`` runs up to N of them at a time, each in its own kernel (they
-do not depend on one another).  Executed copies go to ``build/executed/`` and ``build/executed/solutions/``
-(gitignored).  ``data/processed/manifest.json`` records, per notebook (a solutions notebook
+do not depend on one another), the longest first by the run time each states
+(:func:`longest_first`; the manifest keeps name order).  Executed copies go to
+``build/executed/`` and ``build/executed/solutions/`` (gitignored).  ``data/processed/manifest.json`` records, per notebook (a solutions notebook
 as ``solutions/<name>``), the parameters, the run time, the status and every file it wrote
 below ``figures/``, ``data/processed/`` or ``data/raw/`` with its SHA-256:
 
@@ -101,6 +102,7 @@ from wsnlib.batch_manifest import (
     write_manifest,
 )
 from wsnlib.batch_selection import check_parameters, list_batch, notebook_name, parse_value
+from wsnlib.run_times import stated_seconds
 
 #: Default limit (s) on the run time of one cell: generous (the slowest cell of a full,
 #: non-quick run takes minutes), it only stops a batch that would otherwise hang forever.
@@ -217,6 +219,18 @@ def _report_failure(entry: dict, executed: Path) -> None:
           f"Executed copy: {executed}\nManifest: {manifest_path()}", file=sys.stderr)
 
 
+def longest_first(notebooks, quick: bool) -> list[int]:
+    """Indices of ``notebooks`` by the run time each states for the mode (:func:`wsnlib.run_times.
+    stated_seconds`), longest first, name order among equals (none stated: 0 s).
+
+    Side by side, a long notebook started last would run alone at the end while the other core
+    idles; started first, the short ones fill the other core meanwhile.
+    """
+    mode = "quick" if quick else "full"
+    seconds = [(stated_seconds(notebook) or {}).get(mode, 0.0) for notebook in notebooks]
+    return sorted(range(len(notebooks)), key=lambda i: -seconds[i])
+
+
 def _run(notebooks, parameters, quick, kernel, cell_timeout, socket_folder, jobs) -> int:
     """Run the notebooks one after the other, or up to ``jobs`` at a time (each in its own kernel).
 
@@ -278,7 +292,7 @@ def _run(notebooks, parameters, quick, kernel, cell_timeout, socket_folder, jobs
         progress.close()
         return max(codes, default=0)
     pool = ThreadPoolExecutor(max_workers=jobs)
-    futures = [pool.submit(one, i, nb) for i, nb in enumerate(notebooks)]
+    futures = [pool.submit(one, i, notebooks[i]) for i in longest_first(notebooks, quick)]
     try:
         pending = set(futures)
         while pending:

@@ -36,6 +36,16 @@ SENTENCE = re.compile(
 )
 
 
+def stated_seconds(notebook) -> dict[str, float] | None:
+    """The run time ``notebook`` states in its first cell: ``{"full": N, "quick": M}`` (s), or None.
+
+    ``python -m wsnlib.reproduce --jobs N`` starts the longest notebooks first by these numbers.
+    """
+    intro = nbformat.read(notebook, as_version=4).cells[0].source
+    match = SENTENCE.search(intro)
+    return None if match is None else {"full": float(match["full"]), "quick": float(match["quick"])}
+
+
 def _read(manifest: Path) -> dict:
     return json.loads(Path(manifest).read_text())
 
