@@ -9,8 +9,9 @@ Notebooks ``notebooks/NN_*.ipynb`` run in name order with the project's Jupyter 
 in name order; ``--jobs N`` runs up to N of them at a time, each in its own kernel (they
 do not depend on one another), the longest first by the run time each states
 (:func:`longest_first`; the manifest keeps name order).  Executed copies go to
-``build/executed/`` and ``build/executed/solutions/`` (gitignored).  ``data/processed/manifest.json`` records, per notebook (a solutions notebook
-as ``solutions/<name>``), the parameters, the run time, the status and every file it wrote
+``build/executed/`` and ``build/executed/solutions/`` (gitignored).
+``data/processed/manifest.json`` records, per notebook (a solutions notebook as
+``solutions/<name>``), the parameters, the run time, the status and every file it wrote
 below ``figures/``, ``data/processed/`` or ``data/raw/`` with its SHA-256:
 
 ``ok``
