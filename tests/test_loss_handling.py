@@ -652,7 +652,7 @@ H = {"blend": "output"}
         ({**H, "schedule": "exp"}, "schedule.*'decay'"),
         ({"blend": "both"}, "blend.*'output'.*'feedback'"),
         ({"gap": "linear"}, "gap.*'hold'.*'constant_rate'"),
-        ({"gap": "ar"}, "gap='ar' is not available for estimate_orientation"),
+        ({"gap": "hold", "gap_rate_prediction_window_s": 3.0}, "gap_rate_prediction_window_s only apply to gap=.ar."),
         ({"output_on_lost": "previous"}, "output_on_lost.*'estimate'.*'hold'"),
         ({"replay": 1}, "replay"),
         ({"replay": "yes"}, "replay"),

@@ -18,6 +18,7 @@ from wsnlib.orientation import (
     KalmanSettings,
     estimate_orientation,
     fusion_orientation,
+    gaps,
     kalman_orientation,
     madgwick,
     madgwick_step,
@@ -49,7 +50,8 @@ PEERS = [fusion_orientation, vqf_orientation]
 #: Every filter that runs over time.
 FILTERS = [MADGWICK, KALMAN, SMOOTHER, *PEERS]
 #: Filters, by the ``gap`` values they support.
-GAP_SUPPORT = {"estimate_orientation": ("hold", "constant_rate"), "kalman_orientation": ("hold", "constant_rate", "ar"),
+GAP_SUPPORT = {"estimate_orientation": ("hold", "constant_rate", "ar"),
+               "kalman_orientation": ("hold", "constant_rate", "ar"),
                "smooth_orientation": ("hold", "constant_rate", "ar"),
                "fusion_orientation": ("hold", "constant_rate", "ar"),
                "vqf_orientation": ("hold", "constant_rate", "ar")}
@@ -123,7 +125,8 @@ def test_output_on_lost_and_blend_values_are_checked(rec, run):
 
 NO_LOSS_OPTIONS = {
     MADGWICK: [{"gap": "constant_rate"}, {"replay": True}, {"output_on_lost": "hold"}, {"blend": "feedback"},
-               {"gap": "constant_rate", "replay": True, "blend": "output", "method": "adaptive_beta"}],
+               {"gap": "constant_rate", "replay": True, "blend": "output", "method": "adaptive_beta"},
+               {**PEER_AR, "replay": True}],
     KALMAN: [{"gap": "constant_rate"}, {"gap": "hold"}, {"replay": False}, {"output_on_lost": "hold"}],
     SMOOTHER: [{"gap": "constant_rate"}, {"gap": "hold"}, {"interpolate_gaps": False}],
     fusion_orientation: [{"gap": "constant_rate"}, {"output_on_lost": "hold"}, {"blend": "feedback"},
@@ -148,6 +151,7 @@ HOLD_OUTPUT_CASES = [
     (MADGWICK, {"gap": "constant_rate"}),
     (MADGWICK, {"gap": "constant_rate", "gap_time_constant": 0.2, "replay": True, "blend": "feedback"}),
     (MADGWICK, {"gap": "constant_rate", "method": "adaptive_beta", "blend": "output"}),
+    (MADGWICK, {**PEER_AR, "replay": True}),
     (KALMAN, {}),
     (KALMAN, {"gap": "constant_rate", "replay": False}),
     (fusion_orientation, {"gap": "constant_rate"}),
@@ -180,6 +184,8 @@ REPLAY_CASES = [
     (MADGWICK, {"gap": "constant_rate"}),
     (MADGWICK, {"gap": "constant_rate", "gap_time_constant": 0.1, "blend": "feedback"}),
     (MADGWICK, {"method": "adaptive_beta", "output_on_lost": "hold"}),
+    (MADGWICK, PEER_AR),
+    (MADGWICK, {**PEER_AR, "blend": "feedback"}),
     (KALMAN, {}),
     (KALMAN, {"gap": "constant_rate"}),
     (KALMAN, {"gap": "hold"}),
@@ -277,6 +283,33 @@ def test_replay_with_gap_hold_is_the_gyroscope_interpolation(with_q0):
     assert error_deg(out[47], plain[47]) > 0.5
 
 
+def test_madgwick_with_gap_ar_turns_by_the_gap_modules_rates(rec):
+    """In a gap Madgwick's state turns, gyroscope only, by :func:`gaps.gap_rates`' AR prediction of the
+    raw rates; with ``replay`` the gap is re-run at its end with its replay rates, then updated."""
+    gyr, acc, mag, _, received = rec
+    row, (start, end) = 0, (120, 126)  # row 0's second gap: a full 1-s window of rates precedes it
+    order = round(PEER_AR["gap_rate_prediction_span_s"] * FS)
+    window = round(PEER_AR["gap_rate_prediction_window_s"] * FS)
+    history = gyr[:start].copy()  # the first gap's rows: what the module gave there (less than a window before it)
+    history[40:58] = gaps.gap_rates(np.ascontiguousarray(gyr[:40]), 18, gyr[58], gaps.AR, 1.0, order, window)[0]
+    predicted, replayed = gaps.gap_rates(np.ascontiguousarray(history), end - start, gyr[end], gaps.AR, 1.0, order,
+                                         window)
+    out = MADGWICK(gyr, acc, mag, fs=FS, received=received, **PEER_AR)
+    q = out[row, start - 1]
+    for k in range(end - start):
+        q = _rotate_first_order(q, predicted[k], 1.0 / FS)
+        np.testing.assert_allclose(Q.canonical(out[row, start + k]), Q.canonical(q), atol=1e-12)
+    on = MADGWICK(gyr, acc, mag, fs=FS, received=received, replay=True, **PEER_AR)
+    q = on[row, start - 1]
+    for k in range(end - start):
+        q = _rotate_first_order(q, replayed[k], 1.0 / FS)
+    q = madgwick_step(q, gyr[end], acc[end], mag[end], 1.0 / FS, BETA)
+    np.testing.assert_allclose(Q.canonical(on[row, end]), Q.canonical(q), atol=1e-12)
+    # not the constant rate's prediction
+    held_rate = MADGWICK(gyr, acc, mag, fs=FS, received=received, gap="constant_rate")
+    assert error_deg(out[row, end - 1], held_rate[row, end - 1]) > 1e-3
+
+
 # ================================================================ (5) keywords a call does not use are refused
 
 #: (keywords, the keyword the message names); for estimate_orientation (method "madgwick").
@@ -295,13 +328,16 @@ MADGWICK_UNUSED = [
     ({"beta_max": 0.5, "method": "dt_extension"}, "beta_max"),
     ({"gap_time_constant": 0.2}, "gap_time_constant"),
     ({"gap_time_constant": 0.2, "replay": True}, "gap_time_constant"),
+    ({"gap_rate_prediction_span_s": 0.5}, "gap_rate_prediction_span_s"),
+    ({"gap_rate_prediction_window_s": 3.0, "gap": "constant_rate"}, "gap_rate_prediction_window_s"),
 ]
 
 
 @pytest.mark.parametrize("keywords, name", MADGWICK_UNUSED, ids=lambda v: v if isinstance(v, str) else _ids(v))
 def test_estimate_orientation_refuses_keywords_it_would_ignore(rec, keywords, name):
     gyr, acc, mag, _, received = rec
-    with pytest.raises(ValueError, match=f"^{name} (is|are) not used by estimate_orientation|^{name} is only used"):
+    with pytest.raises(ValueError, match=f"^{name} (is|are) not used by estimate_orientation|^{name} is only used"
+                                         f"|^{name} only apply to gap='ar'"):
         MADGWICK(gyr, acc, mag, fs=FS, received=received, **keywords)
 
 

@@ -37,15 +37,18 @@ support:
     What the filter's *state* does inside a gap: ``"hold"`` (it stays where it was),
     ``"constant_rate"`` (it keeps turning by the last received angular rate, optionally
     decaying with ``gap_time_constant`` s; dead reckoning, gyroscope only) or ``"ar"`` (by an
-    autoregressive prediction of the rate fitted on the rates before the gap; Kalman filter
-    and smoother).  Defaults: ``"hold"`` for Madgwick's family and the peers, ``"ar"`` for the
+    autoregressive prediction of the rate fitted on the rates before the gap, :mod:`.gaps`;
+    its span and window ``gap_rate_prediction_span_s`` and ``gap_rate_prediction_window_s``
+    are :class:`KalmanSettings` fields for the Kalman filter and smoother, keywords for the
+    others).  Defaults: ``"hold"`` for Madgwick's family and the peers, ``"ar"`` for the
     Kalman filter and the smoother.
 ``replay``
     ``True``: when the first sample after a gap arrives, re-run the gap from the state at its
     start with rates that meet the first received one (paper 001's gyroscope interpolation,
-    applied to the state), then update.  Causal: it changes the state from the gap's end on,
-    never what was output on the lost samples.  Madgwick's family and the Kalman filter
-    (default on there).
+    applied to the state; with ``gap="ar"`` the prediction corrected towards the first received
+    rate), then update.  Causal: it changes the state from the gap's end on, never what was
+    output on the lost samples.  Madgwick's family, the peers and the Kalman filter (default on
+    there).
 ``output_on_lost``
     What is *output* on a lost sample: ``"estimate"`` (the filter's state: held or predicted,
     per ``gap``) or ``"hold"`` (the previous output, what a receiver that shows only measured

@@ -16,6 +16,7 @@ import numpy as np
 
 from wsnlib._validation import as_float_array, real_array
 from wsnlib.orientation import _kernels as K
+from wsnlib.orientation import gaps
 from wsnlib.plausibility import SAMPLE_NORM_MAX, check_imu_plausible, implausible_samples
 
 #: Largest sampling rate (Hz) and smallest one accepted: outside, Δt·|ω| or β·Δt overflow.
@@ -363,14 +364,15 @@ def raise_on_status(status: np.ndarray, batch: tuple[int, ...], **params) -> Non
 
 def run_filter(signals, received, q0, batch, *, fs, method=K.STANDARD, replay=False, blend=K.NO_BLEND, beta=0.0,
                beta_max=None, rho=1.0, tau=1.0, schedule=K.DECAY, window=1, gap="hold", gap_time_constant=None,
-               single_frame_gate=None) -> np.ndarray:
+               ar_order=1, ar_window=0, single_frame_gate=None) -> np.ndarray:
     """Madgwick's filter with a loss-handling method over a batch: ``(*batch, T, 4)``.
 
     ``signals`` from :func:`check_inputs` (checked here with :func:`check_usable`), ``received``
     ``(..., T)`` bool or None, ``q0`` ``(..., 4)`` unit or None (then every batch element must
     receive a sample), ``batch`` the broadcast of all leading shapes, parameters (scalars or
     arrays broadcasting to ``batch``) as in :func:`._kernels.filter_stream`; ``gap`` and
-    ``gap_time_constant`` checked by :func:`check_gap` (``"hold"`` or ``"constant_rate"``);
+    ``gap_time_constant`` checked by :func:`check_gap`, ``ar_order`` and ``ar_window`` (samples)
+    the AR predictor's with ``gap="ar"``;
     ``single_frame_gate`` the gated hybrid's vector (:data:`._kernels.GATE_SIZE` floats, needs
     ``mag``) or None.
     """
@@ -390,8 +392,9 @@ def run_filter(signals, received, q0, batch, *, fs, method=K.STANDARD, replay=Fa
     beta_max = beta if beta_max is None else beta_max
     params = [per_element(x, batch) for x in (beta, beta_max, rho, tau)]
     windows = per_element(window, batch, np.int64)
-    predict = gap == "constant_rate"
-    factor = rate_factor(gap_time_constant, fs)
+    gap_settings = gaps.new_gap_state(gaps.GAP_CODES[gap], rate_factor(gap_time_constant, fs), ar_order, ar_window)
+    # The rate history: the AR fit's window and the longest gap replayed with its predicted rates.
+    history_rows = gaps.history_length(ar_window, int(np.ceil(gaps.LONGEST_AR_REPLAY_S * fs))) if gap == "ar" else 2
     gated = single_frame_gate is not None
     gate = np.zeros(K.GATE_SIZE) if single_frame_gate is None else np.asarray(single_frame_gate, dtype=float)
     flat_out = out.reshape(-1, n_t, 4)
@@ -399,12 +402,12 @@ def run_filter(signals, received, q0, batch, *, fs, method=K.STANDARD, replay=Fa
     if status.size == 1:  # one stream: the loop itself, no thread start-up
         status[0] = K.filter_stream(gyr[0], acc[0], mag[0], use_mag, masks[0], starts[0], q0 is not None,
                                     method, replay, blend, 1.0 / fs, *(x[0] for x in params), schedule, windows[0],
-                                    predict, factor, gated, gate, flat_out[0])
+                                    gap_settings, history_rows, gated, gate, flat_out[0])
     else:
         index = [index_into(shape, batch) for shape in (signals["gyr"].shape[:-2], signals["acc"].shape[:-2],
                                                         signals["mag"].shape[:-2] if use_mag else (),
                                                         mask.shape[:-1], () if q0 is None else q0.shape[:-1])]
         K.run_filter(gyr, acc, mag, use_mag, masks, starts, q0 is not None, *index, method, replay, blend, 1.0 / fs,
-                     *params, schedule, windows, predict, factor, gated, gate, flat_out, status)
+                     *params, schedule, windows, gap_settings, history_rows, gated, gate, flat_out, status)
     raise_on_status(status, batch, fs=fs, beta=beta)
     return out

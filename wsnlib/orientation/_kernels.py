@@ -174,19 +174,22 @@ def run_single_frame_trust(gyr, acc, mag, received, i_gyr, i_acc, i_mag, i_rx, g
 
 @njit(**COMPILE)
 def filter_stream(gyr, acc, mag, use_mag, received, q0, has_q0, method, replay, blend, dt, beta, beta_max,
-                  rho, tau, schedule, window, predict_gap, rate_factor, gated, gate, out):
+                  rho, tau, schedule, window, gap_settings, history_rows, gated, gate, out):
     """Madgwick's filter with the loss options over one recording; returns a status.
 
     ``gyr``, ``acc``, ``mag`` ``(T, 3)`` (only received samples are read), ``received`` ``(T,)``,
     ``q0`` ``(4,)`` used if ``has_q0`` (else the filter starts from TRIAD, or the tilt without
     ``mag``, of the first received sample, which then only initialises), ``out`` ``(T, 4)``.
     ``method`` the update rule (:data:`STANDARD`, :data:`DT_EXTENSION`, :data:`ADAPTIVE_BETA`).
-    What happens in a gap is :mod:`wsnlib.orientation.gaps`'s: on a lost sample the output is
-    the previous output (``"hold"``), or with ``predict_gap`` the state turned by the gap
-    module's ``"constant_rate"`` (the last received rate, times ``rate_factor`` per lost
-    sample).  With ``replay`` the first received sample after a gap first re-runs the gap from
-    the state at its start, gyroscope only, at the gap module's replay rates (linear between
-    both ends).  ``blend``: the
+    What happens in a gap is :mod:`wsnlib.orientation.gaps`'s, for the settings of the record
+    ``gap_settings`` (:func:`~wsnlib.orientation.gaps.new_gap_state`, copied here) and a rate
+    history of ``history_rows`` rows (:func:`~wsnlib.orientation.gaps.history_length`): on a
+    lost sample the output is the previous output (``"hold"``), or the state turned,
+    gyroscope only, by the gap module's rate (``"constant_rate"``: the last received rate,
+    times the record's ``factor`` per lost sample; ``"ar"``: the autoregressive prediction).
+    With ``replay`` the first received sample after a gap first re-runs the gap from the state
+    at its start, gyroscope only, at the gap module's replay rates (the AR prediction corrected
+    towards the measured rate, else linear between both ends).  ``blend``: the
     hybrid's SLERP (:data:`NO_BLEND`, :data:`OUTPUT_BLEND`, :data:`FEEDBACK_BLEND`); with
     ``gated`` it skips eq. (4) (μ = 1) on every sample whose TRIAD :func:`single_frame_check`
     (vector ``gate``) does not trust.  See :func:`wsnlib.orientation.estimate_orientation`.
@@ -212,13 +215,15 @@ def filter_stream(gyr, acc, mag, use_mag, received, q0, has_q0, method, replay, 
     run = 0  # samples lost since the last received one (after the start)
     last = -1  # last received sample
     q_last = q  # the state at that sample: where a replay starts
-    # The gap module's record and rate history (raw rates; no AR prediction here, so the ring
-    # needs no window) and its unused scratch.
-    gap_array = np.zeros(1, gaps.GAP_DTYPE)
+    # The gap module's record and its history of the raw rates; the AR fit's scratch.
+    gap_array = gap_settings.copy()
     gs = gap_array[0]
-    gs.mode, gs.factor, gs.order, gs.window = gaps.CONSTANT_RATE if predict_gap else gaps.HOLD, rate_factor, 1, 0
-    history = np.zeros((2, 3))
-    scratch_A, scratch_r, no_weights, no_prediction = np.empty((1, 1)), np.empty(2), np.empty((3, 0)), np.empty(3)
+    turns_in_gap = gs.mode != gaps.HOLD
+    history = np.zeros((history_rows, 3))
+    fits = gs.mode == gaps.AR
+    scratch_A = np.empty((gaps.MAX_ORDER, gaps.MAX_ORDER + 1) if fits else (1, 1))
+    scratch_r = np.empty(gaps.MAX_ORDER + 1 if fits else 2)
+    predicted = np.empty(3)
     trusted, ref_norm, ref_dip = True, 0.0, 0.0  # gated hybrid: the field's reference
     for t in range(n_t):
         rx = received[t]
@@ -229,7 +234,7 @@ def filter_stream(gyr, acc, mag, use_mag, received, q0, has_q0, method, replay, 
                 run += 1
                 if last >= 0:
                     g_gap = gaps.gap_lost(gs, history, scratch_A, scratch_r)
-                    if predict_gap:  # dead reckoning on the gap module's rate
+                    if turns_in_gap:  # dead reckoning on the gap module's rate
                         q = madgwick_update(q, g_gap, g_gap, g_gap, False, dt, 0.0)
                         shown = q
             _store(out, t, shown)
@@ -248,11 +253,13 @@ def filter_stream(gyr, acc, mag, use_mag, received, q0, has_q0, method, replay, 
             continue
         if replay and run > 0:
             # Replay the lost samples from the state at the gap's start, gyroscope only, at the
-            # gap module's replay rates (linear from the last received rate; for a gap at the
-            # start, the first received one).
+            # gap module's replay rates (the AR prediction corrected towards g, else linear from
+            # the last received rate; for a gap at the start, the first received one).
             q = q_last
+            weights = np.empty((3, run + 1))
+            use_ar = fits and last >= 0 and gaps.replay_weights(gs, history, g, weights, np.empty(run + 1), predicted)
             for k in range(1, run + 1):
-                g_k = gaps.replay_rate(gs, history, k, g, False, no_weights, no_prediction) if last >= 0 else g
+                g_k = gaps.replay_rate(gs, history, k, g, use_ar, weights, predicted) if last >= 0 else g
                 q = madgwick_update(q, g_k, a, m, use_mag, dt, 0.0)
         dt_gyro = dt * (1.0 + run) if method == DT_EXTENSION else dt
         beta_dt = beta * dt
@@ -278,8 +285,8 @@ def filter_stream(gyr, acc, mag, use_mag, received, q0, has_q0, method, replay, 
 
 @njit(parallel=True, **COMPILE)
 def run_filter(gyr, acc, mag, use_mag, received, q0, has_q0, i_gyr, i_acc, i_mag, i_rx, i_q0,
-               method, replay, blend, dt, beta, beta_max, rho, tau, schedule, window, predict_gap, rate_factor, gated,
-               gate, out, status):
+               method, replay, blend, dt, beta, beta_max, rho, tau, schedule, window, gap_settings, history_rows,
+               gated, gate, out, status):
     """:func:`filter_stream` for every batch element ``b`` of ``out`` ``(B, T, 4)``, in parallel.
 
     Element ``b`` reads recording ``gyr[i_gyr[b]]`` (likewise ``acc``, ``mag``), mask
@@ -289,7 +296,7 @@ def run_filter(gyr, acc, mag, use_mag, received, q0, has_q0, i_gyr, i_acc, i_mag
     for b in prange(out.shape[0]):
         status[b] = filter_stream(gyr[i_gyr[b]], acc[i_acc[b]], mag[i_mag[b]], use_mag, received[i_rx[b]],
                                   q0[i_q0[b]], has_q0, method, replay, blend, dt, beta[b], beta_max[b], rho[b],
-                                  tau[b], schedule, window[b], predict_gap, rate_factor, gated, gate, out[b])
+                                  tau[b], schedule, window[b], gap_settings, history_rows, gated, gate, out[b])
 
 
 @njit(parallel=True, **COMPILE)

@@ -59,6 +59,9 @@ HOLD, CONSTANT_RATE, AR = 0, 1, 2
 GAP_CODES = {"hold": HOLD, "constant_rate": CONSTANT_RATE, "ar": AR}
 #: Largest order of the AR predictor.
 MAX_ORDER = 64
+#: Longest gap (s) replayed with the AR prediction's own rates (a longer one: the linear ramp); it
+#: sizes a filter's rate history (:func:`history_length`).
+LONGEST_AR_REPLAY_S = 10.0
 #: Ridge of the AR fit, relative to the mean squared rate of the window (and at least this in
 #: (rad/s)²): keeps a window of near rest from fitting its noise.
 AR_RIDGE = 1e-3

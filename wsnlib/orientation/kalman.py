@@ -477,10 +477,6 @@ def kalman_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
 # One sample at a time: the compiled step on a named state (a live receiver's filter)
 # ==========================================================================================
 
-#: Longest gap (s) a live state replays with the AR prediction's own rates (longer: the linear ramp).
-LONGEST_AR_REPLAY_S = 10.0
-
-
 class KalmanState:
     """One stream's filter between samples: named, copyable, advanced by :func:`kalman_step`.
 
@@ -542,7 +538,7 @@ def kalman_initial_state(*, fs: float, settings=None, q0=None, has_mag: bool = T
         raise ValueError(f"q0 must be one quaternion (4,), got shape {start.shape}")
     K.initial_state(record[0], c[0], start)
     window = int(c["ar_window"][0])
-    history = np.zeros((gaps.history_length(window, int(np.ceil(LONGEST_AR_REPLAY_S * fs))), 3))
+    history = np.zeros((gaps.history_length(window, int(np.ceil(gaps.LONGEST_AR_REPLAY_S * fs))), 3))
     gap_state = gaps.new_gap_state(int(c["gap"][0]), float(c["gap_factor"][0]), int(c["ar_order"][0]), window)
     return KalmanState(c, record, gap_state, history, np.zeros(1, K.WORK_DTYPE), started=q0 is not None)
 

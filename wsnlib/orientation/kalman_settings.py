@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wsnlib._validation import check_settings_fields
+from wsnlib._validation import check_positive, check_settings_fields
 from wsnlib.orientation import gaps
 
 # ==========================================================================================
@@ -285,6 +285,19 @@ def gap_prediction_order(settings: KalmanSettings, dt: float) -> int:
     """The rate predictor's order (samples) at Δt (s): ``round(gap_rate_prediction_span_s / Δt)`` in
     ``[1, MAX_ORDER]``."""
     return int(min(max(round(settings.gap_rate_prediction_span_s / dt), 1), gaps.MAX_ORDER))
+
+
+def gap_prediction_window(gap: str, span_s, window_s, fs: float, filter_name: str) -> tuple[int, int]:
+    """The AR predictor's order and window (samples) at ``fs`` (Hz) from its span and window (s;
+    None: :class:`KalmanSettings`' defaults), for a filter other than the Kalman filter that takes
+    ``gap="ar"`` (Madgwick's, the peers); ``ValueError`` when they are given with another ``gap``."""
+    given = {name: value for name, value in (("gap_rate_prediction_span_s", span_s),
+                                              ("gap_rate_prediction_window_s", window_s)) if value is not None}
+    if given and gap != "ar":
+        raise ValueError(f"{', '.join(given)} only apply to gap='ar' in {filter_name} (the linear prediction's "
+                         f"span and window), got gap={gap!r}")
+    settings = KalmanSettings(**{name: check_positive(value, name) for name, value in given.items()})
+    return gap_prediction_order(settings, 1.0 / fs), round(settings.gap_rate_prediction_window_s * fs)
 
 
 def kalman_constants(settings: KalmanSettings, dt: float, *, gap: int, replay: bool, gap_time_constant: float,

@@ -34,6 +34,7 @@ import numpy as np
 from wsnlib.orientation import _batch as B
 from wsnlib.orientation import _kernels as K
 from wsnlib.orientation.hybrid_blend import check_single_frame_gate
+from wsnlib.orientation.kalman_settings import gap_prediction_window
 from wsnlib.orientation.lost_run import SCHEDULE_CODES, check_weight_options, effective_lost_run_unchecked
 
 #: Madgwick's update after a gap (``method``): the standard one, or one of paper 001's Sec. V.
@@ -55,8 +56,9 @@ _NOW_SPELLED = {"hold_last": "the default (method='madgwick')", "gyro_interpolat
 
 def estimate_orientation(gyr, acc, mag=None, *, fs: float, beta, received=None, q0=None, method: str = "madgwick",
                          gap: str = "hold", replay: bool = False, output_on_lost: str = "estimate",
-                         gap_time_constant=None, blend: str | None = None, rho=None, tau=None, schedule=None,
-                         hold_window=None, single_frame_gate=None, beta_max=None, return_weight: bool = False):
+                         gap_time_constant=None, gap_rate_prediction_span_s=None, gap_rate_prediction_window_s=None,
+                         blend: str | None = None, rho=None, tau=None, schedule=None, hold_window=None,
+                         single_frame_gate=None, beta_max=None, return_weight: bool = False):
     """Madgwick's filter under packet loss with every loss-handling option, batched.
 
     Madgwick's filter (:mod:`wsnlib.orientation.madgwick`) runs on the received samples.  The
@@ -123,18 +125,25 @@ def estimate_orientation(gyr, acc, mag=None, *, fs: float, beta, received=None, 
         With ``q0`` a gap at the start is a gap like any other.
     method : {"madgwick", "dt_extension", "adaptive_beta"}
         The update after a gap (above); ``"madgwick"``: the standard one.
-    gap : {"hold", "constant_rate"}
-        What the state does in a gap: stay (the paper's receiver), or keep turning by the
-        last received angular rate (dead reckoning, gyroscope only; the method acts from there
-        when the gap ends).  (``"ar"``, the autoregressive prediction, is the Kalman filter's.)
+    gap : {"hold", "constant_rate", "ar"}
+        What the state does in a gap: stay (the paper's receiver), keep turning by the last
+        received angular rate (dead reckoning, gyroscope only; the method acts from there when
+        the gap ends), or turn by the autoregressive prediction of the raw rate fitted at the
+        gap's start (:mod:`wsnlib.orientation.gaps`, the Kalman filter's gap module).
     replay : bool
-        Re-run the gap at its end from the state at its start (above).
+        Re-run the gap at its end from the state at its start (above); with ``gap="ar"`` the
+        replay's rates are the AR prediction corrected towards the first received rate
+        (:func:`wsnlib.orientation.gaps.replay_rate`) instead of the linear ramp.
     output_on_lost : {"estimate", "hold"}
         What is output on a lost sample: the filter's estimate (the held state with
-        ``gap="hold"``, the prediction with ``"constant_rate"``), or the previous output.
+        ``gap="hold"``, the prediction otherwise), or the previous output.
     gap_time_constant : float, optional
         With ``"constant_rate"``: the extrapolated rate decays as ``exp(−t/τ)``, τ in s;
         ``None`` or ``inf``: constant.
+    gap_rate_prediction_span_s, gap_rate_prediction_window_s : float, optional
+        With ``gap="ar"`` only: the predictor's span (its order is the span in samples) and the
+        window of rates it is fitted on (s).  ``None``: :class:`wsnlib.orientation.KalmanSettings`'
+        defaults (0.96 s, 6 s).
     blend : {None, "output", "feedback"}
         Paper 001's hybrid (above); ``None``: none.
     rho, tau : float or array_like, optional
@@ -180,7 +189,8 @@ def estimate_orientation(gyr, acc, mag=None, *, fs: float, beta, received=None, 
         where nothing uses it (``rho``, ``tau``, ``schedule``, ``hold_window`` without
         ``blend``, ``"adaptive_beta"`` or ``return_weight``; ``single_frame_gate`` without
         ``blend``; ``beta_max`` without ``"adaptive_beta"``; ``gap_time_constant`` with
-        ``gap="hold"``); ``"dt_extension"`` with ``gap="constant_rate"`` or ``replay``; ρ or
+        ``gap="hold"``; ``gap_rate_prediction_*`` without ``gap="ar"``); ``"dt_extension"``
+        with another ``gap`` than ``"hold"`` or with ``replay``; ρ or
         τ <= 0, NaN or inf; β < 0 or not finite; ``beta_max`` < β or not finite;
         ``hold_window`` not a positive integer with ``schedule="hold"`` or given with another
         schedule; ``mag`` None with ``blend``; and everything
@@ -200,12 +210,12 @@ def estimate_orientation(gyr, acc, mag=None, *, fs: float, beta, received=None, 
     if isinstance(method, str) and method in _NOW_SPELLED:
         raise ValueError(f"method={method!r} is now {_NOW_SPELLED[method]}")
     method = B.check_choice(method, "method", METHODS)
-    gap, gap_time_constant = B.check_gap(gap, gap_time_constant, "estimate_orientation")
+    gap, gap_time_constant = B.check_gap(gap, gap_time_constant, "estimate_orientation", supported=B.GAPS)
     replay = B.check_flag(replay, "replay")
     hold_output = B.check_output_on_lost(output_on_lost)
     if method == "dt_extension" and (gap != "hold" or replay):
         raise ValueError("method='dt_extension' fills the gap with the gyroscope its own way: not with "
-                         "gap='constant_rate' or replay=True")
+                         f"gap={gap!r} or replay=True")
     blend = B.check_blend(blend, mag, "estimate_orientation")
     uses_mu = blend is not None or method == "adaptive_beta"
     if not uses_mu and not return_weight:
@@ -220,6 +230,8 @@ def estimate_orientation(gyr, acc, mag=None, *, fs: float, beta, received=None, 
         raise ValueError("return_weight is not available with single_frame_gate (μ then depends on the signals)")
     rho, tau, schedule, window = check_weight_options(rho, tau, schedule, hold_window)
     fs = B.check_fs(fs)
+    ar_order, ar_window = gap_prediction_window(gap, gap_rate_prediction_span_s, gap_rate_prediction_window_s, fs,
+                                                "estimate_orientation")
     beta = B.check_beta(beta)
     beta_max = DEFAULT_BETA_MAX_FACTOR * beta if beta_max is None else B.check_beta(beta_max, "beta_max")
 
@@ -249,6 +261,7 @@ def estimate_orientation(gyr, acc, mag=None, *, fs: float, beta, received=None, 
                         blend=_BLEND_CODES[blend], beta=beta, beta_max=beta_max if method == "adaptive_beta" else beta,
                         **({"rho": rho, "tau": tau, "window": 1 if window is None else window} | unused),
                         schedule=SCHEDULE_CODES[schedule], gap=gap, gap_time_constant=gap_time_constant,
+                        ar_order=ar_order, ar_window=ar_window,
                         single_frame_gate=None if gate is None else gate.vector(fs))
     if hold_output:
         B.hold_lost_output(quat, mask)

@@ -135,7 +135,7 @@ from wsnlib.orientation import _batch as B
 from wsnlib.orientation import _kernels as K
 from wsnlib.orientation import gaps
 from wsnlib.orientation.hybrid_blend import blend_with_single_frame, check_single_frame_gate, trusted_unchecked
-from wsnlib.orientation.kalman_settings import KalmanSettings, gap_prediction_order
+from wsnlib.orientation.kalman_settings import gap_prediction_window
 from wsnlib.orientation.lost_run import check_weight_options, effective_lost_run, slerp_weight
 from wsnlib.orientation.triad import triad
 
@@ -201,18 +201,6 @@ class _GapRates:
         return gaps.gap_rates(np.ascontiguousarray(history), n_lost, measured, *self._settings)
 
 
-def _gap_prediction_window(gap, span_s, window_s, fs: float, filter_name: str) -> tuple[int, int]:
-    """The AR predictor's order and window (samples) at ``fs`` from the span and window (s; None:
-    :class:`KalmanSettings`' defaults), which only ``gap="ar"`` takes."""
-    given = {name: value for name, value in (("gap_rate_prediction_span_s", span_s),
-                                              ("gap_rate_prediction_window_s", window_s)) if value is not None}
-    if given and gap != "ar":
-        raise ValueError(f"{', '.join(given)} only apply to gap='ar' in {filter_name} (the linear prediction's "
-                         f"span and window), got gap={gap!r}")
-    settings = KalmanSettings(**{name: check_positive(value, name) for name, value in given.items()})
-    return gap_prediction_order(settings, 1.0 / fs), round(settings.gap_rate_prediction_window_s * fs)
-
-
 def _feedback_inputs(signals, mask, rho, tau, schedule, window, gate=None, fs=None):
     """Where the feedback blends ``(*batch, T)``, TRIAD there ``(*batch, T, 4)`` and μ ``(*batch, T)``."""
     started_gap = mask | ~np.logical_or.accumulate(mask, axis=-1)  # no gap before the first sample
@@ -268,7 +256,7 @@ class _Options:
                  blend, rho, tau, schedule, hold_window, single_frame_gate):
         gap, gap_time_constant = B.check_gap(gap, gap_time_constant, filter_name, supported=B.GAPS)
         self.gap_factor = None if gap == "hold" else B.rate_factor(gap_time_constant, fs)
-        order, window = _gap_prediction_window(gap, span_s, window_s, fs, filter_name)
+        order, window = gap_prediction_window(gap, span_s, window_s, fs, filter_name)
         self.gap = _GapRates(gap, self.gap_factor, B.check_flag(replay, "replay"), order, window)
         self.hold_output = B.check_output_on_lost(output_on_lost)
         self.blend = B.check_blend(blend, mag, filter_name)

@@ -118,7 +118,8 @@ METHOD_COLORS.update({"gated hybrid (feedback)": METHOD_COLORS["hybrid (feedback
                       "Fusion, AR": METHOD_COLORS["Fusion"], "VQF, AR": METHOD_COLORS["VQF"],
                       "Fusion (defaults)": METHOD_COLORS["Fusion"],
                       "Fusion (defaults), constant rate": METHOD_COLORS["Fusion"],
-                      "VQF (defaults), constant rate": METHOD_COLORS["VQF"]})
+                      "VQF (defaults), constant rate": METHOD_COLORS["VQF"],
+                      "Madgwick, AR": METHOD_COLORS["hold_last"], "Madgwick, AR + replay": METHOD_COLORS["hold_last"]})
 METHOD_MARKERS.update({"constant_rate": ">", "hybrid (feedback)": "D", "Kalman": "*", "smoother": "P",
                        "VQF (defaults)": "X"})
 METHOD_MARKERS.update({"gated hybrid (feedback)": "d", "Fusion + gated hybrid (feedback)": "H",
@@ -126,7 +127,8 @@ METHOD_MARKERS.update({"gated hybrid (feedback)": "d", "Fusion + gated hybrid (f
                        "VQF forward-backward": "8", "RIANN": "p", "Fusion, AR + replay": "3",
                        "VQF, AR + replay": "4", "Kalman, hold": "o", "Kalman, constant rate": ">", "Kalman, AR": "s",
                        "Fusion, AR": "s", "VQF, AR": "s", "Fusion (defaults)": "X",
-                       "Fusion (defaults), constant rate": "x", "VQF (defaults), constant rate": "x"})
+                       "Fusion (defaults), constant rate": "x", "VQF (defaults), constant rate": "x",
+                       "Madgwick, AR": "s", "Madgwick, AR + replay": "4"})
 
 
 def method_style(name: str, **overrides) -> dict:

@@ -53,7 +53,7 @@ Rules (the compiled code is :mod:`wsnlib.stream._receiver_kernels`):
 Online equals batch: without redundancy, with ``latency=0``, the output equals
 :func:`~wsnlib.orientation.kalman_orientation` on the dequantised samples with the same
 ``received`` mask, whatever the order of the packets inside the reorder window (tested to 1e-9;
-gaps up to :data:`~wsnlib.orientation.kalman.LONGEST_AR_REPLAY_S` s, the live state's rate
+gaps up to :data:`~wsnlib.orientation.gaps.LONGEST_AR_REPLAY_S` s, the live state's rate
 history).  With a latency at least the stream's length it equals
 :func:`~wsnlib.orientation.smooth_orientation` with ``interpolate_gaps=False``.
 """

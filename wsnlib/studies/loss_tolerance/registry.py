@@ -392,7 +392,9 @@ def default_methods(budget: int = DEFAULT_BUDGET) -> dict[str, Method]:
     ours.  Names follow notebook 05 (and :data:`wsnlib.plotting.METHOD_COLORS`).
 
     * Madgwick's filter (β) holding its output in a gap (``hold_last``), turning at the last
-      rate (``constant_rate``) or replaying the gap with a linear rate (``gyro_interpolation``);
+      rate (``constant_rate``), replaying the gap with a linear rate (``gyro_interpolation``),
+      and, for the ablation, with our gap module's AR prediction (``"Madgwick, AR"``) and its
+      replay (``"Madgwick, AR + replay"``);
       our hybrid, plain and *gated* (β × ρτ; the gated one applies the single frame only where
       :class:`wsnlib.orientation.SingleFrameGate` trusts it).
     * Our Kalman filter with our gap module (``"Kalman"``: the rate predicted by an AR model in a
@@ -433,6 +435,9 @@ def default_methods(budget: int = DEFAULT_BUDGET) -> dict[str, Method]:
         tuned("hold_last", "causal", BETA_SPACE, _madgwick, beta),
         tuned("constant_rate", "causal", BETA_SPACE, functools.partial(_madgwick, gap="constant_rate"), beta),
         tuned("gyro_interpolation", "causal", BETA_SPACE, functools.partial(_madgwick, replay=True), beta),
+        tuned("Madgwick, AR", "causal", BETA_SPACE, functools.partial(_madgwick, gap="ar"), beta),
+        tuned("Madgwick, AR + replay", "causal", BETA_SPACE, functools.partial(_madgwick, gap="ar", replay=True),
+              beta),
         tuned("hybrid (feedback)", "causal", HYBRID_SPACE, _hybrid, beta | rho_tau),
         tuned("gated hybrid (feedback)", "causal", HYBRID_SPACE, functools.partial(_hybrid, gated=True),
               beta | rho_tau),
@@ -503,10 +508,10 @@ def inclination_methods() -> dict[str, Method]:
 GAP_HANDLINGS = ("hold", "constant rate", "linear replay", "AR", "AR + replay")
 #: The ablation, filter × gap handling → method name (:func:`~wsnlib.studies.loss_tolerance.summary.
 #: ablation_table`): what the filter contributes (down a column) and what the gap module contributes
-#: (along a row).  Madgwick's filter has no AR prediction (its kernel does not fit one); the Kalman
-#: filter and the peers have no linear-replay variant in the registry.
+#: (along a row).  The Kalman filter and the peers have no linear-replay variant in the registry.
 ABLATION = {
-    "Madgwick": {"hold": "hold_last", "constant rate": "constant_rate", "linear replay": "gyro_interpolation"},
+    "Madgwick": {"hold": "hold_last", "constant rate": "constant_rate", "linear replay": "gyro_interpolation",
+                 "AR": "Madgwick, AR", "AR + replay": "Madgwick, AR + replay"},
     "Kalman": {"hold": "Kalman, hold", "constant rate": "Kalman, constant rate", "AR": "Kalman, AR",
                "AR + replay": "Kalman"},
     "Fusion": {"hold": "Fusion", "constant rate": "Fusion, constant rate", "AR": "Fusion, AR",
