@@ -42,6 +42,7 @@ from wsnlib.metrics.orientation import (
     broad_errors_deg,
     broad_rmse_deg,
     elbow_angle_deg,
+    rmse_of_errors_deg,
     segment_pitch_deg,
 )
 from wsnlib.metrics.position import position_error, precision_at_accuracy
@@ -58,4 +59,4 @@ __all__ = ["BROAD_ERROR_KEYS", "GAP_STEP_MAX", "GAP_STEP_MEAN", "JERK", "JITTER"
            "angular_jerk_rms_deg", "broad_errors_deg", "broad_rmse_deg", "burst_response", "elbow_angle_deg",
            "error_by_phase", "gap_end_mask", "gap_end_steps_deg", "loss_figures_of_merit", "max_abs_error",
            "position_error", "precision_at_accuracy", "quantile_error", "quat_gap_end_steps_deg", "recovery_time_s",
-           "segment_pitch_deg", "single_burst_response", "summary_table", "time_above_s"]
+           "rmse_of_errors_deg", "segment_pitch_deg", "single_burst_response", "summary_table", "time_above_s"]

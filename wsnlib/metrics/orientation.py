@@ -143,7 +143,13 @@ def broad_rmse_deg(quat_est, quat_ref, movement) -> dict[str, np.ndarray]:
         (never a silent NaN); on a non-boolean ``movement`` or the input errors of
         :func:`broad_errors_deg`.
     """
-    errors = broad_errors_deg(quat_est, quat_ref)
+    return rmse_of_errors_deg(broad_errors_deg(quat_est, quat_ref), movement)
+
+
+def rmse_of_errors_deg(errors, movement) -> dict[str, np.ndarray]:
+    """:func:`broad_rmse_deg` from errors already computed by :func:`broad_errors_deg` (same keys, same
+    rules: RMS over ``movement`` with NaN excluded; ``ValueError`` for a batch element with no such
+    sample), for a caller that also needs the errors per sample."""
     movement = as_bool_mask(movement, "movement", errors["total"].shape)
     valid = movement & ~np.isnan(errors["total"])
     count = np.count_nonzero(valid, axis=-1)

@@ -163,7 +163,10 @@ def quat_gap_end_steps_deg(quat, received) -> dict[str, np.ndarray]:
         raise ValueError(f"quat needs at least 2 samples along time, got {quat.shape[-2]}")
     ends = gap_end_mask(as_bool_mask(received, "received", quat.shape[:-1]))
     step = np.zeros(quat.shape[:-1])
-    step[..., 1:] = np.degrees(quat_ops.angle_between(quat[..., 1:, :], quat[..., :-1, :]))
+    at = np.nonzero(np.broadcast_to(ends, step.shape))  # only the gap ends count (_steps_at)
+    before = (*at[:-1], at[-1] - 1)  # a gap end is never the first sample
+    quat = np.broadcast_to(quat, step.shape + (4,))
+    step[at] = np.degrees(quat_ops.angle_between(quat[at], quat[before]))
     return _steps_at(ends, step)
 
 

@@ -157,8 +157,9 @@ def _gap_response(error, lossless, received, window_s, fs) -> dict:
 
 def _score_rows(name, method, rows, setting, rec, masks, quat):
     """One result row per mask (``rows``: its profile and draw); the total error per sample."""
-    rmse = metrics.broad_rmse_deg(quat, rec.quat_ref, rec.movement)
-    total = metrics.broad_errors_deg(quat, rec.quat_ref)["total"]
+    errors = metrics.broad_errors_deg(quat, rec.quat_ref)
+    rmse = metrics.rmse_of_errors_deg(errors, rec.movement)
+    total = errors["total"]
     moving = np.where(rec.movement, total, np.nan)
     phases = metrics.error_by_phase(moving, masks, rec.fs, after_s=AFTER_GAP_S)
     steps = metrics.quat_gap_end_steps_deg(quat, masks)
