@@ -74,7 +74,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from wsnlib._validation import as_float_array, check_count, check_nonnegative, check_positive
+from wsnlib._validation import as_float_array, check_count, check_fields, check_nonnegative, check_positive, check_type
 from wsnlib.arm_model import FOREARM_FRACTION, UPPER_ARM_FRACTION, ArmGeometry
 from wsnlib.io.sidecar import check_name
 from wsnlib.testbed import ANCHOR_NAMES, ANCHOR_WORN, posture_direction
@@ -226,8 +226,7 @@ class User:
 
     def __post_init__(self):
         check_name(self.name, "name")
-        for name in ("height_m", "upper_arm_m", "forearm_m"):
-            object.__setattr__(self, name, check_positive(getattr(self, name), name))
+        check_fields(self, positive=("height_m", "upper_arm_m", "forearm_m"))
         d = as_float_array(self.target_distances_m, "target_distances_m")
         if d.shape != (2,) or not (0.0 < d[0] <= self.upper_arm_m < d[1] <= self.upper_arm_m + self.forearm_m):
             raise ValueError("target_distances_m must be (d1, d2) with T1 on the upper arm and T2 on the forearm, "
@@ -242,8 +241,7 @@ class User:
             arr = arr.copy()
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
-        if not isinstance(self.body, BodyShape):
-            raise ValueError(f"body must be a BodyShape, got {type(self.body).__name__}")
+        check_type(self.body, BodyShape, "body")
         for name in ("environment_seed", "day"):
             object.__setattr__(self, name, check_count(getattr(self, name), name, 0))
 

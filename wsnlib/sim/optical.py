@@ -169,6 +169,7 @@ from wsnlib._validation import (
     as_bool_mask,
     as_float_array,
     check_count,
+    check_fields,
     check_nonnegative,
     check_nonzero_norm,
     check_positive,
@@ -230,17 +231,12 @@ class KinectModel:
 
     def __post_init__(self):
         positive = ("frame_rate_hz", "focal_length_px", "glitch_mean_duration_s")
-        for item in fields(self):
-            value = getattr(self, item.name)
-            if item.name in positive:
-                number = check_positive(value, item.name)
-            elif item.name == "depth_noise_offset_m":
-                number = float(value)
-                if not math.isfinite(number):
-                    raise ValueError(f"depth_noise_offset_m must be finite, got {value!r}")
-            else:
-                number = check_nonnegative(value, item.name)
-            object.__setattr__(self, item.name, number)
+        check_fields(self, positive=positive, nonnegative=[item.name for item in fields(self) if item.name not in
+                                                            (*positive, "depth_noise_offset_m")])
+        offset = float(self.depth_noise_offset_m)
+        if not math.isfinite(offset):
+            raise ValueError(f"depth_noise_offset_m must be finite, got {self.depth_noise_offset_m!r}")
+        object.__setattr__(self, "depth_noise_offset_m", offset)
         if self.glitch_min_m > self.glitch_max_m:
             raise ValueError(f"glitch_min_m = {self.glitch_min_m} exceeds glitch_max_m = {self.glitch_max_m}")
 

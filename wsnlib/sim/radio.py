@@ -100,7 +100,7 @@ from scipy.signal import lfilter
 
 from wsnlib import fixed_order
 from wsnlib import quaternion as Q
-from wsnlib._validation import check_nonnegative, check_positive, check_type
+from wsnlib._validation import check_count, check_fields, check_positive, check_type
 from wsnlib.arm_model import ArmKinematics
 from wsnlib.io.rss import COLUMNS
 from wsnlib.io.sidecar import check_name
@@ -150,9 +150,7 @@ class PathLossModel:
 
     def __post_init__(self):
         object.__setattr__(self, "pl0_db", float(self.pl0_db))
-        object.__setattr__(self, "exponent", check_positive(self.exponent, "exponent"))
-        object.__setattr__(self, "sigma_db", check_nonnegative(self.sigma_db, "sigma_db"))
-        object.__setattr__(self, "d0_m", check_positive(self.d0_m, "d0_m"))
+        check_fields(self, positive=("exponent", "d0_m"), nonnegative=("sigma_db",))
 
     def mean_db(self, distance_m) -> np.ndarray:
         """Mean path loss (dB) at ``distance_m`` (clipped below at ``d0 / 4``)."""
@@ -303,30 +301,21 @@ class RadioChannel:
     timing_jitter_s: float = 0.002
 
     def __post_init__(self):
-        for name in ("frequency_hz", "shadow_length_m", "coherence_time_s", "slow_time_s", "interference_mean_burst",
-                     "link_loss_mean_burst"):
-            object.__setattr__(self, name, check_positive(getattr(self, name), name))
-        for name in ("creeping_db_per_cm", "offbody_shadow_cap_db", "limb_shadow_cap_db", "onbody_room_path_loss_db",
-                     "body_trim_m", "slow_sigma_db", "tx_power_offset_db", "rssi_offset_db", "rssi_noise_db",
-                     "timing_jitter_s"):
-            object.__setattr__(self, name, check_nonnegative(getattr(self, name), name))
-        for name in ("interference_fraction", "link_loss_rate", "tx_loss_rate", "day_decorrelation"):
-            value = check_nonnegative(getattr(self, name), name)
-            if value > 1.0:
-                raise ValueError(f"{name} must lie in [0, 1], got {value!r}")
-            object.__setattr__(self, name, value)
+        check_fields(self, positive=("frequency_hz", "shadow_length_m", "coherence_time_s", "slow_time_s",
+                                     "interference_mean_burst", "link_loss_mean_burst"),
+                     nonnegative=("creeping_db_per_cm", "offbody_shadow_cap_db", "limb_shadow_cap_db",
+                                  "onbody_room_path_loss_db", "body_trim_m", "slow_sigma_db", "tx_power_offset_db",
+                                  "rssi_offset_db", "rssi_noise_db", "timing_jitter_s"),
+                     fractions=("interference_fraction", "link_loss_rate", "tx_loss_rate", "day_decorrelation"))
         if self.antenna_floor_db > 0.0:
             raise ValueError(f"antenna_floor_db must be <= 0 dB, got {self.antenna_floor_db!r}")
         lo, hi = (float(v) for v in self.interference_loss_db)
         if not 0.0 <= lo <= hi:
             raise ValueError(f"interference_loss_db must be (low, high) with 0 <= low <= high, got {(lo, hi)}")
         object.__setattr__(self, "interference_loss_db", (lo, hi))
-        features = self.shadow_features
-        if isinstance(features, bool) or not isinstance(features, int) or features < 1:
-            raise ValueError(f"shadow_features must be a positive integer, got {features!r}")
+        object.__setattr__(self, "shadow_features", check_count(self.shadow_features, "shadow_features"))
         for name in ("onbody_los", "onbody_nlos", "offbody"):
-            if not isinstance(getattr(self, name), PathLossModel):
-                raise ValueError(f"{name} must be a PathLossModel")
+            check_type(getattr(self, name), PathLossModel, name)
 
     def ideal(self) -> RadioChannel:
         """The same channel without any randomness in time: no fading, slow shadowing,
