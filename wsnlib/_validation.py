@@ -108,6 +108,13 @@ def check_type(value, cls: type, name: str):
     return value
 
 
+def check_choice(value, name: str, choices: tuple):
+    """Return ``value``, raising ``ValueError`` naming ``name`` unless it is one of ``choices``."""
+    if value not in choices:
+        raise ValueError(f"{name} must be one of {choices}, got {value!r}")
+    return value
+
+
 def check_flag(value, name: str) -> bool:
     """Return ``value`` as a ``bool``, raising ``ValueError`` unless it is True or False (numpy's too)."""
     if not isinstance(value, bool | np.bool_):

@@ -162,12 +162,12 @@ import math
 from dataclasses import dataclass, fields
 
 import numpy as np
-from scipy import signal
 
 from wsnlib import fixed_order
 from wsnlib._validation import (
     as_bool_mask,
     as_float_array,
+    check_choice,
     check_count,
     check_fields,
     check_nonnegative,
@@ -176,6 +176,7 @@ from wsnlib._validation import (
     check_rng,
     check_type,
 )
+from wsnlib.sim.radio import ar1_filter
 
 #: Distance between the Kinect and the user in paper 002, Section 4.1 (m).
 PAPER_CAMERA_DISTANCE_M = 3.0
@@ -385,17 +386,6 @@ def _occlusion_score(truth: np.ndarray, axis: np.ndarray, occluded) -> np.ndarra
     return score
 
 
-def _ar1_unit(rng: np.random.Generator, shape: tuple[int, ...], phi: float) -> np.ndarray:
-    """Stationary unit-variance AR(1) noise along axis −3 (frames)."""
-    white = rng.standard_normal(shape)
-    if phi == 0.0 or shape[-3] == 1:
-        return white
-    gain = math.sqrt(1.0 - phi**2)
-    initial = (1.0 - gain) * white[..., :1, :, :]  # makes the first output equal white[0] ~ N(0, 1)
-    out, _ = signal.lfilter([gain], [1.0, -phi], white, axis=-3, zi=initial)
-    return out
-
-
 def _glitches(rng, score, model: KinectModel):
     """Burst errors (..., K, J, 3), active mask and start mask (..., K, J)."""
     shape = score.shape
@@ -490,7 +480,7 @@ def kinect_errors(true_positions, *, rng: np.random.Generator, fs: float = 30.0,
 
     bias = model.bias_std_m * rng.standard_normal(shape[:-3] + (1,) + shape[-2:])
 
-    unit = _ar1_unit(rng, shape, model.jitter_lag1_correlation)
+    unit = ar1_filter(rng.standard_normal(shape), model.jitter_lag1_correlation, axis=-3)  # AR(1) over frames
     lateral_1, lateral_2 = _lateral_basis(axis)
     sigma_depth = model.depth_noise_std_m(depth)[..., None]
     sigma_lateral = model.lateral_noise_std_m(depth)[..., None]
@@ -524,8 +514,7 @@ def simulate_kinect(true_positions, *, rng: np.random.Generator, fs: float = 30.
         Reported joint positions (m) in the frame of ``true_positions``, at the Kinect frame
         times :func:`kinect_frame_times` (``K = T`` when ``fs`` equals the frame rate).
     """
-    if relative_to not in RELATIVE_TO:
-        raise ValueError(f"relative_to must be one of {RELATIVE_TO}, got {relative_to!r}")
+    check_choice(relative_to, "relative_to", RELATIVE_TO)
     errors = kinect_errors(true_positions, rng=rng, fs=fs, camera_position=camera_position, camera_axis=camera_axis,
                            model=model, occluded=occluded)
     error = errors.total

@@ -530,9 +530,16 @@ def gauss_markov(n: int, rho: float, *, rng: np.random.Generator, shape=(), comp
     w = rng.standard_normal(size)
     if complex_valued:
         w = (w + 1j * rng.standard_normal(size)) / np.sqrt(2.0)
-    e = np.sqrt(1.0 - rho**2) * w
-    e[..., 0] = w[..., 0]  # start in the stationary distribution
-    return lfilter([1.0], [1.0, -rho], e, axis=-1)
+    return ar1_filter(w, rho)
+
+
+def ar1_filter(white: np.ndarray, rho: float, axis: int = -1) -> np.ndarray:
+    """``x_k = ρ x_{k−1} + √(1−ρ²) w_k`` along ``axis`` from unit-variance white noise ``w``, started in
+    the stationary distribution (``x_0 = w_0``), so every ``x_k`` has unit variance; ``ρ = 0`` gives ``w``."""
+    e = np.sqrt(1.0 - rho**2) * white
+    first = (slice(None),) * (axis % white.ndim) + (0,)
+    e[first] = white[first]
+    return lfilter([1.0], [1.0, -rho], e, axis=axis)
 
 
 def rician_fading_db(k_db, g: np.ndarray) -> np.ndarray:

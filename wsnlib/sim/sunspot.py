@@ -88,7 +88,15 @@ import numpy as np
 
 from wsnlib import frames
 from wsnlib import quaternion as Q
-from wsnlib._validation import as_float_array, check_fields, check_nonnegative, check_positive, check_rng, check_type
+from wsnlib._validation import (
+    as_float_array,
+    check_choice,
+    check_fields,
+    check_nonnegative,
+    check_positive,
+    check_rng,
+    check_type,
+)
 from wsnlib.arm_model import ArmKinematics
 from wsnlib.sim.arm_motion import ArmMotion
 from wsnlib.sim.body import User
@@ -169,8 +177,7 @@ class SunspotAccSpec:
         if isinstance(bits, bool) or not isinstance(bits, int | np.integer) or not 2 <= bits <= 24:
             raise ValueError(f"adc_bits must be an integer in [2, 24], got {bits!r}")
         object.__setattr__(self, "adc_bits", int(bits))
-        if self.downsample not in DOWNSAMPLE_METHODS:
-            raise ValueError(f"downsample must be one of {DOWNSAMPLE_METHODS}, got {self.downsample!r}")
+        check_choice(self.downsample, "downsample", DOWNSAMPLE_METHODS)
         if self.output_rate_hz > self.sample_rate_hz:
             raise ValueError("output_rate_hz must not exceed sample_rate_hz")
         if self.sensitivity_per_vdd * self.full_scale_g > 0.5 + 1e-12:
