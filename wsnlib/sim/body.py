@@ -269,12 +269,6 @@ class User:
         """``{anchor: [x, y, z]}`` (m), JSON-ready."""
         return {a: [float(v) for v in p] for a, p in zip(ANCHOR_NAMES, self.anchor_positions_m, strict=True)}
 
-    def to_dict(self) -> dict:
-        """JSON-ready parameters (for recording sidecars)."""
-        return {"name": self.name, "height_m": self.height_m, "upper_arm_m": self.upper_arm_m,
-                "forearm_m": self.forearm_m, "target_distances_m": list(self.target_distances_m),
-                "anchor_positions_m": self.anchor_dict(), "environment_seed": self.environment_seed, "day": self.day}
-
     def moved(self, rng: np.random.Generator, *, worn_sigma_m: float = 0.015, stance_sigma_m: float = 0.02,
               target_sigma_m: float = 0.01) -> User:
         """The same user on another day: t-shirt re-donned, back on the floor mark, targets re-strapped.

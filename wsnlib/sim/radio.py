@@ -324,16 +324,6 @@ class RadioChannel:
                                    tx_loss_rate=0.0, tx_power_offset_db=0.0, rssi_offset_db=0.0, rssi_noise_db=0.0,
                                    timing_jitter_s=0.0, fading_k_db=np.inf, fading_k_onbody_los_db=np.inf)
 
-    def to_dict(self) -> dict:
-        """JSON-ready parameters (path-loss models as nested dicts)."""
-        out = dataclasses.asdict(self)
-        for key, value in out.items():
-            if isinstance(value, float) and not np.isfinite(value):
-                out[key] = str(value)
-            if isinstance(value, tuple):
-                out[key] = list(value)
-        return out
-
 
 # --------------------------------------------------------------------------------------------
 # The link budget
