@@ -417,7 +417,7 @@ def body_solids(user: User, arm_direction=None) -> list[Solid]:
     if arm_direction is not None:
         u = as_float_array(arm_direction, "arm_direction", last_dim=3)
         u = u / np.linalg.norm(u, axis=-1, keepdims=True)
-        ref = _perpendicular(u)
+        ref = perpendicular_unit(u)
         solids.append(Solid("upper_arm", "cylinder", np.zeros_like(u), b.upper_arm_radius_m, u, user.upper_arm_m, ref,
                             b.upper_arm_radius_m))
         solids.append(Solid("forearm", "cylinder", u * user.upper_arm_m, b.forearm_radius_m, u, user.forearm_m, ref,
@@ -425,7 +425,7 @@ def body_solids(user: User, arm_direction=None) -> list[Solid]:
     return solids
 
 
-def _perpendicular(u: np.ndarray) -> np.ndarray:
+def perpendicular_unit(u: np.ndarray) -> np.ndarray:
     """A unit vector perpendicular to each ``u`` (…, 3)."""
     helper = np.where(np.abs(u[..., 2:3]) < 0.9, np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0]))
     p = np.cross(u, helper)

@@ -176,6 +176,7 @@ from wsnlib._validation import (
     check_rng,
     check_type,
 )
+from wsnlib.sim.body import perpendicular_unit
 from wsnlib.sim.radio import ar1_filter
 
 #: Distance between the Kinect and the user in paper 002, Section 4.1 (m).
@@ -358,17 +359,6 @@ def _camera_vector(value, name: str, batch_shape: tuple[int, ...]) -> np.ndarray
     return arr
 
 
-def _lateral_basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit vectors perpendicular to the unit vectors ``axis`` (..., 3) and to each other."""
-    reference = np.broadcast_to(np.array([0.0, 0.0, 1.0]), axis.shape).copy()
-    near_z = np.abs(axis[..., 2]) > 0.9
-    reference[near_z] = np.array([1.0, 0.0, 0.0])
-    first = np.cross(axis, reference)
-    first /= np.linalg.norm(first, axis=-1, keepdims=True)
-    second = np.cross(axis, first)
-    return first, second
-
-
 def _occlusion_score(truth: np.ndarray, axis: np.ndarray, occluded) -> np.ndarray:
     """Score in [0, 1]: cos² of the most end-on incident segment of the joint chain, or 1 where ``occluded``."""
     score = np.zeros(truth.shape[:-1])
@@ -481,7 +471,8 @@ def kinect_errors(true_positions, *, rng: np.random.Generator, fs: float = 30.0,
     bias = model.bias_std_m * rng.standard_normal(shape[:-3] + (1,) + shape[-2:])
 
     unit = ar1_filter(rng.standard_normal(shape), model.jitter_lag1_correlation, axis=-3)  # AR(1) over frames
-    lateral_1, lateral_2 = _lateral_basis(axis)
+    lateral_1 = perpendicular_unit(axis)  # two unit vectors perpendicular to the axis and to each other
+    lateral_2 = np.cross(axis, lateral_1)
     sigma_depth = model.depth_noise_std_m(depth)[..., None]
     sigma_lateral = model.lateral_noise_std_m(depth)[..., None]
     jitter = (unit[..., 0:1] * sigma_depth * axis_b
