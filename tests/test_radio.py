@@ -279,3 +279,29 @@ def test_concat_rss_merges_anchor_positions(users, training):
     both = R.concat_rss([training, other])
     assert set(both.attrs["anchor_positions_m"]) == {users[0].name, users[1].name}
     assert len(both) == len(training) + len(other)
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"link_loss_rate": 1.5}, r"link_loss_rate must lie in \[0, 1\], got 1.5"),
+    ({"day_decorrelation": -0.1}, "day_decorrelation must be a non-negative"),
+    ({"coherence_time_s": 0.0}, "coherence_time_s must be a positive"),
+    ({"rssi_noise_db": float("nan")}, "rssi_noise_db must be a non-negative finite"),
+    ({"shadow_features": 2.5}, "shadow_features must be a positive integer"),
+    ({"offbody": "free space"}, "offbody must be a PathLossModel"),
+])
+def test_radio_channel_refuses_bad_fields(change, message):
+    """The shared field checks (_validation.check_fields) name the field and the rule it breaks."""
+    with pytest.raises(ValueError, match=message):
+        R.RadioChannel(**change)
+    assert isinstance(R.RadioChannel().link_loss_rate, float)
+
+
+def test_sensor_specs_refuse_flags_that_are_not_bools():
+    from wsnlib.sim.imu import ImuSpec
+    from wsnlib.sim.sunspot import SunspotAccSpec
+
+    with pytest.raises(ValueError, match="quantize must be True or False, got 1"):
+        ImuSpec(quantize=1)
+    with pytest.raises(ValueError, match="saturate must be True or False, got 'yes'"):
+        SunspotAccSpec(saturate="yes")
+    assert ImuSpec(quantize=np.True_).quantize is True

@@ -108,6 +108,39 @@ def check_type(value, cls: type, name: str):
     return value
 
 
+def check_choice(value, name: str, choices: tuple):
+    """Return ``value``, raising ``ValueError`` naming ``name`` unless it is one of ``choices``."""
+    if value not in choices:
+        raise ValueError(f"{name} must be one of {choices}, got {value!r}")
+    return value
+
+
+def check_flag(value, name: str) -> bool:
+    """Return ``value`` as a ``bool``, raising ``ValueError`` unless it is True or False (numpy's too)."""
+    if not isinstance(value, bool | np.bool_):
+        raise ValueError(f"{name} must be True or False, got {value!r}")
+    return bool(value)
+
+
+def check_fields(obj, *, positive=(), nonnegative=(), fractions=(), flags=()) -> None:
+    """Check and normalise, in place, the named fields of a frozen dataclass ``obj``.
+
+    ``positive``: finite numbers > 0, ``nonnegative``: finite numbers >= 0, ``fractions``: numbers
+    in [0, 1] (all stored as floats); ``flags``: True or False.  Each error names the field.
+    """
+    for name in positive:
+        object.__setattr__(obj, name, check_positive(getattr(obj, name), name))
+    for name in nonnegative:
+        object.__setattr__(obj, name, check_nonnegative(getattr(obj, name), name))
+    for name in fractions:
+        value = check_nonnegative(getattr(obj, name), name)
+        if value > 1.0:
+            raise ValueError(f"{name} must lie in [0, 1], got {value!r}")
+        object.__setattr__(obj, name, value)
+    for name in flags:
+        object.__setattr__(obj, name, check_flag(getattr(obj, name), name))
+
+
 def check_settings_fields(settings, *, may_be_zero=(), may_be_infinite=None, largest: float = 1e100) -> None:
     """Check and normalise, in place, every field of a frozen settings dataclass: a number > 0.
 

@@ -69,7 +69,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from wsnlib._validation import check_positive, check_type
+from wsnlib._validation import check_choice, check_positive, check_type
 from wsnlib.io.sidecar import (
     check_columns,
     check_names,
@@ -120,13 +120,7 @@ FRAMES = {
 
 def columns(kind: str) -> tuple[str, ...]:
     """CSV columns of ``kind`` ("acc" or "kinect"), in order."""
-    return KEY_COLUMNS + VALUE_COLUMNS[_check_kind(kind)]
-
-
-def _check_kind(kind) -> str:
-    if kind not in VALUE_COLUMNS:
-        raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
-    return kind
+    return KEY_COLUMNS + VALUE_COLUMNS[check_choice(kind, "kind", KINDS)]
 
 
 def _validate(df, kind: str, targets, where: str) -> pd.DataFrame:
@@ -164,7 +158,7 @@ def write_samples(df: pd.DataFrame, path, kind: str, metadata: dict | None = Non
     pathlib.Path
         The CSV path.  Writing the same table again gives byte-identical files.
     """
-    kind = _check_kind(kind)
+    kind = check_choice(kind, "kind", KINDS)
     targets = check_names(targets, "targets")
     where = f"{kind} table for {path}"
     rate = rate_hz if rate_hz is not None else (getattr(df, "attrs", {}) or {}).get("rate_hz")
@@ -210,7 +204,7 @@ def read_samples(path, kind: str | None = None) -> tuple[pd.DataFrame, dict]:
     side = sidecar_path(path)
     if meta.get("kind") not in VALUE_COLUMNS:
         raise ValueError(f"{side}: 'kind' must be one of {KINDS}, got {meta.get('kind')!r}")
-    if kind is not None and meta["kind"] != _check_kind(kind):
+    if kind is not None and meta["kind"] != check_choice(kind, "kind", KINDS):
         raise ValueError(f"{side}: holds a {meta['kind']!r} table, expected {kind!r}")
     check_sidecar_units(meta, UNITS[meta["kind"]], side)
     try:

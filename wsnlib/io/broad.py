@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from wsnlib._files import sha256_of
-from wsnlib._validation import as_float_array, check_positive
+from wsnlib._validation import as_float_array, check_flag, check_positive
 from wsnlib.io.download import RegistryEntry, data_folder, download_verified, git_blob_sha1_of, read_registry
 
 #: Commit of github.com/dlaidig/broad the files are pinned to.
@@ -77,8 +77,7 @@ def broad_trials(present_only: bool = False, data_dir=None) -> list[str]:
     data_dir : str or pathlib.Path, optional
         Folder looked into when ``present_only``; default see :func:`broad_dir`.
     """
-    if not isinstance(present_only, bool):
-        raise ValueError(f"present_only must be True or False, got {present_only!r}")
+    check_flag(present_only, "present_only")
     names = sorted(name[: -len(".mat")] for name in BROAD_REGISTRY if name.endswith(".mat"))
     if present_only:
         folder = broad_dir(data_dir)

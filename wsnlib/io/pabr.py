@@ -108,7 +108,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from wsnlib._validation import check_count
+from wsnlib._validation import check_choice, check_count
 from wsnlib.io.download import RegistryEntry, data_folder, download_verified, read_registry
 from wsnlib.io.vectors import RssVectors, window_readings
 
@@ -448,8 +448,7 @@ def load_pabr_fingerprints(set_name: str = "set_1", data_dir=None, *, common_spa
         A malformed file name or line (naming the file and line), a packet of another
         receiver than the file's, or a receiver of ``tetam.dev`` with no file in the set.
     """
-    if set_name not in FINGERPRINT_SETS:
-        raise ValueError(f"set_name must be one of {FINGERPRINT_SETS}, got {set_name!r}")
+    check_choice(set_name, "set_name", FINGERPRINT_SETS)
     if common_span_packets is not None:
         check_count(common_span_packets, "common_span_packets")
     receivers = load_pabr_receivers(data_dir, download=download, downloader=downloader)

@@ -111,7 +111,7 @@ import numpy as np
 from scipy import interpolate, signal
 
 from wsnlib import quaternion as quat_ops
-from wsnlib._validation import as_float_array, check_positive, real_array
+from wsnlib._validation import as_float_array, check_flag, check_positive, real_array
 from wsnlib.io.broad import BroadTrial
 
 #: Largest ``down`` (or ``up``) accepted in the rate ratio.
@@ -353,7 +353,7 @@ def resample_signal_timestamped(x, time_s, fs_out, *, max_gap_s=None, drop_repea
     x = as_float_array(x, "x", min_ndim=2)
     stamps = _check_time_stamps(time_s, x.shape[-2], "x", "axis -2")
     fs_out = check_positive(fs_out, "fs_out")
-    repeated = _check_flag(drop_repeated_values, "drop_repeated_values")
+    repeated = check_flag(drop_repeated_values, "drop_repeated_values")
     starts = _equal_stamp_groups(stamps)
     t, x = stamps[starts], _group_means(x, starts)
     if repeated:
@@ -440,7 +440,7 @@ def resample_quaternion_timestamped(quat, time_s, time_out_s, *, max_gap_s=None,
         raise ValueError(f"quat must have shape (..., T, 4), got shape {quat.shape}")
     stamps = _check_time_stamps(time_s, quat.shape[-2], "quat", "axis -2")
     times = _check_output_times(time_out_s)
-    repeated = _check_flag(drop_repeated_values, "drop_repeated_values")
+    repeated = check_flag(drop_repeated_values, "drop_repeated_values")
     ok = ~np.isnan(quat[..., 0])
     unit = np.where(ok[..., None], quat, quat_ops.identity())
     unit = unit / np.linalg.norm(unit, axis=-1, keepdims=True)
@@ -555,12 +555,6 @@ def _check_output_times(time_out_s) -> np.ndarray:
 def _check_enough(n_samples: int, what: str) -> None:
     if n_samples < 2:
         raise ValueError(f"{what}, got {n_samples}")
-
-
-def _check_flag(value, name: str) -> bool:
-    if not isinstance(value, bool | np.bool_):
-        raise ValueError(f"{name} must be True or False, got {value!r}")
-    return bool(value)
 
 
 def _max_gap(max_gap_s, interval: float) -> float:

@@ -79,7 +79,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from wsnlib._validation import check_positive, check_type
+from wsnlib._validation import check_count, check_positive, check_type
 from wsnlib.io.sidecar import (
     block_order,
     check_columns,
@@ -355,9 +355,8 @@ def rss_vectors(df: pd.DataFrame, window_packets: int | None = None, *, window_s
     """
     if window_packets is None and window_s is None and window is None:
         window_packets = 1
-    if window_packets is not None and (isinstance(window_packets, bool)
-                                       or not isinstance(window_packets, int | np.integer) or window_packets < 1):
-        raise ValueError(f"window_packets must be a positive integer, got {window_packets!r}")
+    if window_packets is not None:
+        check_count(window_packets, "window_packets")
     anchors = ANCHOR_NAMES if anchors is None else check_names(anchors, "anchors")
     if isinstance(df, pd.DataFrame) and "target" in df.columns and len(df):
         targets = tuple(dict.fromkeys([*TARGET_NAMES, *df["target"].astype(str)]))

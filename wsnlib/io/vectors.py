@@ -124,14 +124,19 @@ class RssVectors:
 
     def select(self, *, target=None, session=None, user=None, label=None) -> RssVectors:
         """The vectors matching every given value (a name or a collection of names)."""
-        keep = np.ones(len(self), dtype=bool)
-        for field_name, wanted in (("target", target), ("session", session), ("user", user), ("label", label)):
-            if wanted is None:
-                continue
-            wanted = [wanted] if isinstance(wanted, str | numbers.Number) else list(wanted)
-            keep &= np.isin(getattr(self, field_name), wanted)
-        return RssVectors(**{f.name: getattr(self, f.name)[keep] for f in fields(self) if f.name != "anchors"},
-                          anchors=self.anchors)
+        return select_rows(self, target=target, session=session, user=user, label=label)
+
+
+def select_rows(record, **wanted):
+    """``record`` (a dataclass of per-row arrays and an ``anchors`` tuple: :class:`RssVectors`,
+    :class:`wsnlib.sim.campaign.DynamicData`) cut to the rows whose fields match every given value
+    (a value or a collection of values; None matches all)."""
+    keep = np.ones(len(record), dtype=bool)
+    for name, value in wanted.items():
+        if value is not None:
+            keep &= np.isin(getattr(record, name), [value] if isinstance(value, str | numbers.Number) else list(value))
+    return type(record)(**{f.name: getattr(record, f.name)[keep] for f in fields(record) if f.name != "anchors"},
+                        anchors=record.anchors)
 
 
 def _point_codes(readings: pd.DataFrame) -> np.ndarray:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wsnlib._validation import as_float_array, check_count, check_positive
+from wsnlib._validation import as_float_array, check_choice, check_count, check_positive
 
 METRICS = ("euclidean", "manhattan")
 PMF_METHODS = ("histogram", "parzen", "gmm")
@@ -41,15 +41,11 @@ def _check_n_neighbors(n_neighbors, n_fingerprints: int | None = None) -> int:
 
 
 def _check_metric(metric) -> str:
-    if metric not in METRICS:
-        raise ValueError(f"metric must be one of {METRICS}, got {metric!r}")
-    return metric
+    return check_choice(metric, "metric", METRICS)
 
 
 def _check_online_missing(online_missing) -> str:
-    if online_missing not in ONLINE_MISSING:
-        raise ValueError(f"online_missing must be one of {ONLINE_MISSING}, got {online_missing!r}")
-    return online_missing
+    return check_choice(online_missing, "online_missing", ONLINE_MISSING)
 
 
 def _check_power(power) -> float:

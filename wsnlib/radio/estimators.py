@@ -15,7 +15,7 @@ from scipy.special import logsumexp, ndtr
 from sklearn.base import BaseEstimator
 from sklearn.utils.validation import check_is_fitted
 
-from wsnlib._validation import check_count, check_positive
+from wsnlib._validation import check_choice, check_count, check_positive
 from wsnlib.radio import _checks
 from wsnlib.radio._checks import (
     PMF_METHODS,
@@ -271,8 +271,7 @@ class ProbabilisticKNN(_FingerprintEstimator):
         self.online_missing = online_missing
 
     def _check_params(self):
-        if self.pmf not in PMF_METHODS:
-            raise ValueError(f"pmf must be one of {PMF_METHODS}, got {self.pmf!r}")
+        check_choice(self.pmf, "pmf", PMF_METHODS)
         eps = check_positive(self.floor_probability, "floor_probability")
         if eps >= 1.0:
             raise ValueError(f"floor_probability must be < 1, got {self.floor_probability!r}")

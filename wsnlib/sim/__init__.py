@@ -30,15 +30,15 @@ Kinect and the paper's hand-derived reference (:mod:`.optical`) and whole campai
 
 Which notebook each module serves (directly, or through :mod:`wsnlib.studies`; "sol": the
 solutions notebook of the same number; notebook 05 uses only the arm, for the paper's movement,
-notebook 10 nothing, and ``benchmarks/bench_madgwick.py`` uses :mod:`.arm` and :mod:`.imu`):
+notebooks 10 and 11 nothing, and ``benchmarks/bench_madgwick.py`` uses :mod:`.arm` and :mod:`.imu`):
 
 =====================  =================================================================================
 module                 notebooks
 =====================  =================================================================================
 :mod:`.arm`            01–05, sol 01–04
 :mod:`.imu`            01–04, sol 01–04
-:mod:`.disturbance`    03, sol 03 (the model is reached through ``simulate_imu`` in 01–04)
-:mod:`.trials`         03, 04, sol 03, sol 04
+:mod:`.disturbance`    01–04, sol 03 (calibrated in 03; 01, 02 and 04 simulate with its ``UNDISTURBED_BROAD``)
+:mod:`.trials`         02–04, sol 03, sol 04
 :mod:`.body`           06–09, sol 06–09
 :mod:`.arm_motion`     06–09, sol 06–09
 :mod:`.radio`          06–09, sol 06–09 (08 also perturbs the channel: radio sensitivity)

@@ -74,7 +74,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from wsnlib._validation import as_float_array, check_count, check_nonnegative, check_positive
+from wsnlib._validation import as_float_array, check_count, check_fields, check_nonnegative, check_positive, check_type
 from wsnlib.arm_model import FOREARM_FRACTION, UPPER_ARM_FRACTION, ArmGeometry
 from wsnlib.io.sidecar import check_name
 from wsnlib.testbed import ANCHOR_NAMES, ANCHOR_WORN, posture_direction
@@ -226,8 +226,7 @@ class User:
 
     def __post_init__(self):
         check_name(self.name, "name")
-        for name in ("height_m", "upper_arm_m", "forearm_m"):
-            object.__setattr__(self, name, check_positive(getattr(self, name), name))
+        check_fields(self, positive=("height_m", "upper_arm_m", "forearm_m"))
         d = as_float_array(self.target_distances_m, "target_distances_m")
         if d.shape != (2,) or not (0.0 < d[0] <= self.upper_arm_m < d[1] <= self.upper_arm_m + self.forearm_m):
             raise ValueError("target_distances_m must be (d1, d2) with T1 on the upper arm and T2 on the forearm, "
@@ -242,8 +241,7 @@ class User:
             arr = arr.copy()
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
-        if not isinstance(self.body, BodyShape):
-            raise ValueError(f"body must be a BodyShape, got {type(self.body).__name__}")
+        check_type(self.body, BodyShape, "body")
         for name in ("environment_seed", "day"):
             object.__setattr__(self, name, check_count(getattr(self, name), name, 0))
 
@@ -270,12 +268,6 @@ class User:
     def anchor_dict(self) -> dict[str, list[float]]:
         """``{anchor: [x, y, z]}`` (m), JSON-ready."""
         return {a: [float(v) for v in p] for a, p in zip(ANCHOR_NAMES, self.anchor_positions_m, strict=True)}
-
-    def to_dict(self) -> dict:
-        """JSON-ready parameters (for recording sidecars)."""
-        return {"name": self.name, "height_m": self.height_m, "upper_arm_m": self.upper_arm_m,
-                "forearm_m": self.forearm_m, "target_distances_m": list(self.target_distances_m),
-                "anchor_positions_m": self.anchor_dict(), "environment_seed": self.environment_seed, "day": self.day}
 
     def moved(self, rng: np.random.Generator, *, worn_sigma_m: float = 0.015, stance_sigma_m: float = 0.02,
               target_sigma_m: float = 0.01) -> User:
@@ -425,7 +417,7 @@ def body_solids(user: User, arm_direction=None) -> list[Solid]:
     if arm_direction is not None:
         u = as_float_array(arm_direction, "arm_direction", last_dim=3)
         u = u / np.linalg.norm(u, axis=-1, keepdims=True)
-        ref = _perpendicular(u)
+        ref = perpendicular_unit(u)
         solids.append(Solid("upper_arm", "cylinder", np.zeros_like(u), b.upper_arm_radius_m, u, user.upper_arm_m, ref,
                             b.upper_arm_radius_m))
         solids.append(Solid("forearm", "cylinder", u * user.upper_arm_m, b.forearm_radius_m, u, user.forearm_m, ref,
@@ -433,7 +425,7 @@ def body_solids(user: User, arm_direction=None) -> list[Solid]:
     return solids
 
 
-def _perpendicular(u: np.ndarray) -> np.ndarray:
+def perpendicular_unit(u: np.ndarray) -> np.ndarray:
     """A unit vector perpendicular to each ``u`` (…, 3)."""
     helper = np.where(np.abs(u[..., 2:3]) < 0.9, np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0]))
     p = np.cross(u, helper)

@@ -44,6 +44,7 @@ import pandas as pd
 from wsnlib._validation import check_count, check_type
 from wsnlib.io import accel
 from wsnlib.io import rss as rss_format
+from wsnlib.io.vectors import select_rows
 from wsnlib.posture import ArmChain
 from wsnlib.sim.arm_motion import ArmMotion
 from wsnlib.sim.body import User, make_users
@@ -296,14 +297,7 @@ class DynamicData:
 
     def select(self, *, user=None, target=None, movement=None, label=None) -> DynamicData:
         """Rows matching every given value (a value or a collection; ``movement`` numbers)."""
-        keep = np.ones(len(self), dtype=bool)
-        for name, wanted in (("user", user), ("target", target), ("movement", movement), ("label", label)):
-            if wanted is None:
-                continue
-            wanted = [wanted] if isinstance(wanted, str | int | np.integer) else list(wanted)
-            keep &= np.isin(getattr(self, name), wanted)
-        values = {f.name: getattr(self, f.name)[keep] for f in dataclasses.fields(self) if f.name != "anchors"}
-        return DynamicData(**values, anchors=self.anchors)
+        return select_rows(self, user=user, target=target, movement=movement, label=label)
 
 
 def movement_number(labels) -> np.ndarray:

@@ -70,7 +70,7 @@ import numpy as np
 import pandas as pd
 
 from wsnlib import quaternion as Q
-from wsnlib._validation import check_count, check_nonnegative, check_positive, check_rng, check_type
+from wsnlib._validation import check_count, check_fields, check_positive, check_rng, check_type
 from wsnlib.arm_model import ArmKinematics
 
 #: µ0 / (4π) in µT·m³/(A·m²): B (µT) = 0.1 · (3 (m·r̂) r̂ − m) / r³ with m in A·m², r in m.
@@ -128,10 +128,9 @@ class Disturbance:
     dipole_speed_m_s: float = 1.0
 
     def __post_init__(self):
-        for name in ("translation_acc_rms_m_s2", "translation_acc_log_sd", "hard_iron_ut", "hard_iron_log_sd",
-                     "soft_iron_std", "dipole_moment_am2"):
-            object.__setattr__(self, name, check_nonnegative(getattr(self, name), name))
-        object.__setattr__(self, "dipole_speed_m_s", check_positive(self.dipole_speed_m_s, "dipole_speed_m_s"))
+        check_fields(self, nonnegative=("translation_acc_rms_m_s2", "translation_acc_log_sd", "hard_iron_ut",
+                                        "hard_iron_log_sd", "soft_iron_std", "dipole_moment_am2"),
+                     positive=("dipole_speed_m_s",))
         for name in ("translation_band_hz", "dipole_distance_m"):
             value = tuple(float(v) for v in np.ravel(getattr(self, name)))
             if len(value) != 2 or not (0.0 < value[0] < value[1]) or not np.all(np.isfinite(value)):

@@ -60,7 +60,7 @@ import numpy as np
 
 from wsnlib import frames
 from wsnlib import quaternion as Q
-from wsnlib._validation import as_float_array, check_count, check_nonnegative, check_positive, check_rng, check_type
+from wsnlib._validation import as_float_array, check_count, check_fields, check_positive, check_rng, check_type
 from wsnlib.arm_model import ArmGeometry, ArmKinematics
 from wsnlib.io.recording import Recording
 from wsnlib.sim.arm import ArmTrajectory, arm_kinematics
@@ -181,11 +181,10 @@ class ImuSpec:
     saturate: bool = True
 
     def __post_init__(self):
-        for name in ("gyr_full_scale_dps", "gyr_sensitivity_mdps", "acc_full_scale_g", "acc_sensitivity_mg",
-                     "mag_full_scale_gauss", "mag_gain_xy_lsb_per_gauss", "mag_gain_z_lsb_per_gauss"):
-            object.__setattr__(self, name, check_positive(getattr(self, name), name))
-        for name in _NOISE_FIELDS:
-            object.__setattr__(self, name, check_nonnegative(getattr(self, name), name))
+        check_fields(self, positive=("gyr_full_scale_dps", "gyr_sensitivity_mdps", "acc_full_scale_g",
+                                     "acc_sensitivity_mg", "mag_full_scale_gauss", "mag_gain_xy_lsb_per_gauss",
+                                     "mag_gain_z_lsb_per_gauss"), nonnegative=_NOISE_FIELDS,
+                     flags=("quantize", "saturate"))
         for name in ("gyr_bits", "acc_bits", "mag_bits"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not (2 <= value <= 32):
@@ -193,9 +192,6 @@ class ImuSpec:
         if self.noise_bandwidth_hz is not None:
             bandwidth = check_positive(self.noise_bandwidth_hz, "noise_bandwidth_hz")
             object.__setattr__(self, "noise_bandwidth_hz", bandwidth)
-        for name in ("quantize", "saturate"):
-            if not isinstance(getattr(self, name), (bool, np.bool_)):
-                raise ValueError(f"{name} must be True or False, got {getattr(self, name)!r}")
 
     @classmethod
     def noise_free(cls, quantize: bool = False, saturate: bool = False, **changes) -> ImuSpec:

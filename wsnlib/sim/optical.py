@@ -162,19 +162,22 @@ import math
 from dataclasses import dataclass, fields
 
 import numpy as np
-from scipy import signal
 
 from wsnlib import fixed_order
 from wsnlib._validation import (
     as_bool_mask,
     as_float_array,
+    check_choice,
     check_count,
+    check_fields,
     check_nonnegative,
     check_nonzero_norm,
     check_positive,
     check_rng,
     check_type,
 )
+from wsnlib.sim.body import perpendicular_unit
+from wsnlib.sim.radio import ar1_filter
 
 #: Distance between the Kinect and the user in paper 002, Section 4.1 (m).
 PAPER_CAMERA_DISTANCE_M = 3.0
@@ -230,17 +233,12 @@ class KinectModel:
 
     def __post_init__(self):
         positive = ("frame_rate_hz", "focal_length_px", "glitch_mean_duration_s")
-        for item in fields(self):
-            value = getattr(self, item.name)
-            if item.name in positive:
-                number = check_positive(value, item.name)
-            elif item.name == "depth_noise_offset_m":
-                number = float(value)
-                if not math.isfinite(number):
-                    raise ValueError(f"depth_noise_offset_m must be finite, got {value!r}")
-            else:
-                number = check_nonnegative(value, item.name)
-            object.__setattr__(self, item.name, number)
+        check_fields(self, positive=positive, nonnegative=[item.name for item in fields(self) if item.name not in
+                                                            (*positive, "depth_noise_offset_m")])
+        offset = float(self.depth_noise_offset_m)
+        if not math.isfinite(offset):
+            raise ValueError(f"depth_noise_offset_m must be finite, got {self.depth_noise_offset_m!r}")
+        object.__setattr__(self, "depth_noise_offset_m", offset)
         if self.glitch_min_m > self.glitch_max_m:
             raise ValueError(f"glitch_min_m = {self.glitch_min_m} exceeds glitch_max_m = {self.glitch_max_m}")
 
@@ -361,17 +359,6 @@ def _camera_vector(value, name: str, batch_shape: tuple[int, ...]) -> np.ndarray
     return arr
 
 
-def _lateral_basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit vectors perpendicular to the unit vectors ``axis`` (..., 3) and to each other."""
-    reference = np.broadcast_to(np.array([0.0, 0.0, 1.0]), axis.shape).copy()
-    near_z = np.abs(axis[..., 2]) > 0.9
-    reference[near_z] = np.array([1.0, 0.0, 0.0])
-    first = np.cross(axis, reference)
-    first /= np.linalg.norm(first, axis=-1, keepdims=True)
-    second = np.cross(axis, first)
-    return first, second
-
-
 def _occlusion_score(truth: np.ndarray, axis: np.ndarray, occluded) -> np.ndarray:
     """Score in [0, 1]: cos² of the most end-on incident segment of the joint chain, or 1 where ``occluded``."""
     score = np.zeros(truth.shape[:-1])
@@ -387,17 +374,6 @@ def _occlusion_score(truth: np.ndarray, axis: np.ndarray, occluded) -> np.ndarra
     if occluded is not None:
         score = np.where(occluded, 1.0, score)
     return score
-
-
-def _ar1_unit(rng: np.random.Generator, shape: tuple[int, ...], phi: float) -> np.ndarray:
-    """Stationary unit-variance AR(1) noise along axis −3 (frames)."""
-    white = rng.standard_normal(shape)
-    if phi == 0.0 or shape[-3] == 1:
-        return white
-    gain = math.sqrt(1.0 - phi**2)
-    initial = (1.0 - gain) * white[..., :1, :, :]  # makes the first output equal white[0] ~ N(0, 1)
-    out, _ = signal.lfilter([gain], [1.0, -phi], white, axis=-3, zi=initial)
-    return out
 
 
 def _glitches(rng, score, model: KinectModel):
@@ -494,8 +470,9 @@ def kinect_errors(true_positions, *, rng: np.random.Generator, fs: float = 30.0,
 
     bias = model.bias_std_m * rng.standard_normal(shape[:-3] + (1,) + shape[-2:])
 
-    unit = _ar1_unit(rng, shape, model.jitter_lag1_correlation)
-    lateral_1, lateral_2 = _lateral_basis(axis)
+    unit = ar1_filter(rng.standard_normal(shape), model.jitter_lag1_correlation, axis=-3)  # AR(1) over frames
+    lateral_1 = perpendicular_unit(axis)  # two unit vectors perpendicular to the axis and to each other
+    lateral_2 = np.cross(axis, lateral_1)
     sigma_depth = model.depth_noise_std_m(depth)[..., None]
     sigma_lateral = model.lateral_noise_std_m(depth)[..., None]
     jitter = (unit[..., 0:1] * sigma_depth * axis_b
@@ -528,8 +505,7 @@ def simulate_kinect(true_positions, *, rng: np.random.Generator, fs: float = 30.
         Reported joint positions (m) in the frame of ``true_positions``, at the Kinect frame
         times :func:`kinect_frame_times` (``K = T`` when ``fs`` equals the frame rate).
     """
-    if relative_to not in RELATIVE_TO:
-        raise ValueError(f"relative_to must be one of {RELATIVE_TO}, got {relative_to!r}")
+    check_choice(relative_to, "relative_to", RELATIVE_TO)
     errors = kinect_errors(true_positions, rng=rng, fs=fs, camera_position=camera_position, camera_axis=camera_axis,
                            model=model, occluded=occluded)
     error = errors.total

@@ -100,7 +100,7 @@ from scipy.signal import lfilter
 
 from wsnlib import fixed_order
 from wsnlib import quaternion as Q
-from wsnlib._validation import check_nonnegative, check_positive, check_type
+from wsnlib._validation import check_count, check_fields, check_positive, check_type
 from wsnlib.arm_model import ArmKinematics
 from wsnlib.io.rss import COLUMNS
 from wsnlib.io.sidecar import check_name
@@ -150,9 +150,7 @@ class PathLossModel:
 
     def __post_init__(self):
         object.__setattr__(self, "pl0_db", float(self.pl0_db))
-        object.__setattr__(self, "exponent", check_positive(self.exponent, "exponent"))
-        object.__setattr__(self, "sigma_db", check_nonnegative(self.sigma_db, "sigma_db"))
-        object.__setattr__(self, "d0_m", check_positive(self.d0_m, "d0_m"))
+        check_fields(self, positive=("exponent", "d0_m"), nonnegative=("sigma_db",))
 
     def mean_db(self, distance_m) -> np.ndarray:
         """Mean path loss (dB) at ``distance_m`` (clipped below at ``d0 / 4``)."""
@@ -303,30 +301,21 @@ class RadioChannel:
     timing_jitter_s: float = 0.002
 
     def __post_init__(self):
-        for name in ("frequency_hz", "shadow_length_m", "coherence_time_s", "slow_time_s", "interference_mean_burst",
-                     "link_loss_mean_burst"):
-            object.__setattr__(self, name, check_positive(getattr(self, name), name))
-        for name in ("creeping_db_per_cm", "offbody_shadow_cap_db", "limb_shadow_cap_db", "onbody_room_path_loss_db",
-                     "body_trim_m", "slow_sigma_db", "tx_power_offset_db", "rssi_offset_db", "rssi_noise_db",
-                     "timing_jitter_s"):
-            object.__setattr__(self, name, check_nonnegative(getattr(self, name), name))
-        for name in ("interference_fraction", "link_loss_rate", "tx_loss_rate", "day_decorrelation"):
-            value = check_nonnegative(getattr(self, name), name)
-            if value > 1.0:
-                raise ValueError(f"{name} must lie in [0, 1], got {value!r}")
-            object.__setattr__(self, name, value)
+        check_fields(self, positive=("frequency_hz", "shadow_length_m", "coherence_time_s", "slow_time_s",
+                                     "interference_mean_burst", "link_loss_mean_burst"),
+                     nonnegative=("creeping_db_per_cm", "offbody_shadow_cap_db", "limb_shadow_cap_db",
+                                  "onbody_room_path_loss_db", "body_trim_m", "slow_sigma_db", "tx_power_offset_db",
+                                  "rssi_offset_db", "rssi_noise_db", "timing_jitter_s"),
+                     fractions=("interference_fraction", "link_loss_rate", "tx_loss_rate", "day_decorrelation"))
         if self.antenna_floor_db > 0.0:
             raise ValueError(f"antenna_floor_db must be <= 0 dB, got {self.antenna_floor_db!r}")
         lo, hi = (float(v) for v in self.interference_loss_db)
         if not 0.0 <= lo <= hi:
             raise ValueError(f"interference_loss_db must be (low, high) with 0 <= low <= high, got {(lo, hi)}")
         object.__setattr__(self, "interference_loss_db", (lo, hi))
-        features = self.shadow_features
-        if isinstance(features, bool) or not isinstance(features, int) or features < 1:
-            raise ValueError(f"shadow_features must be a positive integer, got {features!r}")
+        object.__setattr__(self, "shadow_features", check_count(self.shadow_features, "shadow_features"))
         for name in ("onbody_los", "onbody_nlos", "offbody"):
-            if not isinstance(getattr(self, name), PathLossModel):
-                raise ValueError(f"{name} must be a PathLossModel")
+            check_type(getattr(self, name), PathLossModel, name)
 
     def ideal(self) -> RadioChannel:
         """The same channel without any randomness in time: no fading, slow shadowing,
@@ -334,16 +323,6 @@ class RadioChannel:
         return dataclasses.replace(self, slow_sigma_db=0.0, interference_fraction=0.0, link_loss_rate=0.0,
                                    tx_loss_rate=0.0, tx_power_offset_db=0.0, rssi_offset_db=0.0, rssi_noise_db=0.0,
                                    timing_jitter_s=0.0, fading_k_db=np.inf, fading_k_onbody_los_db=np.inf)
-
-    def to_dict(self) -> dict:
-        """JSON-ready parameters (path-loss models as nested dicts)."""
-        out = dataclasses.asdict(self)
-        for key, value in out.items():
-            if isinstance(value, float) and not np.isfinite(value):
-                out[key] = str(value)
-            if isinstance(value, tuple):
-                out[key] = list(value)
-        return out
 
 
 # --------------------------------------------------------------------------------------------
@@ -541,9 +520,16 @@ def gauss_markov(n: int, rho: float, *, rng: np.random.Generator, shape=(), comp
     w = rng.standard_normal(size)
     if complex_valued:
         w = (w + 1j * rng.standard_normal(size)) / np.sqrt(2.0)
-    e = np.sqrt(1.0 - rho**2) * w
-    e[..., 0] = w[..., 0]  # start in the stationary distribution
-    return lfilter([1.0], [1.0, -rho], e, axis=-1)
+    return ar1_filter(w, rho)
+
+
+def ar1_filter(white: np.ndarray, rho: float, axis: int = -1) -> np.ndarray:
+    """``x_k = ρ x_{k−1} + √(1−ρ²) w_k`` along ``axis`` from unit-variance white noise ``w``, started in
+    the stationary distribution (``x_0 = w_0``), so every ``x_k`` has unit variance; ``ρ = 0`` gives ``w``."""
+    e = np.sqrt(1.0 - rho**2) * white
+    first = (slice(None),) * (axis % white.ndim) + (0,)
+    e[first] = white[first]
+    return lfilter([1.0], [1.0, -rho], e, axis=axis)
 
 
 def rician_fading_db(k_db, g: np.ndarray) -> np.ndarray:

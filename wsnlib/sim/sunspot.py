@@ -82,13 +82,21 @@ centripetal ``ω²d`` along the arm, towards the shoulder).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
 from wsnlib import frames
 from wsnlib import quaternion as Q
-from wsnlib._validation import as_float_array, check_nonnegative, check_positive, check_rng, check_type
+from wsnlib._validation import (
+    as_float_array,
+    check_choice,
+    check_fields,
+    check_nonnegative,
+    check_positive,
+    check_rng,
+    check_type,
+)
 from wsnlib.arm_model import ArmKinematics
 from wsnlib.sim.arm_motion import ArmMotion
 from wsnlib.sim.body import User
@@ -162,21 +170,14 @@ class SunspotAccSpec:
     saturate: bool = True
 
     def __post_init__(self):
-        for item in fields(self):
-            name, value = item.name, getattr(self, item.name)
-            if name in ("full_scale_g", "sensitivity_per_vdd", "bandwidth_hz", "sample_rate_hz", "output_rate_hz"):
-                object.__setattr__(self, name, check_positive(value, name))
-            elif name in ("noise_density_ug", "adc_noise_lsb", "bias_mg"):
-                object.__setattr__(self, name, check_nonnegative(value, name))
+        check_fields(self, positive=("full_scale_g", "sensitivity_per_vdd", "bandwidth_hz", "sample_rate_hz",
+                                     "output_rate_hz"), nonnegative=("noise_density_ug", "adc_noise_lsb", "bias_mg"),
+                     flags=("quantize", "saturate"))
         bits = self.adc_bits
         if isinstance(bits, bool) or not isinstance(bits, int | np.integer) or not 2 <= bits <= 24:
             raise ValueError(f"adc_bits must be an integer in [2, 24], got {bits!r}")
         object.__setattr__(self, "adc_bits", int(bits))
-        if self.downsample not in DOWNSAMPLE_METHODS:
-            raise ValueError(f"downsample must be one of {DOWNSAMPLE_METHODS}, got {self.downsample!r}")
-        for name in ("quantize", "saturate"):
-            if not isinstance(getattr(self, name), bool | np.bool_):
-                raise ValueError(f"{name} must be True or False, got {getattr(self, name)!r}")
+        check_choice(self.downsample, "downsample", DOWNSAMPLE_METHODS)
         if self.output_rate_hz > self.sample_rate_hz:
             raise ValueError("output_rate_hz must not exceed sample_rate_hz")
         if self.sensitivity_per_vdd * self.full_scale_g > 0.5 + 1e-12:

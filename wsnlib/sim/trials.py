@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from wsnlib._validation import check_count
 from wsnlib.loss import LossProfile
 from wsnlib.sim.arm import ArmTrajectory, arm_kinematics
 from wsnlib.sim.disturbance import Disturbance
@@ -108,8 +109,7 @@ def arm_loss_trials(movements: dict[str, ArmTrajectory], profiles: list[LossProf
     """
     if not movements or not profiles:
         raise ValueError("movements and profiles must not be empty")
-    if not isinstance(n_repetitions, int | np.integer) or n_repetitions < 1:
-        raise ValueError(f"n_repetitions must be a positive integer, got {n_repetitions!r}")
+    check_count(n_repetitions, "n_repetitions")
     lengths = {(m.n_samples, m.fs) for m in movements.values()}
     if len(lengths) != 1:
         raise ValueError(f"movements must share length and fs, got (T, fs) = {sorted(lengths)}")
