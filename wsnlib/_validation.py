@@ -108,10 +108,12 @@ def check_type(value, cls: type, name: str):
     return value
 
 
-def check_choice(value, name: str, choices: tuple):
-    """Return ``value``, raising ``ValueError`` naming ``name`` unless it is one of ``choices``."""
-    if value not in choices:
-        raise ValueError(f"{name} must be one of {choices}, got {value!r}")
+def check_choice(value, name: str, choices: tuple[str, ...]) -> str:
+    """Return ``value``, raising ``ValueError`` naming ``name`` and the choices unless it is one of
+    the strings ``choices``."""
+    if not isinstance(value, str) or value not in choices:
+        listed = ", ".join(repr(c) for c in choices)
+        raise ValueError(f"{name} must be one of {listed}; got {value!r}")
     return value
 
 

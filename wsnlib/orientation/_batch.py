@@ -14,7 +14,7 @@ import warnings
 
 import numpy as np
 
-from wsnlib._validation import as_float_array, real_array
+from wsnlib._validation import as_float_array, check_choice, real_array
 from wsnlib.orientation import _kernels as K
 from wsnlib.orientation import gaps
 from wsnlib.plausibility import SAMPLE_NORM_MAX, check_imu_plausible, implausible_samples
@@ -27,13 +27,6 @@ BETA_LIMIT = 1e6
 PARALLEL_CHECK_SAMPLES = 2**22
 #: Share of the memory available now that one call may take for its output.
 MEMORY_SHARE = 0.8
-
-
-def check_choice(value, name: str, choices: tuple[str, ...]) -> str:
-    if not isinstance(value, str) or value not in choices:
-        listed = ", ".join(repr(c) for c in choices)
-        raise ValueError(f"{name} must be one of {listed}; got {value!r}")
-    return value
 
 
 def positive_array(value, name: str, allow_inf: bool = False) -> np.ndarray:
@@ -202,12 +195,6 @@ def rate_factor(gap_time_constant, fs: float) -> float:
     if gap_time_constant is None or np.isinf(gap_time_constant):
         return 1.0
     return float(np.exp(-1.0 / (fs * gap_time_constant)))
-
-
-def check_flag(value, name: str) -> bool:
-    if not isinstance(value, (bool, np.bool_)):
-        raise ValueError(f"{name} must be True or False, got {value!r}")
-    return bool(value)
 
 
 def check_output_on_lost(output_on_lost) -> bool:

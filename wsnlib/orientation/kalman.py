@@ -160,6 +160,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from wsnlib import quaternion as Q
+from wsnlib._validation import check_flag
 from wsnlib.orientation import _batch as B
 from wsnlib.orientation import _kalman_kernels as K
 from wsnlib.orientation import gaps
@@ -264,7 +265,7 @@ def constants(settings, fs, *, gap, replay, gap_time_constant, has_mag, filter_n
     if not isinstance(settings, KalmanSettings):
         raise ValueError(f"settings must be a KalmanSettings, got {type(settings).__name__}")
     gap, gap_time_constant = B.check_gap(gap, gap_time_constant, filter_name, supported=B.GAPS)
-    replay = B.check_flag(replay, "replay")
+    replay = check_flag(replay, "replay")
     tau = KALMAN_GAP_TIME_CONSTANT_S if gap_time_constant is None else gap_time_constant
     c = kalman_constants(settings, 1.0 / fs, gap=gaps.GAP_CODES[gap], replay=replay, gap_time_constant=tau,
                          has_mag=has_mag, record=record)
@@ -553,7 +554,7 @@ def kalman_step(state: KalmanState, gyr, acc, mag=None, received: bool = True) -
     if not isinstance(state, KalmanState):
         raise ValueError(f"state must be a KalmanState (kalman_initial_state), got {type(state).__name__}")
     c = state.constants[0]
-    received = B.check_flag(received, "received")
+    received = check_flag(received, "received")
     signals = [np.zeros(3) if x is None else np.asarray(x, dtype=float) for x in (gyr, acc, mag)]
     if received:
         if (mag is None) == bool(c["has_mag"]):

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from wsnlib._validation import check_choice, check_flag
 from wsnlib.orientation import _batch as B
 from wsnlib.orientation import _kernels as K
 from wsnlib.orientation.hybrid_blend import check_single_frame_gate
@@ -209,9 +210,9 @@ def estimate_orientation(gyr, acc, mag=None, *, fs: float, beta, received=None, 
     """
     if isinstance(method, str) and method in _NOW_SPELLED:
         raise ValueError(f"method={method!r} is now {_NOW_SPELLED[method]}")
-    method = B.check_choice(method, "method", METHODS)
+    method = check_choice(method, "method", METHODS)
     gap, gap_time_constant = B.check_gap(gap, gap_time_constant, "estimate_orientation", supported=B.GAPS)
-    replay = B.check_flag(replay, "replay")
+    replay = check_flag(replay, "replay")
     hold_output = B.check_output_on_lost(output_on_lost)
     if method == "dt_extension" and (gap != "hold" or replay):
         raise ValueError("method='dt_extension' fills the gap with the gyroscope its own way: not with "

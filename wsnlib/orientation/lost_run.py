@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from wsnlib._validation import check_choice
 from wsnlib.orientation import _batch as B
 from wsnlib.orientation import _kernels as K
 
@@ -37,7 +38,7 @@ DEFAULT_RHO, DEFAULT_TAU, DEFAULT_SCHEDULE = 2.0, 6.0, "decay"
 def check_weight_options(rho, tau, schedule, hold_window):
     """The options of μ every hybrid shares, checked (``None``: the defaults above): ρ and τ as
     float arrays > 0, the schedule's name and ``hold_window`` as :func:`effective_lost_run` takes it."""
-    schedule = B.check_choice(DEFAULT_SCHEDULE if schedule is None else schedule, "schedule", SCHEDULES)
+    schedule = check_choice(DEFAULT_SCHEDULE if schedule is None else schedule, "schedule", SCHEDULES)
     return (B.positive_array(DEFAULT_RHO if rho is None else rho, "rho"),
             B.positive_array(DEFAULT_TAU if tau is None else tau, "tau"), schedule,
             B.check_hold_window(hold_window, schedule, DEFAULT_HOLD_WINDOW))
@@ -129,7 +130,7 @@ def effective_lost_run(received, schedule: str = "decay", hold_window=None) -> n
         not a positive integer, or given with another schedule.
     """
     mask = B.check_received(received)
-    schedule = B.check_choice(schedule, "schedule", SCHEDULES)
+    schedule = check_choice(schedule, "schedule", SCHEDULES)
     window = B.check_hold_window(hold_window, schedule, DEFAULT_HOLD_WINDOW)
     shapes = {"received": mask.shape[:-1]}
     if window is not None:

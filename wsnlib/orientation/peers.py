@@ -130,7 +130,7 @@ import vqf
 
 from wsnlib import fixed_order
 from wsnlib import quaternion as Q
-from wsnlib._validation import check_nonnegative, check_positive
+from wsnlib._validation import check_flag, check_nonnegative, check_positive
 from wsnlib.orientation import _batch as B
 from wsnlib.orientation import _kernels as K
 from wsnlib.orientation import gaps
@@ -257,7 +257,7 @@ class _Options:
         gap, gap_time_constant = B.check_gap(gap, gap_time_constant, filter_name, supported=B.GAPS)
         self.gap_factor = None if gap == "hold" else B.rate_factor(gap_time_constant, fs)
         order, window = gap_prediction_window(gap, span_s, window_s, fs, filter_name)
-        self.gap = _GapRates(gap, self.gap_factor, B.check_flag(replay, "replay"), order, window)
+        self.gap = _GapRates(gap, self.gap_factor, check_flag(replay, "replay"), order, window)
         self.hold_output = B.check_output_on_lost(output_on_lost)
         self.blend = B.check_blend(blend, mag, filter_name)
         if self.blend is None:
