@@ -80,9 +80,8 @@ def record(ring, st, work, c, sample, received, scratch):
     e.has_gain = False
     prev = ring[(sample - 1) % capacity]
     if capacity > 1 and prev.sample == sample - 1:
-        P_post, P_minus, F, FP, chol = scratch
+        P_post, F, FP, chol, inv_diag = scratch
         unpack_upper(prev.P_post, P_post)
-        unpack_upper(e.P_pred, P_minus)
         transition_matrix(e.R, e.a_e, c.vel_decay, c.dt, F)
         for a in range(NX):  # F P⁺
             for b in range(NX):
@@ -90,15 +89,16 @@ def record(ring, st, work, c, sample, received, scratch):
                 for m in range(NX):
                     s += F[a, m] * P_post[m, b]
                 FP[a, b] = s
-        cholesky_factor(P_minus, chol)
+        cholesky_factor(e.P_pred, chol, inv_diag)
         for b in range(NX):  # column b of (P⁻)⁻¹ F P⁺ = row b of C (P⁺, P⁻ symmetric)
-            solve_factored(chol, FP[:, b], prev.gain[b])
+            solve_factored(chol, inv_diag, FP[:, b], prev.gain[b])
         prev.has_gain = True
 
 
 def new_scratch():
-    """Scratch arrays of :func:`record`: four 9 × 9 matrices and the Cholesky factor."""
-    return tuple(np.empty((NX, NX)) for _ in range(5))
+    """Scratch arrays of :func:`record`: P⁺, F, F P⁺, the Cholesky factor of P⁻ (9 × 9) and its
+    inverted diagonal (9,)."""
+    return np.empty((NX, NX)), np.empty((NX, NX)), np.empty((NX, NX)), np.empty((NX, NX)), np.empty(NX)
 
 
 @njit(**COMPILE)
