@@ -32,11 +32,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from wsnlib.orientation._kalman_kernels import NP, NX, pack_upper, transition_matrix, unpack_upper
+from wsnlib.orientation._kalman_kernels import NP, NX, pack_upper, small_rotation, transition_matrix, unpack_upper
 from wsnlib.orientation._scalar_kernels import (
     COMPILE,
     quat_conjugate,
-    quat_exp,
     quat_log,
     quat_multiply,
     quat_normalize,
@@ -147,7 +146,7 @@ def backward(ring, newest, depth, oldest, out):
             for b in range(NX):
                 s += e.gain[a, b] * delta[b]
             y[a] = s
-        qs = quat_normalize(quat_multiply(quat_exp((y[0], y[1], y[2])), (e.q[0], e.q[1], e.q[2], e.q[3])))
+        qs = quat_normalize(quat_multiply(small_rotation((y[0], y[1], y[2])), (e.q[0], e.q[1], e.q[2], e.q[3])))
         bs = (e.bias[0] + y[3], e.bias[1] + y[4], e.bias[2] + y[5])
         vs = (e.velocity[0] + y[6], e.velocity[1] + y[7], e.velocity[2] + y[8])
         for a in range(4):

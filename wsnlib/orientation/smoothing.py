@@ -61,13 +61,13 @@ from wsnlib.orientation._kalman_kernels import (
     kalman_stream,
     new_records,
     packed_index,
+    small_rotation,
     transition_transpose_times,
 )
 from wsnlib.orientation._kernels import (
     COMPILE,
     cross3,
     quat_conjugate,
-    quat_exp,
     quat_log,
     quat_multiply,
     quat_normalize,
@@ -114,7 +114,7 @@ def _hermite_gap(out_q, s0, s1, q0, q1, w0, w1, dt):
         h11 = u * u * u - u * u
         r = (h10 * m0[0] + h01 * r1[0] + h11 * m1[0], h10 * m0[1] + h01 * r1[1] + h11 * m1[1],
              h10 * m0[2] + h01 * r1[2] + h11 * m1[2])
-        q = quat_normalize(quat_multiply(q0, quat_exp(r)))
+        q = quat_normalize(quat_multiply(q0, small_rotation(r)))
         for a in range(4):
             out_q[t, a] = q[a]
 
@@ -168,17 +168,17 @@ def _predicted_gap(out_q, rates, s0, s1, q0, q1, order, window, dt):
             rates[s0 + 1 + k, a] = blend[k, a]
     q = q0  # forward integration from s0, kept in out_q
     for k in range(n):
-        q = quat_normalize(quat_multiply(q, quat_exp((blend[k, 0] * dt, blend[k, 1] * dt, blend[k, 2] * dt))))
+        q = quat_normalize(quat_multiply(q, small_rotation((blend[k, 0] * dt, blend[k, 1] * dt, blend[k, 2] * dt))))
         for a in range(4):
             out_q[s0 + 1 + k, a] = q[a]
     q = q1  # backward integration from s1, blended with the forward one
     for k in range(n - 1, -1, -1):
         w = blend[k + 1]
-        q = quat_normalize(quat_multiply(q, quat_exp((-w[0] * dt, -w[1] * dt, -w[2] * dt))))
+        q = quat_normalize(quat_multiply(q, small_rotation((-w[0] * dt, -w[1] * dt, -w[2] * dt))))
         u = (k + 1.0) / (n + 1.0)
         q_f = (out_q[s0 + 1 + k, 0], out_q[s0 + 1 + k, 1], out_q[s0 + 1 + k, 2], out_q[s0 + 1 + k, 3])
         d = quat_log(quat_multiply(quat_conjugate(q_f), q))
-        qb = quat_normalize(quat_multiply(q_f, quat_exp((u * d[0], u * d[1], u * d[2]))))
+        qb = quat_normalize(quat_multiply(q_f, small_rotation((u * d[0], u * d[1], u * d[2]))))
         for a in range(4):
             out_q[s0 + 1 + k, a] = qb[a]
 
@@ -272,7 +272,7 @@ def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, 
         solve_factored(chol, inv_diag, delta, y)
         transition_transpose_times(pred_R[k + 1], pred_a_e[k + 1], c.vel_decay, c.dt, y, delta)  # delta ← Fᵀ y
         symmetric_times(post_P[k], delta, y)  # y ← P⁺_k delta, the correction
-        q = quat_normalize(quat_multiply(quat_exp((y[0], y[1], y[2])),
+        q = quat_normalize(quat_multiply(small_rotation((y[0], y[1], y[2])),
                                          (out_q[k, 0], out_q[k, 1], out_q[k, 2], out_q[k, 3])))
         for a in range(4):
             out_q[k, a] = q[a]
