@@ -177,6 +177,25 @@ def test_gap_rate_fit_matches_numpy_least_squares_and_predicts_an_oscillation():
     assert np.abs(buf[end:, :2] - rates[end:end + 10, :2]).max() < 0.05
 
 
+def test_gap_rate_fit_at_the_default_order_matches_numpy_least_squares():
+    """Order 48 on 300 samples (the defaults at 50 Hz) of a noisy swing: the generalized Schur
+    solution equals the normal equations solved directly."""
+    rng = np.random.default_rng(4)
+    t = np.arange(400) / FS
+    rates = np.stack([2.0 * np.sin(2 * np.pi * 0.9 * t), np.cos(2 * np.pi * 0.4 * t) * np.exp(-0.2 * t),
+                      0.3 * np.sin(2 * np.pi * 2.1 * t + 1.0)], axis=1) + rng.normal(0.0, 0.05, (400, 3))
+    order, window, end = 48, 300, 380
+    coef = np.zeros((3, order))
+    ar_fit(rates, end, window, order, coef, np.empty((order, order + 1)), np.empty(order + 1))
+    for a in range(3):
+        x = rates[end - window:end, a]
+        X = np.stack([x[i:window - order + i] for i in range(order)], axis=1)
+        A = X.T @ X
+        A += AR_RIDGE * max(1.0, np.trace(A) / order) * np.eye(order)
+        want = np.linalg.solve(A, X.T @ x[order:])
+        np.testing.assert_allclose(coef[a], want, rtol=1e-8, atol=1e-10 * np.abs(want).max())
+
+
 def test_gap_rate_end_weights_are_the_gaussian_conditional_expectation():
     order, n = 3, 12
     coef = np.array([[0.2, -0.5, 1.1], [0.0, 0.0, 1.0], [0.1, 0.3, 0.4]])

@@ -176,3 +176,33 @@ def test_smoother_is_never_worse_than_its_filter_on_broad_at_ge_10_percent(monke
     worst = np.unravel_index(np.argmax(excess), excess.shape)
     assert excess.max() <= 0.5, f"{names[worst[0]]}, mask {worst[1]}: smoother {excess.max():+.2f}° over the filter"
     assert min(gain) > 0.1  # on every trial the two differ by more than 0.1° on half the samples
+
+
+def test_backward_pass_products_from_the_packed_covariances_and_f_blocks():
+    """Fᵀ y from F's blocks is the dense product bit for bit (same terms, same order); the
+    Cholesky solve from the packed P⁻ and P⁺ δ from the packed P⁺ match numpy."""
+    from wsnlib.orientation._kalman_kernels import NP, pack_upper, transition_matrix, transition_transpose_times
+    from wsnlib.orientation.smoothing import cholesky_factor, solve_factored, symmetric_times
+
+    rng = np.random.default_rng(7)
+    R = Q.to_scipy(Q.normalize(rng.normal(size=4))).as_matrix()
+    a_e, y, dt, decay = rng.normal(0, 5, 3), rng.normal(size=9), 0.02, 0.97
+    F = np.empty((9, 9))
+    transition_matrix(R, a_e, decay, dt, F)
+    got = np.empty(9)
+    transition_transpose_times(R, a_e, decay, dt, y, got)
+    want = [0.0] * 9
+    for a in range(9):
+        for b in range(9):  # the dense product's order, in Python floats
+            want[a] += float(F[b, a]) * float(y[b])
+    np.testing.assert_array_equal(got, want)
+    M = rng.normal(size=(9, 9))
+    P = M @ M.T + 0.1 * np.eye(9)
+    packed = np.empty(NP)
+    pack_upper(P, packed)
+    L, inv_diag, x = np.empty((9, 9)), np.empty(9), np.empty(9)
+    cholesky_factor(packed, L, inv_diag)
+    solve_factored(L, inv_diag, y, x)
+    np.testing.assert_allclose(x, np.linalg.solve(P, y), rtol=1e-10, atol=1e-12)
+    symmetric_times(packed, y, x)
+    np.testing.assert_allclose(x, P @ y, rtol=1e-12, atol=1e-12)

@@ -118,6 +118,12 @@ def pack_upper(P, out):
             k += 1
 
 
+@njit(inline="always", **COMPILE)
+def packed_index(a, b):
+    """Index of ``P[a, b]`` (a ≤ b) in :func:`pack_upper`'s row-by-row upper triangle."""
+    return a * NX - a * (a - 1) // 2 + b - a
+
+
 @njit(**COMPILE)
 def unpack_upper(packed, P):
     """The symmetric ``P`` (9 × 9) from its upper triangle ``packed`` (:func:`pack_upper`)."""
@@ -145,6 +151,34 @@ def transition_matrix(R, a_e, decay, dt, F):
     for a in range(3):  # [a_E]× R Δt² = (−[a_E]× Δt)(−R Δt)
         for b in range(3):
             F[6 + a, 3 + b] = F[6 + a, 0] * F[0, 3 + b] + F[6 + a, 1] * F[1, 3 + b] + F[6 + a, 2] * F[2, 3 + b]
+
+
+@njit(**COMPILE)
+def transition_transpose_times(R, a_e, decay, dt, y, out):
+    """``out = Fᵀ y`` (9,) for :func:`transition_matrix`'s F, from its non-zero blocks only:
+
+        (Fᵀ y)_θ = y_θ + Nᵀ y_v,   (Fᵀ y)_b = Mᵀ y_θ + y_b + (N M)ᵀ y_v,   (Fᵀ y)_v = c y_v
+
+    (M = −R Δt, N = −[a_E]× Δt).  Each entry of F is formed as :func:`transition_matrix` forms it
+    and the terms are added in the order of the dense product, whose other terms are exact zeros:
+    the same numbers, bit for bit, with ~40 multiply-adds instead of 81 and no F."""
+    m = ((-R[0, 0] * dt, -R[0, 1] * dt, -R[0, 2] * dt),  # M = −R Δt
+         (-R[1, 0] * dt, -R[1, 1] * dt, -R[1, 2] * dt),
+         (-R[2, 0] * dt, -R[2, 1] * dt, -R[2, 2] * dt))
+    # N = −[a_E]× Δt: rows (0, n01, n02), (n10, 0, n12), (n20, n21, 0)
+    n01, n02 = a_e[2] * dt, -a_e[1] * dt
+    n10, n12 = -a_e[2] * dt, a_e[0] * dt
+    n20, n21 = a_e[1] * dt, -a_e[0] * dt
+    y6, y7, y8 = y[6], y[7], y[8]
+    out[0] = y[0] + n10 * y7 + n20 * y8  # y_θ + Nᵀ y_v
+    out[1] = y[1] + n01 * y6 + n21 * y8
+    out[2] = y[2] + n02 * y6 + n12 * y7
+    for j in range(3):  # Mᵀ y_θ + y_b + (N M)ᵀ y_v, (N M)_ij = Σ_k N_ik M_kj
+        nm0 = n01 * m[1][j] + n02 * m[2][j]
+        nm1 = n10 * m[0][j] + n12 * m[2][j]
+        nm2 = n20 * m[0][j] + n21 * m[1][j]
+        out[3 + j] = m[0][j] * y[0] + m[1][j] * y[1] + m[2][j] * y[2] + y[3 + j] + nm0 * y6 + nm1 * y7 + nm2 * y8
+    out[6], out[7], out[8] = decay * y6, decay * y7, decay * y8  # c y_v
 
 
 @njit(**COMPILE)
@@ -581,6 +615,16 @@ def new_records(n_t):
 
 
 @njit(**COMPILE)
+def longest_lost_run(received, start):
+    """Most samples lost in a row from sample ``start`` on (what the rate history must hold besides a window)."""
+    longest = run = 0
+    for t in range(start, received.shape[0]):
+        run = 0 if received[t] else run + 1
+        longest = max(longest, run)
+    return longest
+
+
+@njit(**COMPILE)
 def kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c, outputs):
     """The filter over one recording ``(T, 3)``; ``outputs`` (as :func:`run_kalman`'s) receive, per
     sample, the estimate (``q``, ``bias``, ``velocity``, optionally ``P``), the gate decisions and,
@@ -599,7 +643,7 @@ def kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c, outputs)
     state_array, work_array, gap_array = np.zeros(1, STATE_DTYPE), np.zeros(1, WORK_DTYPE), np.zeros(1, gaps.GAP_DTYPE)
     st, work, gs = state_array[0], work_array[0], gap_array[0]
     initial_state(st, c, q_init)
-    history = np.empty((max(n_t, 1), 3))
+    history = np.empty((gaps.history_length(c.ar_window, longest_lost_run(received, start)), 3))
     gs.mode, gs.factor, gs.order, gs.window = c.gap, c.gap_factor, c.ar_order, c.ar_window
     first = start + 1 if init_only else start
     if init_only and start < n_t:  # the first sample's rate opens the history

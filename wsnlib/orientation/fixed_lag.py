@@ -32,11 +32,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from wsnlib.orientation._kalman_kernels import NP, NX, pack_upper, transition_matrix, unpack_upper
+from wsnlib.orientation._kalman_kernels import NP, NX, pack_upper, small_rotation, transition_matrix, unpack_upper
 from wsnlib.orientation._scalar_kernels import (
     COMPILE,
     quat_conjugate,
-    quat_exp,
     quat_log,
     quat_multiply,
     quat_normalize,
@@ -80,9 +79,8 @@ def record(ring, st, work, c, sample, received, scratch):
     e.has_gain = False
     prev = ring[(sample - 1) % capacity]
     if capacity > 1 and prev.sample == sample - 1:
-        P_post, P_minus, F, FP, chol = scratch
+        P_post, F, FP, chol, inv_diag = scratch
         unpack_upper(prev.P_post, P_post)
-        unpack_upper(e.P_pred, P_minus)
         transition_matrix(e.R, e.a_e, c.vel_decay, c.dt, F)
         for a in range(NX):  # F P⁺
             for b in range(NX):
@@ -90,15 +88,16 @@ def record(ring, st, work, c, sample, received, scratch):
                 for m in range(NX):
                     s += F[a, m] * P_post[m, b]
                 FP[a, b] = s
-        cholesky_factor(P_minus, chol)
+        cholesky_factor(e.P_pred, chol, inv_diag)
         for b in range(NX):  # column b of (P⁻)⁻¹ F P⁺ = row b of C (P⁺, P⁻ symmetric)
-            solve_factored(chol, FP[:, b], prev.gain[b])
+            solve_factored(chol, inv_diag, FP[:, b], prev.gain[b])
         prev.has_gain = True
 
 
 def new_scratch():
-    """Scratch arrays of :func:`record`: four 9 × 9 matrices and the Cholesky factor."""
-    return tuple(np.empty((NX, NX)) for _ in range(5))
+    """Scratch arrays of :func:`record`: P⁺, F, F P⁺, the Cholesky factor of P⁻ (9 × 9) and its
+    inverted diagonal (9,)."""
+    return np.empty((NX, NX)), np.empty((NX, NX)), np.empty((NX, NX)), np.empty((NX, NX)), np.empty(NX)
 
 
 @njit(**COMPILE)
@@ -147,7 +146,7 @@ def backward(ring, newest, depth, oldest, out):
             for b in range(NX):
                 s += e.gain[a, b] * delta[b]
             y[a] = s
-        qs = quat_normalize(quat_multiply(quat_exp((y[0], y[1], y[2])), (e.q[0], e.q[1], e.q[2], e.q[3])))
+        qs = quat_normalize(quat_multiply(small_rotation((y[0], y[1], y[2])), (e.q[0], e.q[1], e.q[2], e.q[3])))
         bs = (e.bias[0] + y[3], e.bias[1] + y[4], e.bias[2] + y[5])
         vs = (e.velocity[0] + y[6], e.velocity[1] + y[7], e.velocity[2] + y[8])
         for a in range(4):

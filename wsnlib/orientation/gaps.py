@@ -87,9 +87,10 @@ def new_gap_state(mode: int, factor: float, order: int, window: int) -> np.ndarr
     return gs
 
 
-def history_length(window: int, longest_replay: int) -> int:
+@njit(**COMPILE)
+def history_length(window, longest_replay):
     """Rows of a rate history for a ``window`` and AR replays of gaps up to ``longest_replay`` samples."""
-    return int(window) + int(longest_replay) + 2
+    return window + longest_replay + 2
 
 
 @njit(**COMPILE)
@@ -193,17 +194,70 @@ def axpy(y, y0, x, x0, n, alpha):
         y[y_start + j] += alpha * x[x_start + j]
 
 
+@njit(inline="always", **COMPILE)
+def _copy(y, y0, x, x0, n):
+    """``y[y0 + j] = x[x0 + j]`` for ``j < n`` (as :func:`axpy`: unsigned indices, vectorised)."""
+    y_start, x_start = np.uint64(y0), np.uint64(x0)
+    for j in range(np.uint64(n)):
+        y[y_start + j] = x[x_start + j]
+
+
+@njit(inline="always", **COMPILE)
+def _dot(u, v, start, n):
+    """``Σ_{j<n} u[start + j] v[start + j]``, summed in order (unsigned indices, as :func:`axpy`)."""
+    total = 0.0
+    first = np.uint64(start)
+    for j in range(np.uint64(n)):
+        total += u[first + j] * v[first + j]
+    return total
+
+
+@njit(inline="always", **COMPILE)
+def _rotate(u, v, start, c, s):
+    """``(u, v) ← (c u + s v, c v − s u)`` from index ``start`` on (a Givens rotation; vectorised as :func:`axpy`)."""
+    for j in range(np.uint64(start), np.uint64(u.shape[0])):
+        uj, vj = u[j], v[j]
+        u[j] = c * uj + s * vj
+        v[j] = c * vj - s * uj
+
+
+@njit(inline="always", **COMPILE)
+def _rotate_hyperbolic(u, v, start, c, s):
+    """``u ← c u − s v``, then ``v ← (v − s u)/c`` (= ``c v − s u_old``, c² − s² = 1: a hyperbolic
+    rotation in the stabler "mixed" form) from index ``start`` on."""
+    inv_c = 1.0 / c
+    for j in range(np.uint64(start), np.uint64(u.shape[0])):
+        uj = c * u[j] - s * v[j]
+        u[j] = uj
+        v[j] = (v[j] - s * uj) * inv_c
+
+
 @njit(**COMPILE)
 def ar_fit(rates, end, window, order, coef, A, r):
     """Fit the linear predictor of the rate on the rows ``end − window … end − 1``; returns its largest norm.
 
     Per axis ``a``, least squares for ``ω_a[k] ≈ Σ_i c_ai ω_a[k − order + i]`` over the window
-    (an autoregressive model of order ``order``: a sum of damped oscillations, which is what
-    an arm's swing looks like over a fraction of a second), with ridge ``AR_RIDGE ·
-    max(1, tr(XᵀX)/order)`` on the normal equations ``(XᵀX + λI) c = Xᵀy``, solved by Cholesky.
-    ``rates`` is the ring history (row ``k mod H``) of the rates the filter used; ``coef``
-    (3, ≥ order) receives the coefficients; ``A`` (≥ order, ≥ order + 1) and ``r``
-    (≥ order + 1,) are scratch (``r``: the extended normal matrix's first row).
+    (an autoregressive model of order ``p = order``: a sum of damped oscillations, which is what
+    an arm's swing looks like over a fraction of a second), with ridge ``λ = AR_RIDGE ·
+    max(1, tr(XᵀX)/p)`` on the normal equations ``(XᵀX + λI) c = Xᵀy``.
+
+    They are solved in O(window · p + p²), not the O(p³) of a Cholesky factorisation, from
+    their structure: the extended matrix ``M = [X y]ᵀ[X y] + λ (I_p ⊕ 0)`` ((p + 1) × (p + 1);
+    ``E_ij = Σ_{k<n} x[k + i] x[k + j]``, n = window − p equations) changes along its diagonals
+    only by the samples entering and leaving the window, ``E_ij − E_{i−1,j−1} = x[n+i−1] x[n+j−1]
+    − x[i−1] x[j−1]``, so ``M − Z M Zᵀ = G J Gᵀ`` (Z the down-shift) with four generator columns
+    ``G = [m₀/√M₀₀, w | m̃₀/√M₀₀, h]``, ``J = diag(1, 1, −1, −1)``: ``m₀`` M's first row, ``m̃₀`` it
+    with its first entry 0, ``w = (0, x[n], …, x[n+p−1])``, ``h = (0, x[0], …, x[p−1])`` (and
+    ``−λ e_p e_pᵀ``, which only M's last diagonal entry sees).  The generalized Schur algorithm
+    (T. Kailath and A. H. Sayed, "Displacement structure: theory and applications", SIAM Review
+    37(3):297–386, 1995, Sec. 4) then gives the Cholesky factor ``M = L Lᵀ`` column by column: at
+    step k a J-unitary transformation (a rotation within the positive columns, one within the
+    negative ones, and a hyperbolic rotation between them) leaves one non-zero in the
+    generator's row k; its first column is then L's column k, and shifted down by one it is the
+    next step's.  L's last row is z with ``L_p z = Xᵀy`` (L_p the leading p × p block), and
+    ``L_pᵀ c = z`` gives the coefficients.  ``rates`` is the ring history (row ``k mod H``) of the
+    rates the filter used; ``coef`` (3, ≥ order) receives the coefficients; ``A``
+    (≥ order, ≥ order + 1) and ``r`` (≥ order + 1,) are scratch (A's row k: L's column k).
     """
     lo = end - window
     size = rates.shape[0]
@@ -219,49 +273,51 @@ def ar_fit(rates, end, window, order, coef, A, r):
             row = 0
     p = order
     n = window - p  # equations: k = 0 … n − 1 predict x[k + p] from x[k … k + p − 1]
+    generator = np.empty((4, p + 1))
     for a in range(3):
         x = xs[a]
-        # The extended normal matrix E = [X y]ᵀ[X y] ((p + 1) × (p + 1), upper triangle, rows
-        # 0 … p − 1 used): E_ij = Σ_{k<n} x[k + i] x[k + j]; its leading p × p block is XᵀX and
-        # its column p is Xᵀy.  Row 0 as axpys over the lags; then each row from the one above
-        # by the shift E_ij = E_{i−1,j−1} − x[i−1] x[j−1] + x[n+i−1] x[n+j−1]: O(window · p)
-        # instead of O(window · p²).
+        # M's first row, E_0j = Σ_{k<n} x[k] x[k + j], as axpys over the lags (vectorised), and
+        # tr(XᵀX) from E's diagonal by the same shift.
         for j in range(p + 1):
             r[j] = 0.0
         for k in range(n):
             axpy(r, 0, x, k, p + 1, x[k])
-        e = A[0]
-        for j in range(p + 1):
-            e[j] = r[j]
+        diagonal = trace = r[0]
         for i in range(1, p):
-            e, above = A[i], A[i - 1]
-            for j in range(i, p + 1):
-                e[j] = above[j - 1]
-            axpy(e, i, x, i - 1, p + 1 - i, -x[i - 1])
-            axpy(e, i, x, n + i - 1, p + 1 - i, x[n + i - 1])
-        trace = 0.0
-        for i in range(p):
-            trace += A[i, i]
-        ridge = AR_RIDGE * max(1.0, trace / p)
-        for i in range(p):
-            A[i, i] += ridge
-        # Cholesky XᵀX + λI = Uᵀ U in place (right-looking: each step an axpy on the rows below);
-        # column p rides along and becomes z with Uᵀ z = Xᵀy (the forward solve).
+            diagonal = diagonal - x[i - 1] * x[i - 1] + x[n + i - 1] * x[n + i - 1]
+            trace += diagonal
+        r[0] += AR_RIDGE * max(1.0, trace / p)
+        plus, plus2, minus, minus2 = generator[0], generator[1], generator[2], generator[3]
+        scale = 1.0 / math.sqrt(r[0])
+        for j in range(p + 1):
+            plus[j] = r[j] * scale
+            minus[j] = r[j] * scale
+        minus[0] = 0.0
+        plus2[0] = minus2[0] = 0.0
+        for j in range(1, p + 1):
+            plus2[j] = x[n + j - 1]
+            minus2[j] = x[j - 1]
         for k in range(p):
-            u = A[k]
-            d = math.sqrt(u[k])
-            u[k] = d
-            for j in range(k + 1, p + 1):
-                u[j] /= d
-            for i in range(k + 1, p):
-                axpy(A[i], i, u, i, p + 1 - i, -u[i])
+            # Row k to proper form: (plus, plus2) → (·, 0) and (minus, minus2) → (·, 0) by rotations,
+            # then (plus, minus) → (·, 0) by a hyperbolic one (|plus_k| > |minus_k| as M is positive definite).
+            if plus2[k] != 0.0:
+                radius = math.sqrt(plus[k] * plus[k] + plus2[k] * plus2[k])
+                _rotate(plus, plus2, k, plus[k] / radius, plus2[k] / radius)
+            if minus2[k] != 0.0:
+                radius = math.sqrt(minus[k] * minus[k] + minus2[k] * minus2[k])
+                _rotate(minus, minus2, k, minus[k] / radius, minus2[k] / radius)
+            if minus[k] != 0.0:
+                ratio = minus[k] / plus[k]
+                cosh = 1.0 / math.sqrt((1.0 - ratio) * (1.0 + ratio))
+                _rotate_hyperbolic(plus, minus, k, cosh, ratio * cosh)
+            column = A[k]  # L's column k (rows k … p), and the generator's first column shifted down by one (Z)
+            _copy(column, k, plus, k, p + 1 - k)
+            _copy(plus, k + 1, column, k, p - k)
+            plus[k] = 0.0
         c = coef[a]
-        for i in range(p - 1, -1, -1):  # U c = z (backward)
+        for i in range(p - 1, -1, -1):  # L_pᵀ c = z (backward), z = L's row p
             u = A[i]
-            acc_i = u[p]
-            for k in range(i + 1, p):
-                acc_i -= u[k] * c[k]
-            c[i] = acc_i / u[i]
+            c[i] = (u[p] - _dot(u, c, i + 1, p - 1 - i)) / u[i]
     return largest
 
 
@@ -351,7 +407,7 @@ def gap_rates(rates, n_lost, measured, mode, factor, order, window):
     records = np.zeros(1, GAP_DTYPE)
     gs = records[0]
     gs.mode, gs.factor, gs.order, gs.window = mode, factor, order, window
-    history = np.zeros((window + n_lost + 2, 3))  # history_length's rows (plain Python, not callable here)
+    history = np.zeros((history_length(window, n_lost), 3))
     for k in range(max(0, n - history.shape[0]), n):  # the ring's rows of the last samples
         row = _row(history, k)
         for a in range(3):

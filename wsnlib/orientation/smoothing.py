@@ -51,16 +51,23 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import get_num_threads, get_thread_id, njit, prange
 
 from wsnlib.orientation import _batch as B
 from wsnlib.orientation import gaps
-from wsnlib.orientation._kalman_kernels import NP, NX, kalman_stream, new_records, transition_matrix, unpack_upper
+from wsnlib.orientation._kalman_kernels import (
+    NP,
+    NX,
+    kalman_stream,
+    new_records,
+    packed_index,
+    small_rotation,
+    transition_transpose_times,
+)
 from wsnlib.orientation._kernels import (
     COMPILE,
     cross3,
     quat_conjugate,
-    quat_exp,
     quat_log,
     quat_multiply,
     quat_normalize,
@@ -107,7 +114,7 @@ def _hermite_gap(out_q, s0, s1, q0, q1, w0, w1, dt):
         h11 = u * u * u - u * u
         r = (h10 * m0[0] + h01 * r1[0] + h11 * m1[0], h10 * m0[1] + h01 * r1[1] + h11 * m1[1],
              h10 * m0[2] + h01 * r1[2] + h11 * m1[2])
-        q = quat_normalize(quat_multiply(q0, quat_exp(r)))
+        q = quat_normalize(quat_multiply(q0, small_rotation(r)))
         for a in range(4):
             out_q[t, a] = q[a]
 
@@ -161,67 +168,97 @@ def _predicted_gap(out_q, rates, s0, s1, q0, q1, order, window, dt):
             rates[s0 + 1 + k, a] = blend[k, a]
     q = q0  # forward integration from s0, kept in out_q
     for k in range(n):
-        q = quat_normalize(quat_multiply(q, quat_exp((blend[k, 0] * dt, blend[k, 1] * dt, blend[k, 2] * dt))))
+        q = quat_normalize(quat_multiply(q, small_rotation((blend[k, 0] * dt, blend[k, 1] * dt, blend[k, 2] * dt))))
         for a in range(4):
             out_q[s0 + 1 + k, a] = q[a]
     q = q1  # backward integration from s1, blended with the forward one
     for k in range(n - 1, -1, -1):
         w = blend[k + 1]
-        q = quat_normalize(quat_multiply(q, quat_exp((-w[0] * dt, -w[1] * dt, -w[2] * dt))))
+        q = quat_normalize(quat_multiply(q, small_rotation((-w[0] * dt, -w[1] * dt, -w[2] * dt))))
         u = (k + 1.0) / (n + 1.0)
         q_f = (out_q[s0 + 1 + k, 0], out_q[s0 + 1 + k, 1], out_q[s0 + 1 + k, 2], out_q[s0 + 1 + k, 3])
         d = quat_log(quat_multiply(quat_conjugate(q_f), q))
-        qb = quat_normalize(quat_multiply(q_f, quat_exp((u * d[0], u * d[1], u * d[2]))))
+        qb = quat_normalize(quat_multiply(q_f, small_rotation((u * d[0], u * d[1], u * d[2]))))
         for a in range(4):
             out_q[s0 + 1 + k, a] = qb[a]
 
 
 @njit(**COMPILE)
-def cholesky_factor(A, L):
-    """``A = L Lᵀ`` into ``L``'s lower triangle, for a symmetric positive definite ``A`` (n × n)."""
-    n = A.shape[0]
-    for i in range(n):
+def cholesky_factor(packed, L, inv_diag):
+    """``P = L Lᵀ`` into ``L``'s lower triangle for a symmetric positive definite ``P`` (9 × 9) given
+    as its upper triangle ``packed`` (:func:`~._kalman_kernels.pack_upper`; ``P_ij = P_ji`` is read
+    there, no unpacking), and ``1/L_jj`` into ``inv_diag``: the factor and the solves multiply by
+    it, one division per column instead of one per entry (divisions are the long links of the
+    dependent chain)."""
+    for i in range(NX):
         for j in range(i + 1):
-            acc_ij = A[i, j]
+            acc_ij = packed[packed_index(j, i)]
             for k in range(j):
                 acc_ij -= L[i, k] * L[j, k]
-            L[i, j] = math.sqrt(acc_ij) if i == j else acc_ij / L[j, j]
+            if i == j:
+                L[i, i] = math.sqrt(acc_ij)
+                inv_diag[i] = 1.0 / L[i, i]
+            else:
+                L[i, j] = acc_ij * inv_diag[j]
 
 
 @njit(**COMPILE)
-def solve_factored(L, b, x):
-    """``x = (L Lᵀ)⁻¹ b`` by two triangular solves (``L`` from :func:`cholesky_factor`; ``b`` is read
-    only, ``x`` may be any 1-D view)."""
+def solve_factored(L, inv_diag, b, x):
+    """``x = (L Lᵀ)⁻¹ b`` by two triangular solves (``L``, ``inv_diag`` from :func:`cholesky_factor`;
+    ``b`` is read only, ``x`` may be any 1-D view)."""
     n = L.shape[0]
     for i in range(n):
         acc_i = b[i]
         for k in range(i):
             acc_i -= L[i, k] * x[k]
-        x[i] = acc_i / L[i, i]
+        x[i] = acc_i * inv_diag[i]
     for i in range(n - 1, -1, -1):
         acc_i = x[i]
         for k in range(i + 1, n):
             acc_i -= L[k, i] * x[k]
-        x[i] = acc_i / L[i, i]
+        x[i] = acc_i * inv_diag[i]
 
 
 @njit(**COMPILE)
-def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, interpolate_gaps):
-    """Forward filter, RTS pass and (``interpolate_gaps``) curves across gaps for one recording."""
+def symmetric_times(packed, x, out):
+    """``out = P x`` for the symmetric ``P`` (9 × 9) stored as its upper triangle ``packed``
+    (:func:`~._kalman_kernels.pack_upper`), each entry summed over the columns in order."""
+    for a in range(NX):
+        acc_a = 0.0
+        for b in range(NX):
+            acc_a += packed[packed_index(a, b) if a <= b else packed_index(b, a)] * x[b]
+        out[a] = acc_a
+
+
+def new_scratch(n_slots: int, n_t: int) -> tuple:
+    """Scratch of :func:`_smooth_stream` for ``n_slots`` streams at a time (one per thread), each
+    ``T = n_t`` rows: b and v (smoothed in place), the gates' flags, the rates of the gaps'
+    prediction, and :func:`~._kalman_kernels.new_records`' arrays; a slot is ``tuple(a[i] for a in
+    scratch)``.  Allocated here by numpy, which asks the kernel for huge pages on large arrays:
+    numba's allocator does not, and the 4 KB pages' faults on ~90 MB of records per 100,000
+    samples cost about twice the writes themselves."""
+    rows = (np.empty((n_t, 3)), np.empty((n_t, 3)), np.empty(n_t, dtype=bool), np.empty(n_t, dtype=bool),
+            np.empty((n_t, 3))) + new_records(0)
+    return tuple(np.empty((n_slots, n_t) + row.shape[1:], dtype=row.dtype) for row in rows)
+
+
+@njit(**COMPILE)
+def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, interpolate_gaps, scratch):
+    """Forward filter, RTS pass and (``interpolate_gaps``) curves across gaps for one recording;
+    ``scratch``: one slot of :func:`new_scratch`."""
     n_t = out_q.shape[0]
     # The filter's q, b, v are smoothed in place: sample k is overwritten after its RTS step read it.
-    smooth_b, smooth_v = np.empty((n_t, 3)), np.empty((n_t, 3))
-    pred_q, pred_v, pred_P, post_P, pred_R, pred_a_e = records = new_records(n_t)
+    smooth_b, smooth_v, acc_used, mag_used, rates = scratch[:5]
+    pred_q, pred_v, pred_P, post_P, pred_R, pred_a_e = records = scratch[5:]
     kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c,
-                  (out_q, smooth_b, smooth_v, np.empty((0, NX, NX)), np.empty(n_t, dtype=np.bool_),
-                   np.empty(n_t, dtype=np.bool_)) + records)
+                  (out_q, smooth_b, smooth_v, np.empty((0, NX, NX)), acc_used, mag_used) + records)
     if n_t == 0:
         return
     first = start  # the first sample the filter's state exists at
     delta = np.empty(NX)
     chol = np.empty((NX, NX))
     y = np.empty(NX)
-    P_minus, P, F = np.empty((NX, NX)), np.empty((NX, NX)), np.empty((NX, NX))
+    inv_diag = np.empty(NX)
     for k in range(n_t - 2, first - 1, -1):
         # correction = C_k δ = P⁺_k F_{k+1}ᵀ (P⁻_{k+1})⁻¹ δ: one solve with P⁻ (Cholesky), no inverse
         q_next = (out_q[k + 1, 0], out_q[k + 1, 1], out_q[k + 1, 2], out_q[k + 1, 3])
@@ -231,22 +268,11 @@ def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, 
             delta[a] = d_theta[a]
             delta[3 + a] = smooth_b[k + 1, a] - smooth_b[k, a]  # b⁻_{k+1} = b⁺_k, not yet smoothed
             delta[6 + a] = smooth_v[k + 1, a] - pred_v[k + 1, a]
-        unpack_upper(pred_P[k + 1], P_minus)
-        cholesky_factor(P_minus, chol)
-        solve_factored(chol, delta, y)
-        transition_matrix(pred_R[k + 1], pred_a_e[k + 1], c.vel_decay, c.dt, F)
-        unpack_upper(post_P[k], P)
-        for a in range(NX):  # delta ← Fᵀ y
-            acc_a = 0.0
-            for b in range(NX):
-                acc_a += F[b, a] * y[b]
-            delta[a] = acc_a
-        for a in range(NX):  # y ← P⁺_k delta, the correction
-            acc_a = 0.0
-            for b in range(NX):
-                acc_a += P[a, b] * delta[b]
-            y[a] = acc_a
-        q = quat_normalize(quat_multiply(quat_exp((y[0], y[1], y[2])),
+        cholesky_factor(pred_P[k + 1], chol, inv_diag)  # P⁻_{k+1} = L Lᵀ
+        solve_factored(chol, inv_diag, delta, y)
+        transition_transpose_times(pred_R[k + 1], pred_a_e[k + 1], c.vel_decay, c.dt, y, delta)  # delta ← Fᵀ y
+        symmetric_times(post_P[k], delta, y)  # y ← P⁺_k delta, the correction
+        q = quat_normalize(quat_multiply(small_rotation((y[0], y[1], y[2])),
                                          (out_q[k, 0], out_q[k, 1], out_q[k, 2], out_q[k, 3])))
         for a in range(4):
             out_q[k, a] = q[a]
@@ -260,7 +286,6 @@ def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, 
     # the received neighbours where lost (only read inside the windows).
     order, window = c.ar_order, c.ar_window
     predict = c.gap == gaps.AR and window >= 3 * order
-    rates = np.zeros((n_t if predict else 1, 3))
     if predict:
         prev = -1
         for t in range(first, n_t):
@@ -297,10 +322,15 @@ def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, 
 
 
 @njit(parallel=True, **COMPILE)
-def _smooth_batch(gyr, acc, mag, received, index, q_init, start, init_only, constants, out_q, interpolate_gaps):
+def _smooth_batch(gyr, acc, mag, received, index, q_init, start, init_only, constants, out_q, interpolate_gaps,
+                  scratch):
     for n in prange(out_q.shape[0]):
+        slot = get_thread_id()  # each thread its slot of scratch (new_scratch(get_num_threads(), T))
         _smooth_stream(gyr[index[n, 0]], acc[index[n, 1]], mag[index[n, 2]], received[index[n, 3]], q_init[n],
-                       start[n], init_only, constants[0], out_q[n], interpolate_gaps)
+                       start[n], init_only, constants[0], out_q[n], interpolate_gaps,
+                       (scratch[0][slot], scratch[1][slot], scratch[2][slot], scratch[3][slot], scratch[4][slot],
+                        scratch[5][slot], scratch[6][slot], scratch[7][slot], scratch[8][slot], scratch[9][slot],
+                        scratch[10][slot]))
 
 
 def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None, settings=None, gap: str = "ar",
@@ -341,15 +371,19 @@ def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
                   record=True)
     if not isinstance(interpolate_gaps, bool):
         raise ValueError(f"interpolate_gaps must be True or False, got {interpolate_gaps!r}")
+    n_batch = inputs.index.shape[0]
+    n_slots = 1 if n_batch == 1 else get_num_threads()
     # Output, plus each thread's scratch: b, v, the records (q⁻, v⁻, packed P⁻ and P⁺, R, a_E), rates per sample.
-    B.check_memory(8 * inputs.n_t * (4 * inputs.index.shape[0] + 2 * (6 + 7 + 2 * NP + 12 + 3)),
+    B.check_memory(8 * inputs.n_t * (4 * n_batch + n_slots * (6 + 7 + 2 * NP + 12 + 3)),
                    f"smooth_orientation's output for batch {inputs.batch}, T = {inputs.n_t}")
-    out_q = np.empty((inputs.index.shape[0], inputs.n_t, 4))
-    if out_q.shape[0] == 1:  # one stream: the loop itself, without starting the thread pool
+    out_q = np.empty((n_batch, inputs.n_t, 4))
+    scratch = new_scratch(n_slots, inputs.n_t)
+    if n_batch == 1:  # one stream: the loop itself, without starting the thread pool
         i_gyr, i_acc, i_mag, i_rx = inputs.index[0]
         _smooth_stream(inputs.gyr[i_gyr], inputs.acc[i_acc], inputs.mag[i_mag], inputs.received[i_rx], inputs.q_init[0],
-                       inputs.start[0], inputs.init_only, c[0], out_q[0], interpolate_gaps)
+                       inputs.start[0], inputs.init_only, c[0], out_q[0], interpolate_gaps,
+                       tuple(part[0] for part in scratch))
     else:
         _smooth_batch(inputs.gyr, inputs.acc, inputs.mag, inputs.received, inputs.index, inputs.q_init,
-                      inputs.start, inputs.init_only, c, out_q, interpolate_gaps)
+                      inputs.start, inputs.init_only, c, out_q, interpolate_gaps, scratch)
     return check_finite_output(out_q.reshape(inputs.batch + (inputs.n_t, 4)))
