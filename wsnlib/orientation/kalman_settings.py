@@ -50,8 +50,9 @@ class KalmanSettings:
     is followed and used — a rejection longer than 10 s is counted in
     ``KalmanOutput.long_mag_rejections`` and warned of; a magnet attached to the sensor while
     the field's strength drifts can pull the heading for seconds until the hard-iron estimate
-    has converged (measured: BROAD trial 33 under a scale 0.4–1.2 and GE 10 %); the tilt needs the accelerometer's gates to pass now and then (a recording in
-    constant fast motion keeps its tilt from the velocity pseudo-measurement alone); the rate
+    has converged (measured: BROAD trial 33 under a scale 0.4–1.2 and GE 10 %); the tilt needs
+    the accelerometer's gates to pass now and then (a recording in constant fast motion keeps
+    its tilt from the velocity pseudo-measurement alone); the rate
     predictor in a gap spans at most 64 samples (0.22 s at BROAD's native rate).
 
     Every setting is in physical units (per second, not per sample), so one settings object
