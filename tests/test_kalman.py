@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -548,10 +549,51 @@ def test_the_field_reference_is_not_set_by_a_disturbed_first_second():
 def test_a_magnetometer_rejected_for_longer_than_10_s_is_counted_and_warned_once():
     gyr, acc, mag, q_true = turning_recording(n=2000, seed=4)
     disturbed = mag.copy()
-    offset_enu = 0.5 * np.linalg.norm(mag[0]) * np.array([0.0, 0.6, -0.8])  # a field of its own, 16 s
+    # A field of its own for 16 s that turns the field (heading 36°, dip 18°): one that only changed
+    # the field's strength, with its dip, is followed within seconds (mag_norm_tau_s) and used.
+    offset_enu = 0.5 * np.linalg.norm(mag[0]) * np.array([0.8, 0.0, 0.6])
     disturbed[500:1300] += Q.rotate_inverse(q_true[500:1300], offset_enu)
     with pytest.warns(UserWarning, match="1 time\\(s\\) for longer than 10 s") as caught:
         out = kalman_orientation(np.stack([gyr, gyr]), np.stack([acc, acc]), np.stack([disturbed, mag]), fs=FS,
                                  settings=NO_HARD_IRON, full_output=True)
     assert len([w for w in caught if "magnetometer" in str(w.message)]) == 1
     np.testing.assert_array_equal(out.long_mag_rejections, [1, 0])
+
+
+def test_a_field_whose_strength_halves_is_used_again_within_seconds():
+    """From 20 s on the field is half as strong (a sensor's gain; its direction holds), and a gyroscope
+    glitch at 20 s turns the estimate by 30° about the vertical.  The norm gate's reference follows
+    the field (mag_norm_tau_s), so the magnetometer is used again within 5 s and the heading is
+    back within 8° by 30 s (what is left: the glitch taken partly as gyroscope bias, slowly
+    forgotten).  With the gate's norm following at VQF's 20 s, the new field was rejected until
+    it became the new reference (20 s of turning) and the heading kept the glitch (31°)."""
+    gyr, acc, mag, q_true = turning_recording(n=2500, seed=5, noise=0.002)
+    step = 20 * int(FS)
+    mag = mag.copy()
+    mag[step:] *= 0.5
+    gyr = gyr.copy()
+    gyr[step:step + 25, :] += Q.rotate_inverse(q_true[step:step + 25], [0.0, 0.0, math.radians(30.0) * FS / 25])
+    out = kalman_orientation(gyr, acc, mag, fs=FS, full_output=True)
+    heading = np.abs(broad_errors_deg(out.quat, q_true)["heading"])
+    assert np.max(heading[step + 50:step + 100]) > 10.0  # the glitch took effect
+    assert out.mag_used[step + 5 * int(FS):].mean() > 0.95
+    assert np.max(heading[step + 10 * int(FS):]) < 8.0
+
+
+def test_a_magnet_on_the_sensor_is_removed_while_the_field_strength_drifts():
+    """A magnet fixed to the sensor from 20 s on (40 % of the field) while the whole field, magnet
+    included, is scaled by 0.8 + 0.4 cos(2π t / 60 s) (a drifting gain): the reference norm lags
+    the scale, but the corrected field's norm is steadier than the raw one's, so the hard-iron
+    correction is applied (heading within 8°, field used on 90 % of the samples; deciding by the
+    lagging reference norm alone: 17°, 74 %)."""
+    gyr, acc, mag, q_true = turning_recording(n=4000, seed=6, noise=0.002)
+    magnet = 0.4 * np.linalg.norm(mag[0]) * np.array([0.6, -0.64, 0.48])
+    mag = mag.copy()
+    mag[20 * int(FS):] += magnet
+    mag *= 0.8 + 0.4 * np.cos(2 * np.pi * np.arange(len(mag)) / FS / 60.0)[:, None]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        out = kalman_orientation(gyr, acc, mag, fs=FS, full_output=True)
+    heading = np.abs(broad_errors_deg(out.quat, q_true)["heading"])
+    assert np.max(heading) < 8.0
+    assert out.mag_used.mean() > 0.9

@@ -40,7 +40,9 @@ NX = 9
 #: the gap's rate-error std, the magnetometer gate (reference norm and dip, 0 = unset; the
 #: candidate's norm, dip and time; the time rejected), the hard-iron estimate's normal
 #: equations (``hi_A``: 00 01 02 11 12 22 of the symmetric 3 × 3, ``hi_r``), the previous received
-#: field and rate, and the low-pass of (‖a‖ − g)² (``lin_var``, m²/s⁴).
+#: field and rate, the low-pass of (‖a‖ − g)² (``lin_var``, m²/s⁴), and the raw and hard-iron
+#: corrected field norms of the previous received sample and the low-passes of their squared
+#: steps (``hi_prev_norms``, ``hi_norm_vars``: µT, µT²).
 STATE_DTYPE = np.dtype([
     ("q", "f8", (4,)), ("bias", "f8", (3,)), ("velocity", "f8", (3,)), ("P", "f8", (NX, NX)),
     ("rate", "f8", (3,)), ("q_last", "f8", (4,)), ("gap_sigma", "f8"),
@@ -49,6 +51,7 @@ STATE_DTYPE = np.dtype([
     ("mag_ref_time", "f8"),
     ("hi_A", "f8", (6,)), ("hi_r", "f8", (3,)), ("hi_prev_mag", "f8", (3,)), ("hi_prev_rate", "f8", (3,)),
     ("hard_iron", "f8", (3,)), ("lin_var", "f8"), ("hi_prev_ok", "?"),
+    ("hi_prev_norms", "f8", (2,)), ("hi_norm_vars", "f8", (2,)),
 ])
 
 #: Entries of a covariance's upper triangle (row by row): how the smoother stores P.
@@ -426,7 +429,9 @@ def hard_iron(st, c, mag, omega):
     equations ``(A + εI) b = r``, ``A = Σ [ω]×ᵀ[ω]×``, ``r = Σ [ω]×ᵀ y``, ε the ridge
     (1 s at 0.3 rad/s), so it shrinks to 0 while the sensor does not turn.  ``m − b̂_m`` is
     returned if ``‖b̂_m‖ ≥ mag_hard_iron_min_bias · ‖m_ref‖`` and its norm is closer to the
-    reference norm than the raw field's; otherwise ``m``.
+    reference norm than the raw field's or steadier (``hi_norm_vars``: low-passes, with the same
+    forgetting, of the squared change of each norm from one received sample to the next); otherwise
+    ``m``.
     """
     m = (mag[0], mag[1], mag[2])
     A, rr, pm, pw, b = st.hi_A, st.hi_r, st.hi_prev_mag, st.hi_prev_rate, st.hard_iron
@@ -463,17 +468,27 @@ def hard_iron(st, c, mag, omega):
         b[0] = (c00 * rr[0] + c01 * rr[1] + c02 * rr[2]) * inv_det
         b[1] = (c01 * rr[0] + c11 * rr[1] + c12 * rr[2]) * inv_det
         b[2] = (c02 * rr[0] + c12 * rr[1] + c22 * rr[2]) * inv_det
+    ref = st.mag_ref_norm
+    raw_norm = vec_norm(m)
+    corrected = (m[0] - b[0], m[1] - b[1], m[2] - b[2])
+    corrected_norm = vec_norm(corrected)
+    # How fast each norm changes (low-pass of its squared step): the earth's field keeps its norm
+    # while the sensor turns, a field with a magnet on the sensor does not, whatever the
+    # reference norm (which lags a field whose strength drifts).
+    steps, norms = st.hi_norm_vars, st.hi_prev_norms
+    if st.hi_prev_ok:
+        lam = c.hi_decay
+        steps[0] = lam * steps[0] + (1.0 - lam) * (raw_norm - norms[0]) ** 2
+        steps[1] = lam * steps[1] + (1.0 - lam) * (corrected_norm - norms[1]) ** 2
+    norms[0], norms[1] = raw_norm, corrected_norm
     for k in range(3):
         pm[k] = m[k]
         pw[k] = omega[k]
     st.hi_prev_ok = True
-    ref = st.mag_ref_norm
-    raw_norm = vec_norm(m)
     if ref == 0.0:
         ref = raw_norm
     if vec_norm((b[0], b[1], b[2])) >= c.hi_min_bias * ref:
-        corrected = (m[0] - b[0], m[1] - b[1], m[2] - b[2])
-        if abs(vec_norm(corrected) - ref) < abs(raw_norm - ref):
+        if abs(corrected_norm - ref) < abs(raw_norm - ref) or steps[1] < steps[0]:
             return corrected
     return m
 

@@ -117,7 +117,10 @@ Gates (where they come from)
   the field is ``m = Rᵀ m_E + b_m`` with a constant body-frame ``b_m``; the gyroscope makes
   ``b_m`` observable without any orientation, ``ṁ + ω × m = ω × b_m``, and an exponentially
   forgotten least-squares estimate (``mag_hard_iron_tau_s``) is subtracted before the gate when
-  it is large (``mag_hard_iron_min_bias``) and brings the norm closer to the reference
+  it is large (``mag_hard_iron_min_bias``) and brings the norm closer to the reference or
+  makes it steadier (a low-pass of the squared norm step, ``mag_hard_iron_tau_s``: the
+  earth's field keeps its norm while the sensor turns, whatever a drifting strength does to
+  the reference)
   (:func:`~._kalman_kernels.hard_iron`).  Without it such a field fails the norm gate
   for as long as the magnet stays, and the heading runs on the gyroscope alone.
 

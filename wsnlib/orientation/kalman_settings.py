@@ -44,10 +44,15 @@ class KalmanSettings:
 
     Limits (what the filter cannot do): the heading rests on the magnetometer, so a field whose
     direction is disturbed for longer than ``mag_max_rejection_s`` pulls it (with inflated noise);
-    a field whose *strength* drifts faster than ``mag_norm_tau_s`` follows is rejected as
-    disturbed — a rejection longer than 10 s is counted in ``KalmanOutput.long_mag_rejections``
-    and warned of; the tilt needs the accelerometer's gates to pass now and then (a recording in
-    constant fast motion keeps its tilt from the velocity pseudo-measurement alone); the rate
+    a field whose *strength* drifts faster than ``mag_norm_tau_s`` follows (more than about
+    ``mag_norm_gate / mag_norm_tau_s`` = 10 % per second at the defaults) is rejected as
+    disturbed, and a disturbance that keeps the field's dip while its strength changes slowly
+    is followed and used — a rejection longer than 10 s is counted in
+    ``KalmanOutput.long_mag_rejections`` and warned of; a magnet attached to the sensor while
+    the field's strength drifts can pull the heading for seconds until the hard-iron estimate
+    has converged (measured: BROAD trial 33 under a scale 0.4–1.2 and GE 10 %); the tilt needs
+    the accelerometer's gates to pass now and then (a recording in constant fast motion keeps
+    its tilt from the velocity pseudo-measurement alone); the rate
     predictor in a gap spans at most 64 samples (0.22 s at BROAD's native rate).
 
     Every setting is in physical units (per second, not per sample), so one settings object
@@ -108,12 +113,15 @@ class KalmanSettings:
     mag_norm_tau_s : float
         Time constant (s) with which the norm gate's reference follows every field whose dip
         passes the dip gate (the field's direction holds, its strength may drift: a sensor's gain,
-        a room's field).  Default 20 s, as ``mag_reference_tau_s``: on the 17 BROAD trials at
-        50 Hz, 1 s follows a magnetometer scaled by a slow factor 0.4–1.2 without losing the
-        heading when nothing is lost, but cost +0.1° lossless and +0.2° at GE 10 % (the
-        attached-magnet trials) and did not hold under loss (one development run, November 2026;
-        ``benchmarks/eval_rates_and_starts.py`` measures the defaults).  ``inf``: the gate's norm stays where the
-        reference was set.
+        a room's field).  A field strength that drifts by a fraction ρ per second lags the
+        follower by about ρ·τ, so it passes ``mag_norm_gate`` up to ρ ≈ ``mag_norm_gate``/τ
+        (10 %/s at the default).  Default 1 s: on the 17 BROAD trials at 50 Hz it follows a
+        magnetometer scaled by a slow factor 0.4–1.2 per minute (up to ~7 %/s; 20 s, VQF's
+        ``magRefTau``, rejected it on 85 % of the samples and cost up to +45° of heading under
+        GE 10 %), at a cost of +0.1° mean lossless RMSE (the attached-magnet trials; 2 s
+        followed the scale less well; ``benchmarks/eval_rates_and_starts.py`` and
+        ``benchmarks/eval_kalman_accuracy.py``, November 2026).  ``inf``: the gate's norm stays
+        where the reference was set.
     mag_new_time_s : float
         Consistent time (s) after which a new field becomes the reference, VQF's
         ``magNewTime`` = 20 s.
@@ -158,7 +166,8 @@ class KalmanSettings:
         and a removed magnet is forgotten within seconds.
     mag_hard_iron_min_bias : float
         The estimate is subtracted only when its norm is at least this times the reference
-        field norm (and the corrected norm is closer to the reference than the raw one);
+        field norm and the corrected field is closer to the reference norm or its norm steadier
+        than the raw one's (:func:`wsnlib.orientation._kalman_kernels.hard_iron`);
         ``inf`` switches the correction off.  Default 0.1, the size ``mag_norm_gate`` would
         reject; chosen most often by LOTO from {0.1, inf}.
     gap_rate_prediction_span_s : float
@@ -203,7 +212,7 @@ class KalmanSettings:
     mag_norm_gate: float = 0.1
     mag_dip_gate: float = math.radians(10.0)
     mag_reference_tau_s: float = 20.0
-    mag_norm_tau_s: float = 20.0
+    mag_norm_tau_s: float = 1.0
     mag_new_time_s: float = 20.0
     mag_new_first_time_s: float = 5.0
     mag_new_min_rate: float = math.radians(20.0)
