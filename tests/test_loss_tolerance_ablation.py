@@ -2,11 +2,14 @@
 (filter × gap handling) and its ratios, one burst per run at many positions, distinct line colours."""
 
 import dataclasses
+import types
 
 import numpy as np
 import pandas as pd
 import pytest
 
+from wsnlib import loto
+from wsnlib.orientation import KalmanSettings
 from wsnlib.studies import loss_tolerance as lt
 from wsnlib.studies.loss_tolerance import summary, tables
 
@@ -175,3 +178,121 @@ def test_lines_that_sit_together_get_distinct_hues():
     assert colors["VQF (defaults)"] == METHOD_COLORS["VQF (defaults)"] and colors["Kalman"] == METHOD_COLORS["Kalman"]
     assert colors["VQF, AR + replay"] not in {METHOD_COLORS[m] for m in ("VQF", "Fusion", "Kalman")}
     assert _distinct_colors(["hold_last", "Kalman"]) == {m: METHOD_COLORS[m] for m in ("hold_last", "Kalman")}
+
+
+# --- the design chosen in the fold ------------------------------------------------------------------
+
+
+def test_designs_cross_the_grid_and_stay_outside_the_search_space():
+    space = {"acc_noise_density": lt.Range(0.002, 0.2)}
+    designs = ({}, {"gyro_noise": 0.01})
+    grid = lt.method_grid(space, 3, designs)
+    assert grid == ({"acc_noise_density": 0.002}, {"acc_noise_density": 0.02}, {"acc_noise_density": 0.2},
+                    {"gyro_noise": 0.01, "acc_noise_density": 0.002}, {"gyro_noise": 0.01, "acc_noise_density": 0.02},
+                    {"gyro_noise": 0.01, "acc_noise_density": 0.2})
+    methods = lt.default_methods()
+    for name in ("Kalman, design in fold", "smoother, design in fold"):
+        method = methods[name]
+        assert method.designs == lt.KALMAN_DESIGNS and method.designs[0] == {}
+        assert len(method.grid) == len(lt.KALMAN_DESIGNS) * lt.DEFAULT_BUDGET
+        # The empty design's block is the designed-on-all entry's grid: the same settings, then the alternatives.
+        base = name.replace(", design in fold", "")
+        assert method.grid[:lt.DEFAULT_BUDGET] == methods[base].grid and method.space == methods[base].space
+        for setting in method.grid:
+            KalmanSettings(**setting)
+    assert len(lt.with_budget(methods, 2)["Kalman, design in fold"].grid) == 2 * len(lt.KALMAN_DESIGNS)
+    assert set(lt.DESIGNED_ON_BROAD) | {m for pair in lt.DESIGN_PAIRS for m in pair} <= set(methods)
+    with pytest.raises(ValueError, match="outside its search space"):
+        dataclasses.replace(methods["Kalman"], designs=({"acc_noise_density": 0.1},))
+    sentence = tables.budget_sentence(methods)
+    assert f"**{lt.DEFAULT_BUDGET} settings**" in sentence and f"{len(lt.KALMAN_DESIGNS)} designs" in sentence
+    assert "designs chosen in the fold" in tables.method_table(methods).loc["Kalman, design in fold", "grid"]
+
+
+def _pools_per_trial(means: dict, trials=("a", "b", "c")) -> pd.DataFrame:
+    """Rows at the headline: method → (kind, mean RMSE), the same on every trial."""
+    return pd.DataFrame([{"trial": t, "method": m, "kind": kind, "profile": p, "draw": 0, "rmse_total": value,
+                          "latency_rule": "none" if kind != "offline" else "offline"}
+                         for m, (kind, value) in means.items() for t in trials for p in ("lossless", lt.HEADLINE)])
+
+
+def test_a_method_designed_on_the_scored_trials_does_not_stand_for_ours():
+    per_trial = _pools_per_trial({"Kalman": ("causal", 10.0), "Kalman, design in fold": ("causal", 12.0),
+                            "smoother": ("offline", 5.0), "smoother, design in fold": ("offline", 6.0),
+                            "VQF, AR + replay": ("peer", 20.0), "VQF (defaults)": ("peer", 30.0)})
+    assert summary.best_methods(per_trial)["causal"] == "Kalman"
+    best = summary.best_methods(per_trial, exclude=lt.DESIGNED_ON_BROAD)
+    assert (best["causal"], best["offline"]) == ("Kalman, design in fold", "smoother, design in fold")
+    targets = summary.targets_table(per_trial, rng=np.random.default_rng(0), n_boot=100,
+                                    exclude=lt.DESIGNED_ON_BROAD)
+    assert targets.loc["best causal / best peer as users run them (GE 10 %)", "measured"] == pytest.approx(12 / 30)
+    assert targets.loc["smoother / best peer, same gap handling (GE 10 %)", "compares"] == (
+        "smoother, design in fold / VQF, AR + replay")
+
+
+def test_design_choices_name_the_design_of_each_fold_and_the_sentence_its_optimism():
+    method = lt.default_methods()["Kalman, design in fold"]
+    n = lt.DEFAULT_BUDGET
+    choices = pd.DataFrame({"method": method.name, "trial": ["a", "b", "c", "d"],
+                            "setting_index": [5, n + 2, n + 7, 7 * n]})  # defaults; gyro_noise twice; mag_norm_tau_s
+    table = summary.design_choices({method.name: method}, choices).set_index("design")
+    assert table["n_trials"].to_dict() == {"defaults": 1, "gyro_noise=0.01": 2, "mag_norm_tau_s=20": 1}
+    assert table.loc["gyro_noise=0.01", "trials"] == "b, c"
+    ratios = pd.DataFrame([{"question": "design in fold", "method": method.name, "against": "Kalman", "mean": 16.0,
+                            "mean_against": 15.0, "ratio": 16 / 15, "ci_low": 0.98, "ci_high": 1.2, "verdict": "tie"}])
+    (sentence,) = tables.design_sentences(ratios, table.reset_index())
+    assert "16.00° against 15.00°" in sentence and "flattered it by 1.00°" in sentence and "a tie" in sentence
+    assert "gyro_noise=0.01 on 2; defaults on 1; mag_norm_tau_s=20 on 1" in sentence
+
+
+def test_the_folds_choose_a_clearly_better_design():
+    """A design that spoils the filter (its gyroscope and bias trusted far less than they are) is
+    chosen by no fold; the study's choice for each trial is the leave-one-out choice over the
+    designs × the settings."""
+    from _recordings import turning_recording
+
+    def recording(seed):
+        gyr, acc, mag, quat = turning_recording(n=400, seed=seed, noise=0.05)
+        return types.SimpleNamespace(gyr=gyr, acc=acc, mag=mag, quat_ref=quat, movement=np.ones(400, bool),
+                                     n_samples=400, fs=50.0)
+
+    kalman = lt.default_methods()["Kalman, design in fold"]
+    bad = {"gyro_noise": 5.0, "bias_noise": 1.0}
+    method = dataclasses.replace(kalman, designs=(bad, {}), grid=lt.method_grid(kalman.space, 2, (bad, {})))
+    recordings = {f"t{i}": recording(i) for i in range(3)}
+    profiles = [p for p in lt.PROFILES if p.name in ("lossless", lt.HEADLINE)]
+    result = lt.evaluate(recordings, rng=np.random.default_rng(1), methods={method.name: method}, profiles=profiles,
+                         n_jobs=1, progress=False)
+    scores = result.tuning.pivot(index="setting_index", columns="trial", values="rmse_total")
+    assert scores.iloc[:2].mean(axis=1).min() > scores.iloc[2:].mean(axis=1).min()  # the bad design is worse
+    chosen = result.choices.set_index("trial").loc[list(scores.columns), "setting_index"].to_numpy()
+    np.testing.assert_array_equal(chosen, loto.leave_one_out_choice(scores.to_numpy(), groups=list(scores.columns)))
+    assert (chosen >= 2).all()
+    assert set(summary.design_choices({method.name: method}, result.choices)["design"]) == {"defaults"}
+
+
+def test_the_smoother_runs_with_the_setting_chosen_for_its_filter():
+    """Its forward pass is the filter: one settings object for both, not a second tuning."""
+    from _recordings import turning_recording
+
+    def recording(seed):
+        gyr, acc, mag, quat = turning_recording(n=300, seed=seed, noise=0.05)
+        return types.SimpleNamespace(gyr=gyr, acc=acc, mag=mag, quat_ref=quat, movement=np.ones(300, bool),
+                                     n_samples=300, fs=50.0)
+
+    registry = lt.with_budget({m: lt.default_methods()[m] for m in ("Kalman", "smoother")}, 2)
+    assert registry["smoother"].setting_of == "Kalman"
+    assert lt.default_methods()["smoother, design in fold"].setting_of == "Kalman, design in fold"
+    recordings = {f"t{i}": recording(i) for i in range(3)}
+    profiles = [p for p in lt.PROFILES if p.name in ("lossless", lt.HEADLINE)]
+    result = lt.evaluate(recordings, rng=np.random.default_rng(2), methods=registry, profiles=profiles, n_jobs=1,
+                         progress=False)
+    chosen = result.choices.pivot(index="trial", columns="method", values="setting_index")
+    assert (chosen["smoother"] == chosen["Kalman"]).all()
+    assert set(result.tuning["method"]) == {"Kalman"}  # the smoother is not tuned on its own score
+    scored = result.per_trial.drop_duplicates(["method", "trial"]).pivot(index="trial", columns="method",
+                                                                         values="setting")
+    assert (scored["smoother"] == scored["Kalman"]).all()
+    with pytest.raises(ValueError, match="include 'Kalman' in methods"):
+        lt.evaluate(recordings, rng=np.random.default_rng(2), methods={"smoother": registry["smoother"]},
+                    profiles=profiles, n_jobs=1, progress=False)

@@ -47,7 +47,7 @@ def test_registry_grids_kinds_and_colours():
     methods = lt.default_methods()
     assert {"hold_last", "constant_rate", "gyro_interpolation", "Kalman", "smoother", "Fusion", "VQF"} <= set(methods)
     for name, method in methods.items():
-        assert len(method.grid) == (lt.DEFAULT_BUDGET if method.space else 1)
+        assert len(method.grid) == (lt.DEFAULT_BUDGET * max(1, len(method.designs)) if method.space else 1)
         assert method.kind in lt.KINDS and method.latency in lt.LATENCY_RULES
         plotting.method_style(name)  # every method has a colour and marker
     assert methods["gyro_interpolation"].latency == "none" and methods["smoother"].kind == "offline"
@@ -78,7 +78,8 @@ def test_a_budget_gives_every_method_the_same_number_of_settings_from_bound_to_b
             if not method.space:  # VQF with its authors' setting: nothing to tune
                 assert method.grid == methods[name].grid
                 continue
-            assert len(method.grid) == budget and len({repr(s) for s in method.grid}) == budget
+            size = budget * max(1, len(method.designs))  # ours with their design chosen in the fold: × designs
+            assert len(method.grid) == size and len({repr(s) for s in method.grid}) == size
             for key, axis in method.space.items():
                 values = [setting[key] for setting in method.grid]
                 assert axis.low <= min(values) and max(values) <= axis.high

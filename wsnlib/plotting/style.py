@@ -119,7 +119,9 @@ METHOD_COLORS.update({"gated hybrid (feedback)": METHOD_COLORS["hybrid (feedback
                       "Fusion (defaults)": METHOD_COLORS["Fusion"],
                       "Fusion (defaults), constant rate": METHOD_COLORS["Fusion"],
                       "VQF (defaults), constant rate": METHOD_COLORS["VQF"],
-                      "Madgwick, AR": METHOD_COLORS["hold_last"], "Madgwick, AR + replay": METHOD_COLORS["hold_last"]})
+                      "Madgwick, AR": METHOD_COLORS["hold_last"], "Madgwick, AR + replay": METHOD_COLORS["hold_last"],
+                      "Kalman, design in fold": METHOD_COLORS["Kalman"],
+                      "smoother, design in fold": METHOD_COLORS["smoother"]})
 METHOD_MARKERS.update({"constant_rate": ">", "hybrid (feedback)": "D", "Kalman": "*", "smoother": "P",
                        "VQF (defaults)": "X"})
 METHOD_MARKERS.update({"gated hybrid (feedback)": "d", "Fusion + gated hybrid (feedback)": "H",
@@ -128,7 +130,8 @@ METHOD_MARKERS.update({"gated hybrid (feedback)": "d", "Fusion + gated hybrid (f
                        "VQF, AR + replay": "4", "Kalman, hold": "o", "Kalman, constant rate": ">", "Kalman, AR": "s",
                        "Fusion, AR": "s", "VQF, AR": "s", "Fusion (defaults)": "X",
                        "Fusion (defaults), constant rate": "x", "VQF (defaults), constant rate": "x",
-                       "Madgwick, AR": "s", "Madgwick, AR + replay": "4"})
+                       "Madgwick, AR": "s", "Madgwick, AR + replay": "4", "Kalman, design in fold": "v",
+                       "smoother, design in fold": "^"})
 
 
 def method_style(name: str, **overrides) -> dict:

@@ -40,6 +40,16 @@ and the other profiles show how a setting tuned for one loss pattern carries ove
 recording there is nothing to tune on: every method runs with its documented default
 (:attr:`Method.default`), and the result says so (``setting_source``).
 
+The design, too, is chosen in the fold where it was chosen on the scored trials: the Kalman
+filter's and the smoother's defaults (:class:`~wsnlib.orientation.KalmanSettings`) were picked
+on BROAD's 17 trials (:data:`DESIGNED_ON_BROAD`), so the registry also runs them as
+``"Kalman, design in fold"`` and ``"smoother, design in fold"``, whose grid crosses the 12
+settings with :data:`KALMAN_DESIGNS` (each alternative a default was picked against, one at a
+time: :attr:`Method.designs`, :func:`method_grid`).  On BROAD these stand for ours in the
+headline (``exclude=DESIGNED_ON_BROAD`` of :func:`.summary.best_methods` and
+:func:`.summary.targets_table`); the designed-on-all entries beside them (:data:`DESIGN_PAIRS`)
+show the optimism.  Their search is 11 times the peers' budget, and says so.
+
 Loss profiles
 -------------
 Lossless; the paper's burst, one per run (:class:`BurstPositions`: 4 packets of 6 samples, the
@@ -127,6 +137,8 @@ from wsnlib.studies.loss_tolerance.registry import (
     BETA_SPACE,
     DEFAULT_BUDGET,
     DEFAULT_RHO_TAU,
+    DESIGN_PAIRS,
+    DESIGNED_ON_BROAD,
     FUSION_DEFAULT_GAIN,
     FUSION_HYBRID_SPACE,
     FUSION_SPACE,
@@ -136,6 +148,7 @@ from wsnlib.studies.loss_tolerance.registry import (
     GATING_PAIRS,
     HEADLINE,
     HYBRID_SPACE,
+    KALMAN_DESIGNS,
     KALMAN_SPACE,
     KINDS,
     LATENCY_RULES,
@@ -149,6 +162,7 @@ from wsnlib.studies.loss_tolerance.registry import (
     Range,
     default_methods,
     inclination_methods,
+    method_grid,
     paper001_methods,
     paper001_profiles,
     settings_grid,
@@ -159,6 +173,7 @@ from wsnlib.studies.loss_tolerance.registry import (
 
 __all__ = [
     "ABLATION", "AFTER_GAP_S", "AS_USERS_RUN_THEM", "BETA_SPACE", "BROAD_FS", "DEFAULT_BUDGET", "DEFAULT_RHO_TAU",
+    "DESIGN_PAIRS", "DESIGNED_ON_BROAD", "KALMAN_DESIGNS", "method_grid",
     "FUSION_DEFAULT_GAIN", "FUSION_HYBRID_SPACE", "FUSION_SPACE", "GAP_HANDLING_OF", "GAP_HANDLINGS",
     "GAP_PREDICTION_PAIRS",
     "GATING_PAIRS", "HEADLINE", "HYBRID_SPACE", "KALMAN_SPACE", "KINDS", "LATENCY_RULES", "MADGWICK_BETA", "PROFILES",

@@ -249,8 +249,9 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
     Each trial (study unit) is run, masked, scored and traced at its own rate ``fs``.  Its
     setting is the one with the lowest mean headline score over the trials of the *other*
     groups (``groups``, by default the recordings: the nodes of one recording are held out
-    together, :func:`wsnlib.loto.leave_one_out_choice` with groups); with a single recording there is
-    nothing to tune on and every method runs with its default
+    together, :func:`wsnlib.loto.leave_one_out_choice` with groups; a method with
+    :attr:`~wsnlib.studies.loss_tolerance.Method.setting_of` runs with that method's choice); with
+    a single recording there is nothing to tune on and every method runs with its default
     (:meth:`~wsnlib.studies.loss_tolerance.Method.untuned_setting`), which the result's
     ``setting_source`` says.  Every run of a method on a trial is a job of
     :func:`wsnlib.parallel.run_jobs` (up to :data:`SETTINGS_PER_JOB` settings per tuning job);
@@ -420,8 +421,15 @@ def _tune(recordings, names, folds, methods, masks, rows, headline, tuning_draws
     # Tuning jobs, one per method, trial and SETTINGS_PER_JOB settings.  Without a cluster, each
     # method's first job runs in this process first: each kernel is compiled once, into numba's
     # on-disk cache, which the local workers then read.  A method with a single setting has
-    # nothing to choose: it is not run here (no rows in the tuning table).
-    tuned = {m: method for m, method in methods.items() if len(method.grid) > 1}
+    # nothing to choose, and one with ``setting_of`` takes another's choice: neither is run here
+    # (no rows in the tuning table).
+    following = {m: method.setting_of for m, method in methods.items()
+                 if method.setting_of is not None and len(method.grid) > 1}
+    for m, leader in following.items():
+        if leader not in methods or methods[leader].grid != methods[m].grid:
+            raise ValueError(f"{m!r} runs with the setting chosen for {leader!r}: include {leader!r} in methods, "
+                             f"with the same grid")
+    tuned = {m: method for m, method in methods.items() if len(method.grid) > 1 and m not in following}
     where = [(m, j, first) for j in range(len(names)) for m, method in tuned.items()
              for first in range(0, len(method.grid), SETTINGS_PER_JOB)]
     where.sort(key=lambda job: (job[1], job[2]) != (0, 0))
@@ -438,6 +446,7 @@ def _tune(recordings, names, folds, methods, masks, rows, headline, tuning_draws
         seconds[m] += elapsed
     choice = {m: loto.leave_one_out_choice(scores[m][..., 0], groups=folds) if m in tuned
               else np.zeros(len(names), dtype=int) for m in methods}
+    choice |= {m: choice[leader] for m, leader in following.items()}
     tuning = pd.DataFrame([{"method": m, "setting_index": i, "setting": str(s), "trial": name,
                             "rmse_total": scores[m][i, j, 0], "rmse_heading": scores[m][i, j, 1],
                             "rmse_inclination": scores[m][i, j, 2]}

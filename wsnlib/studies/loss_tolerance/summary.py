@@ -146,8 +146,12 @@ def ranking(per_trial: pd.DataFrame, *, rng: np.random.Generator, profile: str =
                                 groups=labels)
 
 
-def best_methods(per_trial: pd.DataFrame, profile: str = HEADLINE) -> dict[str, str | None]:
+def best_methods(per_trial: pd.DataFrame, profile: str = HEADLINE, *, exclude=()) -> dict[str, str | None]:
     """Best (lowest mean total RMSE at ``profile``) method of each pool.
+
+    ``exclude``: methods that may not be "ours" in a pool, e.g. those designed on the scored trials
+    (:data:`~wsnlib.studies.loss_tolerance.DESIGNED_ON_BROAD` on BROAD: their ``", design in
+    fold"`` entries stand for them).
 
     Returns
     -------
@@ -163,6 +167,7 @@ def best_methods(per_trial: pd.DataFrame, profile: str = HEADLINE) -> dict[str, 
     rows = per_trial[per_trial["profile"] == profile]
     means = rows.groupby("method")["rmse_total"].mean()
     info = rows.drop_duplicates("method").set_index("method")
+    info = info[~info.index.isin(list(exclude))]
     pools = {"causal": info.index[(info["kind"] == "causal") & (info["latency_rule"] == "none")],
              "peer": info.index[info["kind"] == "peer"], "offline": info.index[info["kind"] == "offline"]}
     missing = [kind for kind, pool in pools.items() if len(pool) == 0]
@@ -182,11 +187,12 @@ def best_methods(per_trial: pd.DataFrame, profile: str = HEADLINE) -> dict[str, 
 
 
 def targets_table(per_trial: pd.DataFrame, *, rng: np.random.Generator, n_boot: int = 2000,
-                  groups=None) -> pd.DataFrame:
+                  groups=None, exclude=()) -> pd.DataFrame:
     """The issue's targets (:data:`TARGETS`): measured value with a 95 % paired bootstrap interval, PASS/MISS, margin.
 
     With ``groups`` (mapping trial → group) the intervals are over groups and loss draws.  A
     target whose peer did not run (e.g. no peer with the same gap handling) has no row.
+    ``exclude``: methods left out of the pools (:func:`best_methods`).
 
     Returns
     -------
@@ -195,7 +201,7 @@ def targets_table(per_trial: pd.DataFrame, *, rng: np.random.Generator, n_boot: 
         verdict (PASS when ``measured <= target``), margin (``measured − target``; negative =
         met with room), ci_meets (the whole interval meets the target).
     """
-    best = best_methods(per_trial)
+    best = best_methods(per_trial, exclude=exclude)
     if best["lossless reference"] is None:
         raise ValueError(f"per_trial lacks the lossless reference method {LOSSLESS_REFERENCE!r}")
     trials = sorted(set(per_trial.loc[per_trial["profile"] == HEADLINE, "trial"]))
@@ -452,6 +458,31 @@ def edge_picks(methods, choices: pd.DataFrame) -> pd.DataFrame:
                 rows.append({"method": name, "setting": key, "edge": edge, "value": value, "n_trials": n,
                              "n_total": len(chosen), "verdict": verdict})
     return pd.DataFrame(rows, columns=["method", "setting", "edge", "value", "n_trials", "n_total", "verdict"])
+
+
+def design_choices(methods, choices: pd.DataFrame) -> pd.DataFrame:
+    """Which design each fold chose, for every method with designs chosen in the fold
+    (:attr:`~wsnlib.studies.loss_tolerance.Method.designs`; its grid varies the design slowest).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns method, design (``"defaults"`` for the empty design, else its settings, e.g.
+        ``"gyro_noise=0.01"``), n_trials (trials scored with it), trials (their names).
+    """
+    rows = []
+    for name, method in methods.items():
+        if not method.designs:
+            continue
+        per_design = len(method.grid) // len(method.designs)
+        chosen = choices[choices["method"] == name].set_index("trial")["setting_index"]
+        picked = {trial: int(index) // per_design for trial, index in chosen.items() if index >= 0}
+        for d, design in enumerate(method.designs):
+            trials = [trial for trial, index in picked.items() if index == d]
+            if trials:
+                label = ", ".join(f"{key}={value:g}" for key, value in design.items()) or "defaults"
+                rows.append({"method": name, "design": label, "n_trials": len(trials), "trials": ", ".join(trials)})
+    return pd.DataFrame(rows, columns=["method", "design", "n_trials", "trials"])
 
 
 #: Columns of :func:`ablation_table`.

@@ -69,9 +69,17 @@ def weight_vs_gap(lost_samples, *, fs: float = 50.0, settings: KalmanSettings | 
 
 
 def _levels(method) -> dict[str, list]:
-    """Each setting's values in ``method``'s grid, in the order they first appear."""
+    """Each setting's values in ``method``'s grid, in the order they first appear (of a method with
+    designs chosen in the fold, its search space's settings only)."""
+    keys = dict.fromkeys(k for setting in method.grid for k in setting)
     return {key: list(dict.fromkeys(setting[key] for setting in method.grid if key in setting))
-            for key in dict.fromkeys(k for setting in method.grid for k in setting)}
+            for key in keys if not method.designs or key in method.space}
+
+
+def _designs(method) -> str:
+    """``"; × 11 designs chosen in the fold"`` for a method with designs (:attr:`~wsnlib.studies.
+    loss_tolerance.Method.designs`), else ``""``."""
+    return f"; × {len(method.designs)} designs chosen in the fold" if method.designs else ""
 
 
 def _listed(values, keep: int = 3) -> str:
@@ -84,7 +92,8 @@ def method_table(methods: Mapping) -> pd.DataFrame:
     """One row per method: kind, number of settings, what is tuned (the grid's values per setting,
     log-spaced between the bounds of :func:`space_table`), latency rule."""
     return pd.DataFrame([{"method": m.name, "kind": m.kind, "settings": len(m.grid),
-                          "grid": "; ".join(f"{key}: {_listed(values)}" for key, values in _levels(m).items()),
+                          "grid": "; ".join(f"{key}: {_listed(values)}" for key, values in _levels(m).items())
+                          + _designs(m),
                           "latency": LATENCY_RULES[m.latency]} for m in methods.values()]).set_index("method")
 
 
@@ -123,7 +132,7 @@ def budget_sentence(methods: Mapping) -> str:
     """How many settings each tuned method gets, and how they split over its settings, from the grids."""
     tuned = {name: m for name, m in methods.items() if m.space}
     fixed = [name for name, m in methods.items() if not m.space]
-    sizes = sorted({len(m.grid) for m in tuned.values()})
+    sizes = sorted({len(m.grid) // max(1, len(m.designs)) for m in tuned.values()})
     if not tuned:
         return "No method has a search space: every method runs its one setting."
     splits = {}
@@ -134,6 +143,15 @@ def budget_sentence(methods: Mapping) -> str:
     text = (f"Every method with something to tune gets the same budget, **{size} settings**, log-spaced from one "
             f"physical bound of each setting to the other (both bounds included): "
             + "; ".join(f"{split} for {', '.join(f'`{n}`' for n in names)}" for split, names in splits.items()) + ".")
+    designed = {name: m for name, m in tuned.items() if m.designs}
+    if designed:
+        text += (" " + " and ".join(f"`{n}`" for n in designed) + " cross theirs with "
+                 + " and ".join(sorted({str(len(m.designs)) for m in designed.values()}))
+                 + " designs (the defaults, and each alternative a default was picked against, one at a time), "
+                 "chosen in the fold: "
+                 + " and ".join(sorted({str(len(m.grid)) for m in designed.values()}))
+                 + " settings, more than the others' budget — the price of not choosing the design on the scored "
+                 "trials.")
     if fixed:
         text += f" Nothing to tune (their authors' settings): {', '.join(f'`{n}`' for n in fixed)}."
     return text
@@ -430,6 +448,26 @@ def summary_bullets(per_trial: pd.DataFrame, *, ranking_sentence: str, targets: 
             + (["* **What the filter and the gap handling contribute.** " + " ".join(ablation)] if ablation else [])
             + [f"* **{question}** " + " ".join(comparison_sentences(table[table["metric"] == "rmse_total"]))
                for question, table in comparisons.items()])
+
+
+def design_sentences(design_ratios: pd.DataFrame, designs: pd.DataFrame) -> list[str]:
+    """One sentence per pair of :func:`~wsnlib.studies.loss_tolerance.summary.ratio_table` over
+    :data:`~wsnlib.studies.loss_tolerance.DESIGN_PAIRS` (design in fold / designed on all trials):
+    the two means, the ratio with its interval, the optimism in degrees, and which designs the folds
+    chose (``designs``: :func:`~wsnlib.studies.loss_tolerance.summary.design_choices`)."""
+    out = []
+    for row in design_ratios.itertuples(index=False):
+        chosen = designs[designs["method"] == row.method].sort_values("n_trials", ascending=False, kind="stable")
+        picks = "; ".join(f"{r.design} on {r.n_trials}" for r in chosen.itertuples(index=False))
+        verdict = {"tie": "a tie", "lower": "lower with the design in the fold",
+                   "higher": "higher with the design in the fold"}[row.verdict]
+        out.append(f"**{row.method}**: {row.mean:.2f}° against {row.mean_against:.2f}° with the design chosen on "
+                   f"all trials (`{row.against}`), ratio {row.ratio:.2f} [{row.ci_low:.2f}, {row.ci_high:.2f}], "
+                   f"{verdict}: choosing the design on the scored trials "
+                   + (f"flattered it by {row.mean - row.mean_against:.2f}°" if row.mean > row.mean_against else
+                      f"cost it {row.mean_against - row.mean:.2f}°")
+                   + f". Designs the folds chose (trials scored with each): {picks or 'none'}.")
+    return out
 
 
 def optimism_sentence(optimism: pd.DataFrame, edges: pd.DataFrame) -> str:
