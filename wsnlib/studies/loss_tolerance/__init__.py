@@ -48,7 +48,7 @@ settings with :data:`KALMAN_DESIGNS` (each alternative a default was picked agai
 time: :attr:`Method.designs`, :func:`method_grid`).  On BROAD these stand for ours in the
 headline (``exclude=DESIGNED_ON_BROAD`` of :func:`.summary.best_methods` and
 :func:`.summary.targets_table`); the designed-on-all entries beside them (:data:`DESIGN_PAIRS`)
-show the optimism.  Their search is 11 times the peers' budget, and says so.
+show the optimism.  Their search is the budget times the number of designs, and the notebook says so.
 
 Loss profiles
 -------------

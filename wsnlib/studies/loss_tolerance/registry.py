@@ -456,8 +456,8 @@ def default_methods(budget: int = DEFAULT_BUDGET) -> dict[str, Method]:
       forward pass is the filter).  Tuned: the accelerometer's and magnetometer's noise densities.  Their other
       defaults were chosen on BROAD's 17 trials (:data:`DESIGNED_ON_BROAD`), so the filter and the
       smoother come twice more, as ``"Kalman, design in fold"`` and ``"smoother, design in
-      fold"``: the design (:data:`KALMAN_DESIGNS`, 11 alternatives) is chosen with the 12 settings
-      in the fold (``budget`` × 11 settings: more than the peers' budget, the price of choosing
+      fold"``: the design (one of :data:`KALMAN_DESIGNS`) is chosen with the ``budget`` settings
+      in the fold (``budget`` × the designs: more than the peers' budget, the price of choosing
       the design without the scored trials).
     * The peers, Fusion (gain × rejection) and VQF (τ_acc × τ_mag), with each gap handling
       (plain = hold; ``", constant rate"``; ``", AR"``; ``", AR + replay"``: the same gap module
