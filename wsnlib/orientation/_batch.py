@@ -247,22 +247,35 @@ def check_has_sample(mask: np.ndarray, batch: tuple[int, ...]) -> None:
 # ------------------------------------------------------------------------------------------
 
 
+def kernel_input(arr) -> np.ndarray:
+    """``arr`` as a C-contiguous, read-only view (a copy only when it is not C-contiguous).
+
+    numba compiles one machine code per argument type, and a read-only array (a cached BROAD
+    trial, a broadcast) is another type than a writable one: every input handed to a kernel goes
+    through here, so that each kernel is compiled once, whatever the caller's arrays.
+    """
+    view = np.ascontiguousarray(arr).view()
+    view.flags.writeable = False
+    return view
+
+
 def flat(arr: np.ndarray, n_core: int) -> np.ndarray:
-    """``arr`` ``(*s, *core)`` as C-contiguous ``(prod(s), *core)`` (a view when it can be)."""
+    """``arr`` ``(*s, *core)`` as C-contiguous, read-only ``(prod(s), *core)`` (a view when it can be)."""
     core = arr.shape[arr.ndim - n_core :]
-    return np.ascontiguousarray(arr).reshape((int(np.prod(arr.shape[: arr.ndim - n_core], dtype=np.int64)),) + core)
+    return kernel_input(np.ascontiguousarray(arr).reshape((int(np.prod(arr.shape[: arr.ndim - n_core],
+                                                                         dtype=np.int64)),) + core))
 
 
 def index_into(shape: tuple[int, ...], batch: tuple[int, ...]) -> np.ndarray:
     """For each element of ``batch`` (C order), the flat index of the element of ``shape`` it reads."""
     size = int(np.prod(shape, dtype=np.int64))
     index = np.arange(size, dtype=np.int64).reshape(shape)
-    return np.ascontiguousarray(np.broadcast_to(index, batch).reshape(-1))
+    return kernel_input(np.broadcast_to(index, batch).reshape(-1))
 
 
 def per_element(value, batch: tuple[int, ...], dtype=float) -> np.ndarray:
-    """A scalar or array parameter broadcast to ``batch`` and flattened, ``(prod(batch),)``."""
-    return np.ascontiguousarray(np.broadcast_to(np.asarray(value, dtype=dtype), batch).reshape(-1))
+    """A scalar or array parameter broadcast to ``batch`` and flattened, ``(prod(batch),)``, read-only."""
+    return kernel_input(np.broadcast_to(np.asarray(value, dtype=dtype), batch).reshape(-1))
 
 
 def available_memory() -> int | None:
@@ -373,9 +386,9 @@ def run_filter(signals, received, q0, batch, *, fs, method=K.STANDARD, replay=Fa
         check_has_sample(mask, batch)
     use_mag = "mag" in signals
     gyr, acc = flat(signals["gyr"], 2), flat(signals["acc"], 2)
-    mag = flat(signals["mag"], 2) if use_mag else np.zeros((1, 1, 3))
+    mag = flat(signals["mag"] if use_mag else np.zeros((1, 1, 3)), 2)
     masks = flat(mask, 1)
-    starts = np.array([[1.0, 0.0, 0.0, 0.0]]) if q0 is None else flat(q0, 1)
+    starts = flat(np.array([[1.0, 0.0, 0.0, 0.0]]) if q0 is None else q0, 1)
     beta_max = beta if beta_max is None else beta_max
     params = [per_element(x, batch) for x in (beta, beta_max, rho, tau)]
     windows = per_element(window, batch, np.int64)
@@ -383,7 +396,8 @@ def run_filter(signals, received, q0, batch, *, fs, method=K.STANDARD, replay=Fa
     # The rate history: the AR fit's window and the longest gap replayed with its predicted rates.
     history_rows = gaps.history_length(ar_window, int(np.ceil(gaps.LONGEST_AR_REPLAY_S * fs))) if gap == "ar" else 2
     gated = single_frame_gate is not None
-    gate = np.zeros(K.GATE_SIZE) if single_frame_gate is None else np.asarray(single_frame_gate, dtype=float)
+    gate = kernel_input(np.zeros(K.GATE_SIZE) if single_frame_gate is None
+                        else np.asarray(single_frame_gate, dtype=float))
     flat_out = out.reshape(-1, n_t, 4)
     status = np.empty(flat_out.shape[0], dtype=np.int64)
     if status.size == 1:  # one stream: the loop itself, no thread start-up

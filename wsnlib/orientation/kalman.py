@@ -229,8 +229,8 @@ def prepare_inputs(gyr, acc, mag, received, q0, gravity: float) -> KalmanInputs:
         B.check_has_sample(mask, batch)
     has_mag = mag is not None
     rows = {name: B.index_into(arr.shape[:-2], batch) for name, arr in signals.items()}
-    index = np.stack([rows["gyr"], rows["acc"], rows["mag"] if has_mag else np.zeros_like(rows["gyr"]),
-                      B.index_into(mask.shape[:-1], batch)], axis=-1)
+    index = B.kernel_input(np.stack([rows["gyr"], rows["acc"], rows["mag"] if has_mag else np.zeros_like(rows["gyr"]),
+                                     B.index_into(mask.shape[:-1], batch)], axis=-1))
     flat = {name: B.flat(arr, 2) for name, arr in signals.items()}
     flat_mask = B.flat(mask, 1)
     if q0 is None:  # start at the first received sample, from TRIAD (or the tilt)
@@ -241,8 +241,9 @@ def prepare_inputs(gyr, acc, mag, received, q0, gravity: float) -> KalmanInputs:
         q_init = np.broadcast_to(q0, batch + (4,)).reshape(-1, 4)
         start = np.zeros(index.shape[0], dtype=np.int64)
     return KalmanInputs(
-        gyr=flat["gyr"], acc=flat["acc"], mag=flat["mag"] if has_mag else np.ones((1, 1, 3)), has_mag=has_mag,
-        received=flat_mask, index=index, q_init=np.ascontiguousarray(q_init, dtype=float), start=start,
+        gyr=flat["gyr"], acc=flat["acc"], mag=flat["mag"] if has_mag else B.flat(np.ones((1, 1, 3)), 2),
+        has_mag=has_mag, received=flat_mask, index=index, q_init=B.kernel_input(np.asarray(q_init, dtype=float)),
+        start=B.kernel_input(start),
         init_only=q0 is None, batch=tuple(batch), n_t=n_t, treated_as_lost=given & ~mask,
     )
 
