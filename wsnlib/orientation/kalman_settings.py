@@ -49,8 +49,9 @@ class KalmanSettings:
     disturbed, and a disturbance that keeps the field's dip while its strength changes slowly
     is followed and used — a rejection longer than 10 s is counted in
     ``KalmanOutput.long_mag_rejections`` and warned of; a magnet attached to the sensor while
-    the field's strength drifts can pull the heading for seconds until the hard-iron estimate
-    has converged (measured: BROAD trial 33 under a scale 0.4–1.2 and GE 10 %); the tilt needs
+    the field's strength drifts can pull the heading for a few seconds until the hard-iron
+    estimate has followed (``mag_hard_iron_tau_s``; the worst case measured, BROAD trial 33
+    under a scale 0.4–1.2 and GE 10 %, costs a few degrees of heading); the tilt needs
     the accelerometer's gates to pass now and then (a recording in constant fast motion keeps
     its tilt from the velocity pseudo-measurement alone); the rate
     predictor in a gap spans at most 64 samples (0.22 s at BROAD's native rate).
@@ -161,9 +162,16 @@ class KalmanSettings:
         Forgetting time constant (s) of the online hard-iron estimate (a magnet or iron fixed
         to the sensor: a constant body-frame offset of the field, estimated from the gyroscope
         and the field's rate of change, see
-        :func:`wsnlib.orientation._kalman_kernels.hard_iron`).  Default 3 s: about 150
-        samples of rotation at 50 Hz average the differentiated field's noise down to ~1 µT,
-        and a removed magnet is forgotten within seconds.
+        :func:`wsnlib.orientation._kalman_kernels.hard_iron`).  Default 1 s: about 50
+        samples of rotation at 50 Hz average the differentiated field's noise down to ~2 µT
+        (below ``mag_hard_iron_min_bias`` of a 45 µT field), a removed magnet is forgotten within
+        a second or two, and an offset that changes with the sensor's gain is followed.  It was
+        3 s until November 2026: with the magnetometer scaled by a slow factor 0.4–1.2 (issue 24,
+        ``benchmarks/eval_rates_and_starts.py``) the 3 s estimate lagged the scaled magnet of
+        BROAD trial 33 and cost +14° of heading under GE 10 % (1 s: +4.4°), and on the 17 trials
+        1 s was 0.12° better lossless and within 0.02° under GE 10 %
+        (``benchmarks/eval_kalman_accuracy.py --compare``, 5 draws).  3 s stays a design
+        alternative of the loss study (``KALMAN_DESIGNS``), chosen in the fold.
     mag_hard_iron_min_bias : float
         The estimate is subtracted only when its norm is at least this times the reference
         field norm and the corrected field is closer to the reference norm or its norm steadier
@@ -225,7 +233,7 @@ class KalmanSettings:
     velocity_random_walk: float = 0.05 * math.sqrt(0.02)
     gap_acc_noise: float = 5.0
     mag_dip_tilt_sigmas: float = 3.0
-    mag_hard_iron_tau_s: float = 3.0
+    mag_hard_iron_tau_s: float = 1.0
     mag_hard_iron_min_bias: float = 0.1
     gap_rate_prediction_span_s: float = 0.96
     gap_rate_prediction_window_s: float = 6.0

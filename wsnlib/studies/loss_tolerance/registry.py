@@ -409,6 +409,7 @@ KALMAN_DESIGNS = (
     {"acc_disturbance_factor": 0.0},
     {"acc_disturbance_factor": 16.0},
     {"gap_rate_prediction_span_s": 0.48, "gap_rate_prediction_window_s": 3.0},
+    {"mag_hard_iron_tau_s": 3.0},
 )
 #: Methods whose defaults (:class:`~wsnlib.orientation.KalmanSettings`) were chosen on BROAD's 17
 #: trials: on those trials their scores are *designed on the scored trials* (they stand beside the

@@ -77,7 +77,7 @@ def _levels(method) -> dict[str, list]:
 
 
 def _designs(method) -> str:
-    """``"; × 11 designs chosen in the fold"`` for a method with designs (:attr:`~wsnlib.studies.
+    """``"; × 12 designs chosen in the fold"`` for a method with designs (:attr:`~wsnlib.studies.
     loss_tolerance.Method.designs`), else ``""``."""
     return f"; × {len(method.designs)} designs chosen in the fold" if method.designs else ""
 
