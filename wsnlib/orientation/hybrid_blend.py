@@ -152,10 +152,6 @@ def single_frame_trusted(gyr, acc, mag, received=None, *, fs: float, single_fram
     if mag is None:
         raise ValueError("mag is required: the gate checks the magnetometer")
     signals, mask, _, shapes = B.check_inputs(gyr, acc, mag, received)
-    n_t = signals["gyr"].shape[-2]
-    if mask is None:
-        mask = np.ones(n_t, dtype=bool)
-    shapes["received"] = mask.shape[:-1]
     batch = B.broadcast_batch(shapes)
     mask = B.check_usable(signals, mask)
     return trusted_unchecked(signals, mask, batch, gate.vector(fs))

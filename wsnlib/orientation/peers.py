@@ -151,8 +151,6 @@ def _prepare(gyr, acc, mag, fs, received):
     fs = check_positive(fs, "fs")
     signals, mask, _, shapes = B.check_inputs(gyr, acc, mag, received)
     n_t = signals["gyr"].shape[-2]
-    if mask is None:
-        mask = np.ones(n_t, dtype=bool)
     batch = B.broadcast_batch(shapes)
     mask = B.check_usable(signals, mask)  # NaN/inf (zero acc, mag) in received samples; implausible ones lost
     mask = np.broadcast_to(mask, batch + (n_t,))
