@@ -69,12 +69,18 @@ def check_beta(value, name: str = "beta") -> np.ndarray:
     return beta
 
 
-def check_received(received) -> np.ndarray:
+def check_received(received, n_t: int | None = None) -> np.ndarray:
+    """``received`` as a boolean array ``(..., T)``; given ``n_t``, T must be ``n_t`` and None means
+    every sample received (all True, shape ``(n_t,)``)."""
+    if received is None and n_t is not None:
+        return np.ones(n_t, dtype=bool)
     mask = np.asarray(received)
     if mask.dtype != np.bool_:
         raise ValueError(f"received must be a boolean mask (True = received), got dtype {mask.dtype}")
     if mask.ndim < 1:
         raise ValueError(f"received must have shape (..., T), got shape {mask.shape}")
+    if n_t is not None and mask.shape[-1] != n_t:
+        raise ValueError(f"received must have shape (..., {n_t}), got {mask.shape}")
     return mask
 
 
@@ -151,12 +157,7 @@ def check_inputs(gyr, acc, mag, received, q0=None):
         if arr.shape[-2] != n_t:
             raise ValueError(f"{name} has {arr.shape[-2]} samples (axis -2), gyr has {n_t}")
     shapes = {name: np.shape(given[name])[:-2] for name in signals}  # the batch the caller asked for
-    if received is None:
-        received = np.ones(n_t, dtype=bool)
-    else:
-        received = check_received(received)
-        if received.shape[-1] != n_t:
-            raise ValueError(f"received must have shape (..., {n_t}), got {received.shape}")
+    received = check_received(received, n_t)
     shapes["received"] = received.shape[:-1]
     if q0 is not None:
         q0 = unit_quaternions(q0, "q0")
