@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from wsnlib import quaternion as Q
-from wsnlib.io.recording import ALL_COLUMNS, UNITS, Recording, read_recording, write_recording
+from wsnlib.io.recording import BASE_COLUMNS, QUAT_COLUMNS, UNITS, Recording, read_recording, write_recording
 from wsnlib.io.sidecar import sidecar_path
 
 
@@ -42,7 +42,7 @@ def test_round_trip(tmp_path, rng):
     _assert_close(rec, back)
     assert back.metadata == {"generator": "test", "seed": 12345, "params": {"beta": 0.1}}
     header = path.read_text().splitlines()[0].split(",")
-    assert header == list(ALL_COLUMNS)
+    assert header == [*BASE_COLUMNS, *QUAT_COLUMNS]
     assert len(path.read_text().splitlines()) == 1 + 2 * 40
     side = json.loads((tmp_path / "sub" / "rec.json").read_text())
     assert side["fs_hz"] == 50.0 and side["nodes"] == ["humerus", "forearm"]

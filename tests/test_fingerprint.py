@@ -199,7 +199,7 @@ def test_k1_is_the_map_position_and_k_weights_are_posteriors(rng):
     X, y, _, _ = _training(rng, spread=6.0)
     online = np.round(rng.uniform(-90.0, -40.0, size=(30, 7)))
     est = ProbabilisticKNN(n_neighbors=1).fit(X, y)
-    post = est.predict_proba(online)
+    post = np.exp(est.predict_log_proba(online))
     np.testing.assert_allclose(post.sum(1), 1.0)
     np.testing.assert_array_equal(est.predict(online), est.positions_[np.argmax(post, axis=1)])
 
@@ -239,7 +239,7 @@ def test_log_space_is_stable_with_12_anchors_and_extreme_values(rng):
     naive = np.prod(np.take_along_axis(est.pmf_, np.zeros((6, 12, 1), dtype=int), axis=2)[..., 0], axis=1)
     assert np.all(naive == 0.0)  # the linear-space likelihood would give 0/0
     out = est.predict(online)
-    post = est.predict_proba(online)
+    post = np.exp(est.predict_log_proba(online))
     assert np.all(np.isfinite(out)) and np.all(np.isfinite(post))
     np.testing.assert_allclose(post.sum(1), 1.0)
     ll = est.anchor_log_likelihoods(online)
@@ -411,8 +411,9 @@ def test_skipping_a_missing_online_reading_equals_leaving_its_anchor_out(rng, cl
         row = int(np.argmax(missing.sum(axis=1)))
         heard = np.flatnonzero(~missing[row])
         alone = cls(n_neighbors=3, anchors=heard, **options).fit(X, y)
-        np.testing.assert_allclose(skip.predict_proba(online[row : row + 1]),
-                                   alone.predict_proba(np.nan_to_num(online[row : row + 1], nan=-100.0)), atol=1e-12)
+        np.testing.assert_allclose(np.exp(skip.predict_log_proba(online[row : row + 1])),
+                                   np.exp(alone.predict_log_proba(np.nan_to_num(online[row : row + 1], nan=-100.0))),
+                                   atol=1e-12)
 
 
 @pytest.mark.parametrize("cls", [KNNFingerprint, ProbabilisticKNN])

@@ -107,26 +107,13 @@ def test_burst_loss_bad_inputs():
 # ------------------------------------------------------------------ random models
 
 
-def test_bernoulli_rate_shape_and_determinism():
-    a = loss.bernoulli_loss(20_000, 0.2, rng=np.random.default_rng(1), shape=(5,))
-    b = loss.bernoulli_loss(20_000, 0.2, rng=np.random.default_rng(1), shape=(5,))
-    c = loss.bernoulli_loss(20_000, 0.2, rng=np.random.default_rng(2), shape=(5,))
-    assert a.shape == (5, 20_000) and a.dtype == bool
-    assert np.array_equal(a, b)
-    assert not np.array_equal(a, c)
-    # 100k Bernoulli(0.2): standard error 0.0013
-    assert loss.loss_fraction(a).mean() == pytest.approx(0.2, abs=0.005)
-    assert loss.bernoulli_loss(50, 0.0, rng=np.random.default_rng(0)).all()
-    assert not loss.bernoulli_loss(50, 1.0, rng=np.random.default_rng(0)).any()
-
-
 @pytest.mark.parametrize("loss_rate, mean_burst", [(0.1, 3.0), (0.3, 1.5), (0.05, 1.0), (0.5, 8.0)])
 def test_gilbert_elliott_matches_rate_and_mean_burst(loss_rate, mean_burst):
     rng = np.random.default_rng(2024)
     mask = loss.gilbert_elliott(10_000, loss_rate, mean_burst, rng=rng, shape=(40,))
     assert mask.shape == (40, 10_000)
     # 400k packets; bursty losses inflate the variance, tolerance ~ 5 standard errors.
-    assert loss.loss_fraction(mask).mean() == pytest.approx(loss_rate, rel=0.05)
+    assert 1.0 - mask.mean() == pytest.approx(loss_rate, rel=0.05)
     bursts = loss.burst_lengths(mask)
     assert bursts.mean() == pytest.approx(mean_burst, rel=0.05)
     # Stationary start: the first packet is lost with probability loss_rate.
@@ -164,47 +151,20 @@ def test_gilbert_elliott_bad_parameters(loss_rate, mean_burst, match):
 
 def test_random_models_require_a_generator():
     with pytest.raises(ValueError, match="rng"):
-        loss.bernoulli_loss(10, 0.1, rng=np.random.RandomState(0))
+        loss.gilbert_elliott(10, 0.1, 2.0, rng=np.random.RandomState(0))
     with pytest.raises(ValueError, match="rng"):
         loss.gilbert_elliott(10, 0.1, 2.0, rng=None)
     with pytest.raises(ValueError, match="shape"):
-        loss.bernoulli_loss(10, 0.1, rng=np.random.default_rng(0), shape=(-1,))
-
-
-# ------------------------------------------------------------------ trace files
-
-
-def test_loss_trace_formats(tmp_path):
-    lines = tmp_path / "lines.txt"
-    lines.write_text("# measured trace\nreceived\n1\n1\n0\n\n1\n")
-    assert loss.loss_trace_from_file(lines).tolist() == [True, True, False, True]
-    csv = tmp_path / "row.csv"
-    csv.write_text("1,0,0,1, true ,FALSE\n")
-    assert loss.loss_trace_from_file(csv).tolist() == [True, False, False, True, True, False]
-
-
-@pytest.mark.parametrize(
-    "content, match",
-    [
-        ("1\n2\n", "'2'"),
-        ("", "no packet flags"),
-        ("# only\n", "no packet flags"),
-        ("1\nreceived\n", "received"),
-    ],
-)
-def test_loss_trace_bad_content(tmp_path, content, match):
-    path = tmp_path / "trace.txt"
-    path.write_text(content)
-    with pytest.raises(ValueError, match=match):
-        loss.loss_trace_from_file(path)
-
-
-def test_loss_trace_missing_file(tmp_path):
-    with pytest.raises(ValueError, match="no such file"):
-        loss.loss_trace_from_file(tmp_path / "absent.txt")
+        loss.gilbert_elliott(10, 0.1, 2.0, rng=np.random.default_rng(0), shape=(-1,))
 
 
 # ------------------------------------------------------------------ run lengths
+
+
+def test_last_received_index_with_and_without_backfill():
+    received = np.array([[False, False, True, False, True, False], [False] * 6])
+    assert loss.last_received_index(received).tolist() == [[-1, -1, 2, 2, 4, 4], [-1] * 6]
+    assert loss.last_received_index(received, backfill=True).tolist() == [[2, 2, 2, 2, 4, 4], [0] * 6]
 
 
 def test_lost_run_length_table():

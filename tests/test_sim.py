@@ -68,10 +68,9 @@ def test_reference_posture_frames():
     np.testing.assert_allclose(Q.rotate(q, [0.0, 1.0, 0.0]), [[-1, 0, 0]] * 2, atol=1e-12)  # west
     np.testing.assert_allclose(Q.rotate(q, [0.0, 0.0, 1.0]), [[0, 0, 1]] * 2, atol=1e-12)  # up
     geom = truth.geometry
-    np.testing.assert_allclose(truth.joint_pos[1, 0], [0, geom.humerus_length_m, 0], atol=1e-12)
-    np.testing.assert_allclose(
-        truth.joint_pos[2, 0], [0, geom.humerus_length_m + geom.forearm_length_m, 0], atol=1e-12
-    )
+    upper, fore = geom.segment_lengths_m
+    np.testing.assert_allclose(truth.joint_pos[1, 0], [0, upper, 0], atol=1e-12)
+    np.testing.assert_allclose(truth.joint_pos[2, 0], [0, upper + fore, 0], atol=1e-12)
 
 
 @pytest.mark.parametrize("heading_deg", [0.0, 90.0, -135.0])
@@ -156,11 +155,11 @@ def test_linear_acceleration_matches_finite_difference_of_positions(make):
     # Mounting points keep their distances to the joints.
     geom = truth.geometry
     np.testing.assert_allclose(
-        np.linalg.norm(truth.pos[0], axis=-1), np.linalg.norm(geom.humerus_node_m), atol=1e-12
+        np.linalg.norm(truth.pos[0], axis=-1), np.linalg.norm(geom.device_points_m[0]), atol=1e-12
     )
     np.testing.assert_allclose(
         np.linalg.norm(truth.pos[1] - truth.joint_pos[1], axis=-1),
-        np.linalg.norm(geom.forearm_node_m),
+        np.linalg.norm(geom.device_points_m[1]),
         atol=1e-12,
     )
 
@@ -196,9 +195,8 @@ def test_bad_kinematics_inputs(call, match):
 
 def test_geometry_from_height():
     geom = ArmGeometry.from_height(1.80)
-    assert geom.humerus_length_m == pytest.approx(0.186 * 1.80)
-    assert geom.forearm_length_m == pytest.approx(0.146 * 1.80)
-    assert geom.humerus_node_m[0] == pytest.approx(0.6 * 0.186 * 1.80)
+    assert geom.segment_lengths_m == pytest.approx((0.186 * 1.80, 0.146 * 1.80))
+    assert geom.device_points_m[0, 0] == pytest.approx(0.6 * 0.186 * 1.80)
 
 
 # ------------------------------------------------------------------ IMU

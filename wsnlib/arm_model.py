@@ -194,26 +194,6 @@ class ArmGeometry:
         normal = np.asarray(self.device_normal_offsets_m, dtype=float)
         return np.column_stack([np.asarray(self.device_offsets_m), normal])
 
-    @property
-    def humerus_length_m(self) -> float:
-        """Upper-arm length (m), ``segment_lengths_m[0]``."""
-        return self.segment_lengths_m[0]
-
-    @property
-    def forearm_length_m(self) -> float:
-        """Forearm length (m), ``segment_lengths_m[1]``."""
-        return self.segment_lengths_m[1]
-
-    @property
-    def humerus_node_m(self) -> tuple[float, float, float]:
-        """Upper-arm device point ``(x, y, z)`` in its segment frame (m)."""
-        return tuple(float(v) for v in self.device_points_m[0])
-
-    @property
-    def forearm_node_m(self) -> tuple[float, float, float]:
-        """Forearm device point ``(x, y, z)`` in its segment frame (m)."""
-        return tuple(float(v) for v in self.device_points_m[1])
-
     def to_dict(self) -> dict:
         """JSON-ready fields (lists)."""
         return {"segment_lengths_m": list(self.segment_lengths_m), "device_offsets_m": list(self.device_offsets_m),

@@ -44,7 +44,5 @@ PAPER002_TABLE3_PE_CM = pd.DataFrame(
 #: Table 3's last row: average PE (cm).
 PAPER002_TABLE3_AVERAGE_CM = {"deterministic": 9.1, "probabilistic": 12.0, "kinect": 12.6}
 
-#: Table 3's optimal anchor subsets and the deployable union the paper derives (Section 5).
-PAPER002_TABLE3_SUBSETS = {("deterministic", 1): "{3, 5, 6, 7}", ("deterministic", 2): "{2, 3, 6}",
-                           ("probabilistic", 1): "{6, 7}", ("probabilistic", 2): "{2, 3, 4, 7}"}
+#: The deployable union of Table 3's optimal anchor subsets that the paper derives (Section 5).
 PAPER002_DEPLOYABLE_DETERMINISTIC = "{2, 3, 5, 6, 7}"

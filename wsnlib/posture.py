@@ -50,6 +50,7 @@ import numpy as np
 from wsnlib import fixed_order, frames
 from wsnlib._validation import as_float_array, check_count, check_nonnegative, check_nonzero_norm, check_positive
 from wsnlib.arm_model import ArmGeometry
+from wsnlib.loss import last_received_index
 from wsnlib.metrics import SEGMENT_AXIS
 
 #: Default gate half-width ξ (m/s²) of :func:`pitch_from_acc`.  The paper gives no value
@@ -175,7 +176,7 @@ def pitch_from_acc(acc, *, method: str = "gating", xi: float = DEFAULT_XI_M_S2,
         where = f" (batch index {bad})" if bad else ""
         raise ValueError(f"no sample of acc has |a| within [g - xi, g + xi] = [{gravity - xi:.4g}, "
                          f"{gravity + xi:.4g}] m/s²{where}; increase xi or use method='lowpass'")
-    return np.take_along_axis(pitch, _hold_index(accepted, backfill=True), axis=-1)
+    return np.take_along_axis(pitch, last_received_index(accepted, backfill=True), axis=-1)
 
 
 def _pitch(acc: np.ndarray, axis: np.ndarray) -> np.ndarray:
@@ -203,20 +204,6 @@ def _lowpass(acc: np.ndarray, fs, cutoff_hz, order) -> np.ndarray:
     # (S, ..., 3, 2): every section in its steady state for the first sample (no start-up transient)
     filtered, _ = signal.sosfilt(sos, series, axis=-1, zi=zi)
     return np.moveaxis(filtered, -1, -2)
-
-
-def _hold_index(valid: np.ndarray, backfill: bool) -> np.ndarray:
-    """Index (along the last axis) of the latest valid sample at or before each sample.
-
-    Before the first valid sample: the first valid one (``backfill``) or -1.
-    """
-    n = valid.shape[-1]
-    index = np.where(valid, np.arange(n), -1)
-    index = np.maximum.accumulate(index, axis=-1)
-    if backfill:
-        first = np.argmax(valid, axis=-1)[..., None]
-        index = np.where(index < 0, first, index)
-    return index
 
 
 # --- eqs. (8)–(10): the recursive chain --------------------------------------------------------
@@ -373,7 +360,7 @@ def recursive_chain(radio_positions, pitch, chain: ArmChain, *, origin=(0.0, 0.0
         defined = np.hypot(delta[..., 0], delta[..., 1]) > heading_tol_m       # (..., T)
         heading = np.mod(np.arctan2(delta[..., 1], delta[..., 0]), 2.0 * math.pi)   # eq. (8)
         heading = np.where(heading >= 2.0 * math.pi, 0.0, heading)              # mod can round up to 2π
-        index = _hold_index(defined, backfill=False)
+        index = last_received_index(defined)
         heading = np.where(index >= 0, np.take_along_axis(heading, np.maximum(index, 0), axis=-1), 0.0)
         direction = _direction(heading, pitch[..., s])
         devices[..., s, :] = proximal + chain.device_offsets_m[s] * direction      # eq. (9)

@@ -493,10 +493,15 @@ def ratio_of_means_ci(a, b, *, rng: np.random.Generator, level: float = 0.95, n_
         raise ValueError("b must be > 0 on every unit (the ratio's denominator)")
     boot = _resampled(np.stack([a, b], axis=1), "mean", rng, n_boot)
     ratios = boot[:, 0] / boot[:, 1]
-    estimate = np.asarray(a.mean() / b.mean())
-    low, high = np.quantile(ratios, [(1.0 - level) / 2.0, (1.0 + level) / 2.0])
+    return _percentile_interval(ratios, np.asarray(a.mean() / b.mean()), level, a.shape[0], n_boot)
+
+
+def _percentile_interval(boot: np.ndarray, estimate: np.ndarray, level: float, n_units: int,
+                         n_boot: int) -> BootstrapInterval:
+    """The percentile interval of the resampled means ``boot`` ``(n_boot, ...)``, widened to hold ``estimate``."""
+    low, high = np.quantile(boot, [(1.0 - level) / 2.0, (1.0 + level) / 2.0], axis=0)
     return BootstrapInterval(estimate=estimate, low=np.minimum(low, estimate), high=np.maximum(high, estimate),
-                             level=level, method="percentile", statistic="mean", n_units=a.shape[0], n_boot=n_boot)
+                             level=level, method="percentile", statistic="mean", n_units=n_units, n_boot=n_boot)
 
 
 def _grouped_means(values: np.ndarray, labels: np.ndarray, rng: np.random.Generator, n_boot: int) -> np.ndarray:
@@ -548,10 +553,7 @@ def grouped_bootstrap_ci(values, groups, *, rng: np.random.Generator, level: flo
     tail = arr.shape[2:]
     estimate = arr.mean(axis=(0, 1))
     boot = _grouped_means(arr.reshape(arr.shape[:2] + (-1,)), labels, rng, n_boot)
-    low, high = np.quantile(boot, [(1.0 - level) / 2.0, (1.0 + level) / 2.0], axis=0)
-    return BootstrapInterval(estimate=estimate, low=np.minimum(low.reshape(tail), estimate),
-                             high=np.maximum(high.reshape(tail), estimate), level=level, method="percentile",
-                             statistic="mean", n_units=len(np.unique(labels)), n_boot=n_boot)
+    return _percentile_interval(boot.reshape((n_boot,) + tail), estimate, level, len(np.unique(labels)), n_boot)
 
 
 def grouped_ratio_ci(a, b, groups, *, rng: np.random.Generator, level: float = 0.95,
@@ -575,8 +577,4 @@ def grouped_ratio_ci(a, b, groups, *, rng: np.random.Generator, level: float = 0
         raise ValueError("b must be > 0 on every unit and draw (the ratio's denominator)")
     boot = _grouped_means(np.stack([a, b], axis=2), labels, rng, n_boot)
     ratios = boot[:, 0] / boot[:, 1]
-    estimate = np.asarray(a.mean() / b.mean())
-    low, high = np.quantile(ratios, [(1.0 - level) / 2.0, (1.0 + level) / 2.0])
-    return BootstrapInterval(estimate=estimate, low=np.minimum(low, estimate), high=np.maximum(high, estimate),
-                             level=level, method="percentile", statistic="mean", n_units=len(np.unique(labels)),
-                             n_boot=n_boot)
+    return _percentile_interval(ratios, np.asarray(a.mean() / b.mean()), level, len(np.unique(labels)), n_boot)

@@ -29,7 +29,6 @@ silently replaced: delete it to download it again).  The verified hash is rememb
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -221,12 +220,6 @@ def broad_file(filename: str, data_dir=None, *, download: bool = True, downloade
         download_verified(url, path, expected, downloader, env_var=BROAD_DIR_ENV_VAR)
     _verify_file(path, expected)
     return path
-
-
-def broad_trial_info(data_dir=None, *, download: bool = True, downloader=None) -> dict:
-    """The dataset's ``trials.json`` (groups, and per trial its description and groups), parsed."""
-    path = broad_file("trials.json", data_dir, download=download, downloader=downloader)
-    return json.loads(path.read_text(encoding="utf-8"))
 
 
 @dataclass(frozen=True, eq=False)

@@ -111,8 +111,6 @@ SIGNAL_COLUMNS: dict[str, tuple[str, str, str]] = {
 QUAT_COLUMNS: tuple[str, str, str, str] = ("quat_w", "quat_x", "quat_y", "quat_z")
 BASE_COLUMNS: tuple[str, ...] = ("time_s", "node", *SIGNAL_COLUMNS["gyr"], *SIGNAL_COLUMNS["acc"],
                                  *SIGNAL_COLUMNS["mag"])
-#: Every column of version 1 (a recording with ground truth); version 2 may add :data:`MOVEMENT_COLUMN`.
-ALL_COLUMNS: tuple[str, ...] = BASE_COLUMNS + QUAT_COLUMNS
 MOVEMENT_COLUMN = "movement"
 
 #: Units written to (and required in) the sidecar.

@@ -1,4 +1,4 @@
-"""Packet loss: packets of samples, loss masks (burst, Bernoulli, Gilbert–Elliott), run lengths.
+"""Packet loss: packets of samples, loss masks (burst, Gilbert–Elliott), run lengths.
 
 Every mask is boolean with ``True`` = received; rows are never deleted.  Leading dimensions
 are batches (Monte Carlo runs, parameter grids); the last axis is time (packets or samples).
@@ -15,13 +15,11 @@ Loss models
 -----------
 * :func:`burst_loss`, :func:`burst_mask`: a single burst, as in paper 001, Section IV ("a
   loss λ of four packets right after 80 samples").
-* :func:`bernoulli_loss`: independent packet losses.
 * :func:`gilbert_elliott`: the two-state Markov chain of E. N. Gilbert, "Capacity of a
   burst-noise channel", Bell Syst. Tech. J. 39:1253–1265, 1960, and E. O. Elliott,
   "Estimates of error rates for codes on burst-noise channels", Bell Syst. Tech. J.
   42:1977–1997, 1963, in its simplified form (Good = received, Bad = lost), as commonly used
   for bursty IEEE 802.15.4 links.
-* :func:`loss_trace_from_file`: a measured per-packet trace.
 * :class:`LossProfile`: a named pattern (none, bursts, Gilbert–Elliott) that draws the masks
   of a recording, in seconds (the studies' profiles).
 
@@ -32,10 +30,9 @@ every sample: 0 on received samples, ``1, 2, …`` along a run of lost samples.
 
 Modules
 -------
-* :mod:`wsnlib.loss.models`: the loss models above (bursts, burst trains, Bernoulli,
-  Gilbert–Elliott, measured traces).
+* :mod:`wsnlib.loss.models`: the loss models above (bursts, burst trains, Gilbert–Elliott).
 * :mod:`wsnlib.loss.masks`: packets ↔ samples and statistics of masks (λ, run lengths,
-  loss fraction, hold-last).
+  hold-last, the last received sample).
 * :mod:`wsnlib.loss.profiles`: :class:`LossProfile`.
 
 This package's door gathers every public name: ``from wsnlib.loss import gilbert_elliott``.
@@ -47,22 +44,20 @@ from wsnlib.loss.masks import (
     SAMPLES_PER_PACKET,
     burst_lengths,
     hold_last,
-    loss_fraction,
+    last_received_index,
     lost_run_length,
     n_packets_for,
     packets_to_samples,
 )
 from wsnlib.loss.models import (
-    bernoulli_loss,
     burst_loss,
     burst_mask,
     burst_train,
     gilbert_elliott,
     gilbert_elliott_probabilities,
-    loss_trace_from_file,
 )
 from wsnlib.loss.profiles import LossProfile
 
-__all__ = ["LossProfile", "SAMPLES_PER_PACKET", "bernoulli_loss", "burst_lengths", "burst_loss", "burst_mask",
-           "burst_train", "gilbert_elliott", "gilbert_elliott_probabilities", "hold_last", "loss_fraction",
-           "loss_trace_from_file", "lost_run_length", "n_packets_for", "packets_to_samples"]
+__all__ = ["LossProfile", "SAMPLES_PER_PACKET", "burst_lengths", "burst_loss", "burst_mask", "burst_train",
+           "gilbert_elliott", "gilbert_elliott_probabilities", "hold_last", "last_received_index", "lost_run_length",
+           "n_packets_for", "packets_to_samples"]

@@ -26,13 +26,11 @@ def _check_mask(value, name: str, min_ndim: int = 1) -> np.ndarray:
     return arr
 
 
-def _check_rate(value, name: str, upper_inclusive: bool) -> float:
+def _check_rate(value, name: str) -> float:
     try:
         rate = float(value)
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be a number, got {value!r}") from None
-    ok = 0.0 <= rate <= 1.0 if upper_inclusive else 0.0 <= rate < 1.0
-    if not ok:
-        interval = "[0, 1]" if upper_inclusive else "[0, 1)"
-        raise ValueError(f"{name} must lie in {interval}, got {value!r}")
+    if not 0.0 <= rate < 1.0:
+        raise ValueError(f"{name} must lie in [0, 1), got {value!r}")
     return rate

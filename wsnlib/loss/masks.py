@@ -1,4 +1,4 @@
-"""Packet ↔ sample masks and what to read from a mask: λ, run lengths, loss fraction, hold-last.
+"""Packet ↔ sample masks and what to read from a mask: λ, run lengths, hold-last.
 
 Every mask is boolean with ``True`` = received; the last axis is time (packets or samples).
 The package docstring (:mod:`wsnlib.loss`) describes the packet grid and λ.
@@ -67,6 +67,28 @@ def packets_to_samples(packet_received, samples_per_packet: int = SAMPLES_PER_PA
 # --------------------------------------------------------------------------------------------
 
 
+def last_received_index(received, *, backfill: bool = False) -> np.ndarray:
+    """Index (along the last axis) of the latest received sample at or before each sample.
+
+    Parameters
+    ----------
+    received : array_like of bool, shape (..., T)
+        True = received (or, for other callers, whatever sample counts as valid).
+    backfill : bool
+        Before the first received sample: that first received sample's index (0 in a sequence
+        with none) instead of -1.
+
+    Returns
+    -------
+    numpy.ndarray of int, shape (..., T)
+    """
+    mask = _check_mask(received, "received")
+    index = np.maximum.accumulate(np.where(mask, np.arange(mask.shape[-1]), -1), axis=-1)
+    if backfill:
+        index = np.where(index < 0, np.argmax(mask, axis=-1)[..., None], index)
+    return index
+
+
 def lost_run_length(received) -> np.ndarray:
     """λ: samples lost in a row up to and including each sample (0 where received).
 
@@ -82,10 +104,8 @@ def lost_run_length(received) -> np.ndarray:
         (``j = −1`` if none), ``i − j``; 0 on received samples.
     """
     mask = _check_mask(received, "received")
-    n = mask.shape[-1]
-    index = np.arange(n)
-    last_received = np.maximum.accumulate(np.where(mask, index, -1), axis=-1)
-    return np.where(mask, 0, index - last_received).astype(np.int64)
+    index = np.arange(mask.shape[-1])
+    return np.where(mask, 0, index - last_received_index(mask)).astype(np.int64)
 
 
 def burst_lengths(received) -> np.ndarray:
@@ -110,14 +130,6 @@ def burst_lengths(received) -> np.ndarray:
     starts = np.flatnonzero(edges == 1)
     ends = np.flatnonzero(edges == -1)
     return (ends - starts).astype(np.int64)
-
-
-def loss_fraction(received) -> np.ndarray:
-    """Fraction of lost entries along the last axis, shape ``(...)``."""
-    mask = _check_mask(received, "received")
-    if mask.shape[-1] == 0:
-        raise ValueError("received must have at least one entry along its last axis")
-    return 1.0 - mask.mean(axis=-1)
 
 
 def hold_last(values, received) -> np.ndarray:
@@ -154,9 +166,6 @@ def hold_last(values, received) -> np.ndarray:
     batch = np.broadcast_shapes(mask.shape[:-1], values.shape[:-2])
     n = mask.shape[-1]
     mask = np.broadcast_to(mask, batch + (n,))
-    index = np.arange(n)
-    source = np.maximum.accumulate(np.where(mask, index, -1), axis=-1)
-    first = np.argmax(mask, axis=-1)[..., None]
-    source = np.where(source < 0, first, source)
+    source = last_received_index(mask, backfill=True)
     values = np.broadcast_to(values, batch + values.shape[-2:])
     return np.take_along_axis(values, source[..., None], axis=-2)

@@ -1,4 +1,4 @@
-"""Loss models: single bursts, burst trains, Bernoulli, Gilbert–Elliott, measured traces.
+"""Loss models: single bursts, burst trains, Gilbert–Elliott.
 
 Each returns a boolean mask with ``True`` = received; the package docstring
 (:mod:`wsnlib.loss`) gives the references.
@@ -7,8 +7,6 @@ Each returns a boolean mask with ``True`` = received; the package docstring
 from __future__ import annotations
 
 import math
-import re
-from pathlib import Path
 
 import numpy as np
 
@@ -136,31 +134,6 @@ def burst_train(n_samples: int, start_sample: int, period_samples: int, n_packet
 # --------------------------------------------------------------------------------------------
 
 
-def bernoulli_loss(n_packets: int, loss_rate: float, *, rng: np.random.Generator, shape=()) -> np.ndarray:
-    """Independent packet losses with probability ``loss_rate``.
-
-    Parameters
-    ----------
-    n_packets : int
-        Packets per sequence.
-    loss_rate : float
-        Probability that a packet is lost, in [0, 1].
-    rng : numpy.random.Generator
-    shape : tuple of int
-        Batch shape.
-
-    Returns
-    -------
-    numpy.ndarray of bool, shape (*shape, n_packets)
-        True = received.
-    """
-    n_packets = check_count(n_packets, "n_packets", 0)
-    rate = _check_rate(loss_rate, "loss_rate", upper_inclusive=True)
-    shape = _check_shape(shape)
-    rng = check_rng(rng)
-    return rng.random(shape + (n_packets,)) >= rate
-
-
 def gilbert_elliott_probabilities(loss_rate: float, mean_burst: float) -> tuple[float, float]:
     """Transition probabilities ``(p_GB, p_BG)`` of the Gilbert–Elliott chain.
 
@@ -175,7 +148,7 @@ def gilbert_elliott_probabilities(loss_rate: float, mean_burst: float) -> tuple[
         ``loss_rate <= mean_burst / (1 + mean_burst)`` (with bursts of mean length ``m``
         separated by at least one received packet, at most ``m / (1 + m)`` can be lost).
     """
-    rate = _check_rate(loss_rate, "loss_rate", upper_inclusive=False)
+    rate = _check_rate(loss_rate, "loss_rate")
     try:
         burst = float(mean_burst)
     except (TypeError, ValueError):
@@ -233,56 +206,3 @@ def gilbert_elliott(n_packets: int, loss_rate: float, mean_burst: float, *, rng:
         state = np.where(state, u[..., k] >= p_bg, u[..., k] < p_gb)
         lost[..., k] = state
     return ~lost
-
-
-def loss_trace_from_file(path) -> np.ndarray:
-    """Read a measured per-packet loss trace.
-
-    Format: a text file of per-packet flags, ``1`` = received and ``0`` = lost (also
-    ``true``/``false``, any case).  Flags are separated by commas, semicolons, whitespace or
-    line breaks (one per line, or a CSV row); blank lines and lines starting with ``#`` are
-    ignored, and the first non-comment line may be the header ``received``.
-
-    Parameters
-    ----------
-    path : str or pathlib.Path
-
-    Returns
-    -------
-    numpy.ndarray of bool, shape (n_packets,)
-        True = received.
-
-    Raises
-    ------
-    ValueError
-        If the file is missing, empty or holds any other token (the file and the offending
-        token and line are named).
-    """
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ValueError(f"{path}: no such file") from None
-    except UnicodeDecodeError as exc:
-        raise ValueError(f"{path}: not a UTF-8 text file ({exc})") from None
-    values = {"1": True, "0": False, "true": True, "false": False}
-    flags: list[bool] = []
-    header_allowed = True
-    for line_no, line in enumerate(text.splitlines(), start=1):
-        stripped = line.strip()
-        if not stripped or stripped.startswith("#"):
-            continue
-        tokens = [tok for tok in re.split(r"[\s,;]+", stripped) if tok]
-        if header_allowed and [tok.lower() for tok in tokens] == ["received"]:
-            header_allowed = False
-            continue
-        header_allowed = False
-        for tok in tokens:
-            flag = values.get(tok.lower())
-            if flag is None:
-                raise ValueError(f"{path}: line {line_no}: {tok!r} is not a packet flag "
-                                 "(1/0 or true/false, 1 = received)")
-            flags.append(flag)
-    if not flags:
-        raise ValueError(f"{path}: holds no packet flags")
-    return np.array(flags, dtype=bool)

@@ -37,7 +37,6 @@ from wsnlib.metrics.loss import (
     time_above_s,
 )
 from wsnlib.metrics.orientation import (
-    BROAD_ERROR_KEYS,
     SEGMENT_AXIS,
     broad_errors_deg,
     broad_rmse_deg,
@@ -54,7 +53,7 @@ from wsnlib.metrics.smoothness import (
     quat_gap_end_steps_deg,
 )
 
-__all__ = ["BROAD_ERROR_KEYS", "GAP_STEP_MAX", "GAP_STEP_MEAN", "JERK", "JITTER", "MAX_ERROR", "MEAN_ERROR",
+__all__ = ["GAP_STEP_MAX", "GAP_STEP_MEAN", "JERK", "JITTER", "MAX_ERROR", "MEAN_ERROR",
            "P95_ERROR", "PHASES", "RECOVERY", "SEGMENT_AXIS", "TIME_ABOVE", "angle_jerk_rms_deg",
            "angular_jerk_rms_deg", "broad_errors_deg", "broad_rmse_deg", "burst_response", "elbow_angle_deg",
            "error_by_phase", "gap_end_mask", "gap_end_steps_deg", "loss_figures_of_merit", "max_abs_error",

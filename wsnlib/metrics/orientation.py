@@ -58,10 +58,6 @@ def elbow_angle_deg(quat_humerus, quat_forearm, method: str = "pitch_difference"
 # (github.com/dlaidig/broad, example_code/broad_utils.py: calculateErrorQuatEarth,
 # calculateTotalError, calculateHeadingError, calculateInclinationError, calculateRMSE).
 
-#: Keys of :func:`broad_errors_deg` and :func:`broad_rmse_deg`.
-BROAD_ERROR_KEYS = ("total", "heading", "inclination")
-
-
 def broad_errors_deg(quat_est, quat_ref) -> dict[str, np.ndarray]:
     """BROAD's total, heading and inclination errors (°) per sample, ``(..., T, 4) → (..., T)``.
 

@@ -404,15 +404,22 @@ def _as_users(data) -> tuple[list, list[SearchData]]:
     return labels, users
 
 
-def _paired_users(target1, target2) -> tuple[list, list[SearchData], list[SearchData]]:
+def _check_paired_rows(target1: SearchData, target2: SearchData) -> None:
+    """One user's two targets must have the same online rows (movement): target 2's elbow comes
+    from target 1's row."""
+    if target1.online_rss.shape[0] != target2.online_rss.shape[0] or not np.array_equal(target1.movement,
+                                                                                       target2.movement):
+        raise ValueError("target1 and target2 must have the same online rows (movement), since target 2's elbow "
+                         "comes from target 1's row")
+
+
+def _paired_users(target1, target2, approaches) -> tuple[list, list[SearchData], list[SearchData]]:
     """Both targets' users (:func:`_as_users`), checked to be the same users with the same
-    online rows (movement) each: target 2's elbow comes from target 1's row."""
+    online rows (movement) each (:func:`_check_paired_rows`), fitted for ``approaches``."""
     labels1, users1 = _as_users(target1)
     labels2, users2 = _as_users(target2)
     if labels1 != labels2:
         raise ValueError(f"target1 and target2 must hold the same users, got {labels1} and {labels2}")
     for u1, u2 in zip(users1, users2, strict=True):
-        if u1.online_rss.shape[0] != u2.online_rss.shape[0] or not np.array_equal(u1.movement, u2.movement):
-            raise ValueError("target1 and target2 must have the same online rows (movement) per user, "
-                             "since target 2's elbow comes from target 1's row")
-    return labels1, users1, users2
+        _check_paired_rows(u1, u2)
+    return labels1, [u.fitted(approaches) for u in users1], [u.fitted(approaches) for u in users2]

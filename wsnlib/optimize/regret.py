@@ -255,9 +255,7 @@ def coupled_selection_regret(target1, target2, *, approaches=APPROACHES, grid: S
     grid = check_type(SearchGrid() if grid is None else grid, SearchGrid, "grid")
     first, second = _check_halves(first, second)
     splits = _check_choices(splits, SPLITS, "splits")
-    labels1, users1, users2 = _paired_users(target1, target2)
-    users1 = [u.fitted(approaches) for u in users1]
-    users2 = [u.fitted(approaches) for u in users2]
+    labels1, users1, users2 = _paired_users(target1, target2, approaches)
     if results1 is None:
         prox1 = [{a: u.proximal[None] for a in approaches} for u in users1]
         results1 = _search(labels1, users1, approaches, "hybrid", grid, prox1, progress, chunk_elements)[0]

@@ -32,7 +32,7 @@ import numpy as np
 import pandas as pd
 
 from wsnlib._validation import check_type
-from wsnlib.optimize.data import APPROACHES, SearchData, Setting, _check_approach
+from wsnlib.optimize.data import APPROACHES, SearchData, Setting, _check_approach, _check_paired_rows
 from wsnlib.optimize.engine import evaluate_setting
 
 #: PEs (cm) within this of the minimum count as ties (broken by the lowest ``config``).
@@ -267,10 +267,7 @@ def evaluate_chain(target1: SearchData, target2: SearchData, selection1, selecti
     """
     check_type(target1, SearchData, "target1")
     check_type(target2, SearchData, "target2")
-    if target1.online_rss.shape[0] != target2.online_rss.shape[0] or not np.array_equal(target1.movement,
-                                                                                       target2.movement):
-        raise ValueError("target1 and target2 must have the same online rows (movement): target 2's elbow "
-                         "comes from target 1's row")
+    _check_paired_rows(target1, target2)
     selection2 = selection1 if selection2 is None else selection2
     first = evaluate_selection(target1, selection1, approach=approach)
     second = evaluate_selection(target2.with_proximal(first["joints"]), selection2, approach=approach)

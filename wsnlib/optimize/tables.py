@@ -208,9 +208,7 @@ def paper_tables(target1, target2, *, approaches=APPROACHES, estimate: str = "hy
     approaches = _check_choices(approaches, APPROACHES, "approaches")
     estimate = _check_estimate(estimate)
     grid = SearchGrid() if grid is None else grid
-    labels1, users1, users2 = _paired_users(target1, target2)
-    users1 = [u.fitted(approaches) for u in users1]
-    users2 = [u.fitted(approaches) for u in users2]
+    labels1, users1, users2 = _paired_users(target1, target2, approaches)
 
     prox1 = [{a: u.proximal[None] for a in approaches} for u in users1]
     res1 = _search(labels1, users1, approaches, estimate, grid, prox1, progress, chunk_elements)[0]

@@ -1,6 +1,5 @@
-"""Orientation estimators: Madgwick's filter and a gap-aware Kalman filter (data fusion), TRIAD,
-Davenport, SVD and QUEST (single frame), an offline smoother, two peer filters, their offline
-variants and a neural peer.
+"""Orientation estimators: Madgwick's filter and a gap-aware Kalman filter (data fusion), TRIAD
+(single frame), an offline smoother, two peer filters, their offline variants and a neural peer.
 
 All take body-frame signals ``(..., T, 3)`` and return ENU quaternions ``(..., T, 4)``
 (see :mod:`wsnlib` for the conventions), with packet loss given as a boolean ``received``
@@ -24,8 +23,7 @@ mask ``(..., T)``.  One door each:
   averaged with its run on the time-reversed recording (:mod:`.offline_peers`);
 * :mod:`.fixed_lag` (fixed-lag RTS smoothing on the filter's stored states) and :mod:`.bridging`
   (a Kalman step turned by a measured rotation): the live receiver's filter, :mod:`wsnlib.stream`;
-* :func:`triad`, :func:`tilt_quaternion`, :func:`davenport`, :func:`quest`,
-  :func:`svd_single_frame` — single-frame solvers (no memory, nothing to lose).
+* :func:`triad`, :func:`tilt_quaternion` — single-frame solvers (no memory, nothing to lose).
 
 The loss vocabulary
 -------------------
@@ -92,7 +90,6 @@ with _numba_cache.caching_into_this_version():
     from wsnlib.orientation.neural_peers import riann_orientation
     from wsnlib.orientation.offline_peers import forward_backward_orientation, offline_vqf_orientation
     from wsnlib.orientation.peers import fusion_orientation, vqf_orientation
-    from wsnlib.orientation.single_frame import davenport, quest, svd_single_frame
     from wsnlib.orientation.smoothing import smooth_orientation
     from wsnlib.orientation.triad import tilt_quaternion, triad
 _numba_cache.drop_other_versions()
@@ -102,7 +99,6 @@ __all__ = [
     "KalmanSettings",
     "KalmanState",
     "SingleFrameGate",
-    "davenport",
     "effective_lost_run",
     "estimate_orientation",
     "forward_backward_orientation",
@@ -113,12 +109,10 @@ __all__ = [
     "madgwick",
     "madgwick_step",
     "offline_vqf_orientation",
-    "quest",
     "riann_orientation",
     "single_frame_trusted",
     "slerp_weight",
     "smooth_orientation",
-    "svd_single_frame",
     "tilt_quaternion",
     "triad",
     "vqf_orientation",

@@ -69,12 +69,18 @@ def check_beta(value, name: str = "beta") -> np.ndarray:
     return beta
 
 
-def check_received(received) -> np.ndarray:
+def check_received(received, n_t: int | None = None) -> np.ndarray:
+    """``received`` as a boolean array ``(..., T)``; given ``n_t``, T must be ``n_t`` and None means
+    every sample received (all True, shape ``(n_t,)``)."""
+    if received is None and n_t is not None:
+        return np.ones(n_t, dtype=bool)
     mask = np.asarray(received)
     if mask.dtype != np.bool_:
         raise ValueError(f"received must be a boolean mask (True = received), got dtype {mask.dtype}")
     if mask.ndim < 1:
         raise ValueError(f"received must have shape (..., T), got shape {mask.shape}")
+    if n_t is not None and mask.shape[-1] != n_t:
+        raise ValueError(f"received must have shape (..., {n_t}), got {mask.shape}")
     return mask
 
 
@@ -140,8 +146,9 @@ def check_inputs(gyr, acc, mag, received, q0=None):
 
     Returns the signals ``{"gyr", "acc"[, "mag"]}`` as float arrays ``(..., T, 3)`` (finiteness
     is checked later, on received samples only: :func:`check_usable`; leading axes the caller
-    broadcast are length 1 here, :func:`unbroadcast`), ``received`` as a boolean array or None,
-    ``q0`` normalised or None, and the leading (batch) shape of each argument as given, by name.
+    broadcast are length 1 here, :func:`unbroadcast`), ``received`` as a boolean array (all True,
+    shape ``(T,)``, where it is None), ``q0`` normalised or None, and the leading (batch) shape of
+    each argument as given, by name.
     """
     given = {"gyr": gyr, "acc": acc} | ({} if mag is None else {"mag": mag})
     signals = {name: as_signal(unbroadcast(value), name) for name, value in given.items()}
@@ -150,13 +157,8 @@ def check_inputs(gyr, acc, mag, received, q0=None):
         if arr.shape[-2] != n_t:
             raise ValueError(f"{name} has {arr.shape[-2]} samples (axis -2), gyr has {n_t}")
     shapes = {name: np.shape(given[name])[:-2] for name in signals}  # the batch the caller asked for
-    if received is not None:
-        received = np.asarray(received)
-        if received.dtype != np.bool_:
-            raise ValueError(f"received must be a boolean mask, got dtype {received.dtype}")
-        if received.ndim < 1 or received.shape[-1] != n_t:
-            raise ValueError(f"received must have shape (..., {n_t}), got {received.shape}")
-        shapes["received"] = received.shape[:-1]
+    received = check_received(received, n_t)
+    shapes["received"] = received.shape[:-1]
     if q0 is not None:
         q0 = unit_quaternions(q0, "q0")
         shapes["q0"] = q0.shape[:-1]
@@ -322,12 +324,11 @@ def check_usable(signals: dict[str, np.ndarray], received: np.ndarray, gravity: 
     """
     for name, arr in signals.items():
         n_t = arr.shape[-2]
-        mask = np.ones(n_t, dtype=bool) if received is None else received
-        batch = np.broadcast_shapes(arr.shape[:-2], mask.shape[:-1])
+        batch = np.broadcast_shapes(arr.shape[:-2], received.shape[:-1])
         result = np.empty((int(np.prod(batch, dtype=np.int64)), 2), dtype=np.int64)
         check = K.first_unusable_parallel if result.shape[0] * n_t > PARALLEL_CHECK_SAMPLES else K.first_unusable
-        check(flat(arr, 2), index_into(arr.shape[:-2], batch), flat(mask, 1), index_into(mask.shape[:-1], batch),
-              name != "gyr", result)
+        check(flat(arr, 2), index_into(arr.shape[:-2], batch), flat(received, 1),
+              index_into(received.shape[:-1], batch), name != "gyr", result)
         bad = np.flatnonzero(result[:, 0] >= 0)
         if bad.size:
             b = int(bad[0])
@@ -368,7 +369,7 @@ def run_filter(signals, received, q0, batch, *, fs, method=K.STANDARD, replay=Fa
     """Madgwick's filter with a loss-handling method over a batch: ``(*batch, T, 4)``.
 
     ``signals`` from :func:`check_inputs` (checked here with :func:`check_usable`), ``received``
-    ``(..., T)`` bool or None, ``q0`` ``(..., 4)`` unit or None (then every batch element must
+    ``(..., T)`` bool, ``q0`` ``(..., 4)`` unit or None (then every batch element must
     receive a sample), ``batch`` the broadcast of all leading shapes, parameters (scalars or
     arrays broadcasting to ``batch``) as in :func:`._kernels.filter_stream`; ``gap`` and
     ``gap_time_constant`` checked by :func:`check_gap`, ``ar_order`` and ``ar_window`` (samples)
@@ -377,11 +378,10 @@ def run_filter(signals, received, q0, batch, *, fs, method=K.STANDARD, replay=Fa
     ``mag``) or None.
     """
     n_t = signals["gyr"].shape[-2]
-    mask = np.ones(n_t, dtype=bool) if received is None else received
     out = new_output(batch, n_t)
     if n_t == 0:
         return out
-    mask = check_usable(signals, mask)
+    mask = check_usable(signals, received)
     if q0 is None:
         check_has_sample(mask, batch)
     use_mag = "mag" in signals

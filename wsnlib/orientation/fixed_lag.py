@@ -50,13 +50,6 @@ RING_DTYPE = np.dtype([
 ])
 
 
-def new_ring(capacity: int) -> np.ndarray:
-    """An empty ring of ``capacity`` samples (≥ the latency + 1)."""
-    ring = np.zeros(int(capacity), RING_DTYPE)
-    ring["sample"] = -1
-    return ring
-
-
 @njit(**COMPILE)
 def record(ring, st, work, c, sample, received, scratch):
     """Store the filter after ``sample`` (``st``, and the prediction ``work`` kept with ``c.record``)

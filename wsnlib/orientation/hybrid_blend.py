@@ -152,10 +152,6 @@ def single_frame_trusted(gyr, acc, mag, received=None, *, fs: float, single_fram
     if mag is None:
         raise ValueError("mag is required: the gate checks the magnetometer")
     signals, mask, _, shapes = B.check_inputs(gyr, acc, mag, received)
-    n_t = signals["gyr"].shape[-2]
-    if mask is None:
-        mask = np.ones(n_t, dtype=bool)
-    shapes["received"] = mask.shape[:-1]
     batch = B.broadcast_batch(shapes)
     mask = B.check_usable(signals, mask)
     return trusted_unchecked(signals, mask, batch, gate.vector(fs))
@@ -261,12 +257,7 @@ def blend_with_single_frame(
     for name, arr in signals.items():
         if arr.shape[-2] != n_t:
             raise ValueError(f"{name} has {arr.shape[-2]} samples (axis -2), quat_d has {n_t}")
-    if received is None:
-        mask = np.ones(n_t, dtype=bool)
-    else:
-        mask = B.check_received(received)
-        if mask.shape[-1] != n_t:
-            raise ValueError(f"received must have shape (..., {n_t}), got {mask.shape}")
+    mask = B.check_received(received, n_t)
     shapes = {name: arr.shape[:-2] for name, arr in signals.items()} | {"received": mask.shape[:-1]}
     B.broadcast_batch(shapes)
     shapes["quat_d"] = quat_d.shape[:-2]

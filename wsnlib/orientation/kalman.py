@@ -212,9 +212,6 @@ def prepare_inputs(gyr, acc, mag, received, q0, gravity: float) -> KalmanInputs:
     """
     signals, mask, q0, shapes = B.check_inputs(gyr, acc, mag, received, q0)
     n_t = signals["gyr"].shape[-2]
-    if mask is None:
-        mask = np.ones(n_t, dtype=bool)
-    shapes["received"] = mask.shape[:-1]
     batch = B.broadcast_batch(shapes)
     if q0 is None and n_t == 0:
         raise ValueError("no samples (T = 0): pass q0 to define the output")

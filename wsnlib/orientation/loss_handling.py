@@ -238,9 +238,6 @@ def estimate_orientation(gyr, acc, mag=None, *, fs: float, beta, received=None, 
 
     signals, mask, q0, shapes = B.check_inputs(gyr, acc, mag, received, q0)
     n_t = signals["gyr"].shape[-2]
-    if mask is None:
-        mask = np.ones(n_t, dtype=bool)
-    shapes["received"] = mask.shape[:-1]
     B.broadcast_batch(shapes)
     params = {"beta": beta.shape, "beta_max": beta_max.shape, "rho": rho.shape, "tau": tau.shape}
     if window is not None:

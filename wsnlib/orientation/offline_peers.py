@@ -65,6 +65,7 @@ import numpy as np
 import vqf
 
 from wsnlib import quaternion as Q
+from wsnlib.loss import last_received_index
 from wsnlib.orientation.peers import _prepare, _vqf_params
 
 
@@ -143,7 +144,7 @@ def _samples_since_received(mask: np.ndarray) -> np.ndarray:
     """Per sample, samples since the last received one at or before it, plus 1 (``inf`` before
     the first received sample); ``mask`` ``(..., T)``."""
     index = np.arange(mask.shape[-1])
-    last = np.maximum.accumulate(np.where(mask, index, -1), axis=-1)
+    last = last_received_index(mask)
     return np.where(last < 0, np.inf, index - last + 1.0)
 
 

@@ -131,6 +131,8 @@ import vqf
 from wsnlib import fixed_order
 from wsnlib import quaternion as Q
 from wsnlib._validation import check_flag, check_nonnegative, check_positive
+from wsnlib.frames import STANDARD_GRAVITY
+from wsnlib.loss import last_received_index
 from wsnlib.orientation import _batch as B
 from wsnlib.orientation import _kernels as K
 from wsnlib.orientation import gaps
@@ -149,8 +151,6 @@ def _prepare(gyr, acc, mag, fs, received):
     fs = check_positive(fs, "fs")
     signals, mask, _, shapes = B.check_inputs(gyr, acc, mag, received)
     n_t = signals["gyr"].shape[-2]
-    if mask is None:
-        mask = np.ones(n_t, dtype=bool)
     batch = B.broadcast_batch(shapes)
     mask = B.check_usable(signals, mask)  # NaN/inf (zero acc, mag) in received samples; implausible ones lost
     mask = np.broadcast_to(mask, batch + (n_t,))
@@ -230,9 +230,7 @@ def _floats(q) -> tuple:
 def _hold(out: np.ndarray, mask: np.ndarray) -> np.ndarray:
     """Rows of ``out`` ``(T, 4)`` filled on received samples: lost ones take the last received
     row, those before the first received sample the first one."""
-    index = np.arange(mask.shape[-1])
-    src = np.maximum.accumulate(np.where(mask, index, -1))
-    return out[np.where(src < 0, np.argmax(mask), src)]
+    return out[last_received_index(mask, backfill=True)]
 
 
 def _run_batch(one, signals, mask, batch, feedback, predict=False):
@@ -302,10 +300,6 @@ FUSION_DEFAULT_SETTINGS = {
     "rejection_timeout": 0.0,
 }
 
-#: m/s² per g, to feed Fusion's accelerometer in g.
-_G = 9.80665
-
-
 def _fusion_settings(fs: float, gain, settings) -> imufusion.AhrsSettings:
     values = dict(FUSION_DEFAULT_SETTINGS)
     if settings is not None:
@@ -362,7 +356,7 @@ def _fusion_one(settings, dt, gap: _GapRates):
         ahrs = imufusion.Ahrs()
         ahrs.set_settings(settings)
         gyr_deg = _rows(np.degrees(gyr))
-        acc_g = _rows(acc / _G)
+        acc_g = _rows(acc / STANDARD_GRAVITY)  # Fusion takes the accelerometer in g
         mag = None if mag is None else _rows(mag)
         n_t = mask.shape[-1]
         out = np.empty((n_t, 4))

@@ -421,10 +421,6 @@ class ProbabilisticKNN(_FingerprintEstimator):
             out[chunk] = loglik - logsumexp(loglik, axis=-1, keepdims=True)
         return out
 
-    def predict_proba(self, X) -> np.ndarray:
-        """Posterior ``P(s_l | r)``, shape (n, L); rows sum to 1."""
-        return np.exp(self.predict_log_proba(X))
-
     def kneighbors(self, X) -> tuple[np.ndarray, np.ndarray]:
         """Log posteriors and fingerprint indices of the ``k`` most probable positions, each (n, k), best first."""
         _, lp, idx = self._neighbors(X)

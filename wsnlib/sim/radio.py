@@ -710,14 +710,14 @@ def _static_motion(rng, postures, hold_s, transition_s, jitter_deg):
 
 
 def static_session(user: User, *, rng: np.random.Generator, hold_s: float, session: str, transition_s: float = 3.0,
-                   posture_jitter_deg: float = 2.0, packet_rate_hz: float = 30.0, channel: RadioChannel | None = None,
-                   include_transitions: bool = False) -> pd.DataFrame:
+                   posture_jitter_deg: float = 2.0, packet_rate_hz: float = 30.0,
+                   channel: RadioChannel | None = None) -> pd.DataFrame:
     """The user holds P1 … P5 for ``hold_s`` each, moving between them in ``transition_s``.
 
     Paper 002's training phase holds each posture 30 s (~1000 fingerprint vectors per target),
     session ``"training"``; its online phase, static part, holds them again on another day
     (``user.moved(rng)``), session ``"online_static"``.  Rows recorded while moving are
-    labelled ``"transition"`` and dropped unless ``include_transitions``.  Each hold is the
+    labelled ``"transition"`` and dropped.  Each hold is the
     posture turned by a random rotation of ``posture_jitter_deg`` rms per axis (the user's
     imprecision; *assumed* 2°); the recorded positions are the true, jittered ones.  From
     ``rng``: the jitter of every posture, then the RSS (:func:`simulate_rss`).
@@ -731,7 +731,7 @@ def static_session(user: User, *, rng: np.random.Generator, hold_s: float, sessi
         Seconds each posture is held.
     session : str
         Session name written to the ``session`` column.
-    transition_s, posture_jitter_deg, packet_rate_hz, channel, include_transitions
+    transition_s, posture_jitter_deg, packet_rate_hz, channel
         As above; ``channel`` default :class:`RadioChannel()`.
 
     Returns
@@ -742,10 +742,9 @@ def static_session(user: User, *, rng: np.random.Generator, hold_s: float, sessi
     motion = _static_motion(rng, POSTURES, check_positive(hold_s, "hold_s"),
                             check_positive(transition_s, "transition_s"), posture_jitter_deg)
     df = simulate_rss(motion, user, rng=rng, packet_rate_hz=packet_rate_hz, channel=channel, session=session)
-    if not include_transitions:
-        attrs = df.attrs
-        df = df[df["label"] != "transition"].reset_index(drop=True)
-        df.attrs = attrs
+    attrs = df.attrs
+    df = df[df["label"] != "transition"].reset_index(drop=True)
+    df.attrs = attrs
     return df
 
 

@@ -206,11 +206,6 @@ class SunspotAccSpec:
         return 2 ** (self.adc_bits - 1)
 
     @property
-    def resolution_m_s2(self) -> float:
-        """One ADC step in m/s² (0.0479 at ±2 g)."""
-        return frames.STANDARD_GRAVITY / self.counts_per_g
-
-    @property
     def noise_std_m_s2(self) -> float:
         """Sensor white noise per 100 Hz sample (m/s²): ``density · √(π/2 · bandwidth)``."""
         return self.noise_density_ug * 1e-6 * frames.STANDARD_GRAVITY * math.sqrt(0.5 * math.pi * self.bandwidth_hz)

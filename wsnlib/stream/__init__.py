@@ -47,10 +47,10 @@ with _numba_cache.caching_into_this_version(f"stream-{SOURCES_DIGEST[:16]}"):
         encode_packet,
     )
     from wsnlib.stream.receiver import COUNTERS, DEFAULT_REORDER, Receiver, ReceiverOutput
-    from wsnlib.stream.sender import SAMPLES_PER_PACKET, NodeStream, encode_stream, node_stream
+    from wsnlib.stream.sender import NodeStream, encode_stream, node_stream
     from wsnlib.stream.simulation import packets_sent_twice, receiver_output
 
 __all__ = ["COUNTERS", "DEFAULT_REORDER", "LAYOUTS", "MAX_REDUNDANCY", "MAX_SAMPLES_PER_PACKET", "PACKET_VERSION",
-           "REDUNDANCY_BITS", "REJECT_REASONS", "SAMPLES_PER_PACKET", "NodeStream", "Packet", "PacketError", "Receiver",
+           "REDUNDANCY_BITS", "REJECT_REASONS", "NodeStream", "Packet", "PacketError", "Receiver",
            "ReceiverOutput", "Summary", "crc16_ccitt_false", "decode_packet", "encode_packet", "encode_stream",
            "node_stream", "packets_sent_twice", "receiver_output"]

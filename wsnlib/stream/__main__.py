@@ -33,10 +33,10 @@ from pathlib import Path
 
 import numpy as np
 
-from wsnlib.loss import gilbert_elliott, packets_to_samples
+from wsnlib.loss import SAMPLES_PER_PACKET, gilbert_elliott, packets_to_samples
 from wsnlib.stream.packet import LAYOUTS, MAX_REDUNDANCY, REDUNDANCY_BITS
 from wsnlib.stream.receiver import DEFAULT_REORDER, Receiver, ReceiverOutput
-from wsnlib.stream.sender import SAMPLES_PER_PACKET, encode_stream, node_stream
+from wsnlib.stream.sender import encode_stream, node_stream
 from wsnlib.stream.udp import receiving_socket, send_datagrams, serve
 
 #: Rate (Hz) a BROAD trial is sent at by default: paper 001's 50 Hz.

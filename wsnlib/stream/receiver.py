@@ -97,11 +97,6 @@ class ReceiverOutput:
     def __len__(self) -> int:
         return int(self.sample.shape[0])
 
-    def for_node(self, node: int) -> ReceiverOutput:
-        """The rows of one node."""
-        keep = self.node == node
-        return ReceiverOutput(self.node[keep], self.sample[keep], self.quat[keep], self.received[keep])
-
     def to_frame(self) -> pd.DataFrame:
         """Columns ``node, sample, received, w, x, y, z`` (the command line's CSV)."""
         return pd.DataFrame({"node": self.node, "sample": self.sample, "received": self.received.astype(np.int8),

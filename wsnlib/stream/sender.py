@@ -20,7 +20,7 @@ import dataclasses
 import numpy as np
 
 from wsnlib._validation import as_float_array, check_count, check_positive
-from wsnlib.loss import n_packets_for
+from wsnlib.loss import SAMPLES_PER_PACKET, n_packets_for
 from wsnlib.stream import _kernels as PK
 from wsnlib.stream.packet import (
     ACC_FULL_SCALE,
@@ -35,9 +35,6 @@ from wsnlib.stream.packet import (
     Summary,
     encode_rows,
 )
-
-#: Samples per packet by default: paper 001's 6.
-SAMPLES_PER_PACKET = 6
 
 
 def default_scales(has_mag: bool = True) -> np.ndarray:

@@ -509,15 +509,15 @@ class RadioSensitivity:
     Attributes
     ----------
     factors : pandas.DataFrame
-        One row per draw (index ``draw``; draw 0 is the nominal channel when included), one
+        One row per draw (index ``draw``; draw 0 is the nominal channel), one
         column per :data:`RADIO_ASSUMPTIONS` field: the factor ``s ∈ [−spread, spread]``.
     pe : pandas.DataFrame
         Table 2's PE (cm) per draw: columns ``draw``, ``target``, ``movement``, ``approach``,
         ``pe_cm``.
     summary : pandas.DataFrame
-        Index ``(target, movement, approach)``; columns ``nominal_cm`` (draw 0; NaN, stated
-        here, when ``include_nominal`` is False), and with perturbed draws ``min_cm``,
-        ``median_cm``, ``max_cm`` and ``range_cm`` over them (draw 0 excluded).
+        Index ``(target, movement, approach)``; columns ``nominal_cm`` (draw 0), and with
+        perturbed draws ``min_cm``, ``median_cm``, ``max_cm`` and ``range_cm`` over them (draw
+        0 excluded).
     """
 
     factors: object
@@ -531,7 +531,7 @@ def sensitivity_grid():
 
 
 def radio_sensitivity(*, rng: np.random.Generator, n_draws: int = 8, spread: float = 1.0, campaign_seed: int = 2023,
-                      n_users: int = 2, hold_s: float = 8.0, grid=None, include_nominal: bool = True,
+                      n_users: int = 2, hold_s: float = 8.0, grid=None,
                       quick: bool = False, pitch_method: str = "gating", **pitch_options) -> RadioSensitivity:
     """Spread of Table 2's per-movement PE when the assumed radio numbers move within their ranges.
 
@@ -558,8 +558,6 @@ def radio_sensitivity(*, rng: np.random.Generator, n_draws: int = 8, spread: flo
         Size of each simulated campaign.
     grid : SearchGrid, optional
         Default :func:`sensitivity_grid`.
-    include_nominal : bool
-        Add draw 0, the unperturbed channel.
     quick : bool
         A few seconds' version: 2 draws, 1 user, 4 s holds (overrides those arguments).
     pitch_method, **pitch_options
@@ -573,18 +571,13 @@ def radio_sensitivity(*, rng: np.random.Generator, n_draws: int = 8, spread: flo
     if quick:
         n_draws, n_users, hold_s = 2, 1, 4.0
     check_count(n_draws, "n_draws", 0)
-    if n_draws == 0 and not include_nominal:
-        raise ValueError("nothing to run: n_draws = 0 and include_nominal = False")
     spread = float(spread)
     if not 0.0 <= spread <= 1.0:
         raise ValueError(f"spread must lie in [0, 1], got {spread!r}")
     grid = sensitivity_grid() if grid is None else grid
     names = [name for name, _, _ in RADIO_ASSUMPTIONS]
-    draws = spread * rng.uniform(-1.0, 1.0, size=(n_draws, len(names)))
-    if include_nominal:
-        draws = np.vstack([np.zeros((1, len(names))), draws])
-    first = 0 if include_nominal else 1
-    factors = pd.DataFrame(draws, columns=names, index=pd.RangeIndex(first, first + draws.shape[0], name="draw"))
+    draws = np.vstack([np.zeros((1, len(names))), spread * rng.uniform(-1.0, 1.0, size=(n_draws, len(names)))])
+    factors = pd.DataFrame(draws, columns=names, index=pd.RangeIndex(0, draws.shape[0], name="draw"))
     frames = []
     for draw, row in factors.iterrows():
         channel = perturbed_channel(row.to_dict())
@@ -596,8 +589,8 @@ def radio_sensitivity(*, rng: np.random.Generator, n_draws: int = 8, spread: flo
     pe = pd.concat(frames, ignore_index=True)[["draw", "target", "movement", "approach", "pe_cm"]]
     keys = ["target", "movement", "approach"]
     wide = pe.pivot_table(index=keys, columns="draw", values="pe_cm")
-    perturbed = wide.drop(columns=0, errors="ignore")
-    summary = pd.DataFrame({"nominal_cm": wide[0] if include_nominal else np.nan}, index=wide.index)
+    perturbed = wide.drop(columns=0)
+    summary = pd.DataFrame({"nominal_cm": wide[0]}, index=wide.index)
     if n_draws:
         summary = summary.join(perturbed.agg(["min", "median", "max"], axis=1).add_suffix("_cm"))
         summary["range_cm"] = summary["max_cm"] - summary["min_cm"]

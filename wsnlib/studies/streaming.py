@@ -85,10 +85,6 @@ class Scheme:
             return "no redundancy"
         return f"{self.layout} K={self.redundancy}, {self.bits} bits"
 
-    @property
-    def is_baseline(self) -> bool:
-        return self.twice or self.redundancy == 0
-
 
 NONE, TWICE = Scheme(), Scheme(twice=True)
 

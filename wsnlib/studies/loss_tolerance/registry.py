@@ -92,11 +92,6 @@ class Range:
                              f"{values}")
         return values
 
-    def describe(self) -> str:
-        """``"0.1–100 s, log"`` with the reason: the bounds as the notebook's table shows them."""
-        text = f"{self.low:g}–{self.high:g}{' ' + self.unit if self.unit else ''}{', log' if self.log else ''}"
-        return f"{text} ({self.why})" if self.why else text
-
 
 @dataclasses.dataclass(frozen=True)
 class Choice:
@@ -112,11 +107,6 @@ class Choice:
     def levels(self, n: int | None = None) -> tuple:
         """Every value (a choice is not thinned by the budget)."""
         return tuple(self.values)
-
-    def describe(self) -> str:
-        """``"one of True, False"`` with the reason."""
-        text = "one of " + ", ".join(str(v) for v in self.values)
-        return f"{text} ({self.why})" if self.why else text
 
 
 @dataclasses.dataclass(frozen=True)
