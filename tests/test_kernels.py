@@ -130,6 +130,23 @@ def test_compiled_triad_agrees_with_scipy_align_vectors():
         assert np.degrees(Q.angle_between(q, Q.from_scipy(rot))) < 1e-3
 
 
+def test_read_only_and_writable_inputs_share_one_machine_code(data):
+    """numba types a read-only array (a cached trial, a broadcast) apart from a writable one; the
+    kernels get read-only views of either (``_batch.kernel_input``), so neither adds a compilation."""
+    from wsnlib.orientation import _kalman_kernels, kalman_orientation
+
+    frozen = [arr.copy() for arr in data]
+    for arr in frozen:
+        arr.flags.writeable = False
+    gyr, acc, mag, received = data
+    estimate_orientation(gyr, acc, mag, fs=FS, beta=0.1, received=received)
+    kalman_orientation(gyr, acc, mag, fs=FS, received=received)
+    compiled = len(_kernels.filter_stream.signatures), len(_kalman_kernels.kalman_stream.signatures)
+    estimate_orientation(*frozen[:3], fs=FS, beta=0.1, received=frozen[3])
+    kalman_orientation(*frozen[:3], fs=FS, received=frozen[3])
+    assert (len(_kernels.filter_stream.signatures), len(_kalman_kernels.kalman_stream.signatures)) == compiled
+
+
 def test_compiled_code_is_cached_on_disk(tmp_path):
     """A fresh process writes the kernels' machine code to NUMBA_CACHE_DIR, so the next one loads it."""
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}

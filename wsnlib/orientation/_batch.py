@@ -264,8 +264,7 @@ def kernel_input(arr) -> np.ndarray:
 def flat(arr: np.ndarray, n_core: int) -> np.ndarray:
     """``arr`` ``(*s, *core)`` as C-contiguous, read-only ``(prod(s), *core)`` (a view when it can be)."""
     core = arr.shape[arr.ndim - n_core :]
-    return kernel_input(np.ascontiguousarray(arr).reshape((int(np.prod(arr.shape[: arr.ndim - n_core],
-                                                                         dtype=np.int64)),) + core))
+    return kernel_input(arr).reshape((int(np.prod(arr.shape[: arr.ndim - n_core], dtype=np.int64)),) + core)
 
 
 def index_into(shape: tuple[int, ...], batch: tuple[int, ...]) -> np.ndarray:
