@@ -385,7 +385,8 @@ KALMAN_SPACE = {key: Range(0.0002, 0.2, unit="rad·√s", why=f"time constant / 
 #: first, empty design) and, one at a time, each alternative a data-chosen default was picked
 #: against on BROAD's 17 trials (``KalmanSettings``' docstring: "chosen most often by LOTO from
 #: …"; ``mag_norm_tau_s`` 20 s, VQF's ``magRefTau``, was the default until the drifting-field
-#: heading work).  Crossed with the 12 settings of :data:`KALMAN_SPACE` in the
+#: heading work, ``mag_hard_iron_tau_s`` 3 s until the drifting field with a magnet).  Crossed
+#: with the 12 settings of :data:`KALMAN_SPACE` in the
 #: ``", design in fold"`` entries of :func:`default_methods`.
 KALMAN_DESIGNS = (
     {},
