@@ -341,20 +341,26 @@ def scalar_updates(P, dx, work, n):
 
 
 @njit(inline="always", **COMPILE)
-def heading_update(P, dx, innovation, r, work):
+def heading_update(P, dx, innovation, r):
     """The heading's scalar update (``H = e_2ᵀ``) with the gain's tilt rows zeroed (the magnetometer
     must not tilt), so in Joseph form (valid for any gain): ``P − K P_2· − P_·2 Kᵀ + S K Kᵀ``.
     Since ``S K_b = P_2b`` wherever K is not zeroed, that is ``P − P_·2 Kᵀ − K tᵀ`` with ``t`` =
-    P_2· on the tilt entries and 0 elsewhere (two products, :func:`subtract_products`)."""
-    left, right = work.gains, work.rows
+    P_2· on the tilt entries and 0 elsewhere.  With ``p = P_·2`` and ``k_b = p_b/S`` (b ≥ 2, else
+    0), entry (a, b) of the upper triangle (a ≤ b) loses ``p_a k_b`` when b ≥ 2 and nothing in
+    the tilt block (a, b < 2): the rank-one product on columns 2 … 8 only, the same numbers as
+    the two dense products, whose other terms are exact zeros."""
     inv_S = 1.0 / (P[2, 2] + r)
-    for a in range(NX):
-        p = P[2, a]
-        k = p * inv_S if a >= 2 else 0.0  # K: tilt rows zeroed
-        left[0, a], right[0, a] = p, k  # P_·2 Kᵀ
-        left[1, a], right[1, a] = k, p if a < 2 else 0.0  # K tᵀ
-        dx[a] += k * innovation
-    subtract_products(P, left, right, 2)
+    p0, p1, p2, p3, p4, p5, p6, p7, p8 = P[2, 0], P[2, 1], P[2, 2], P[2, 3], P[2, 4], P[2, 5], P[2, 6], P[2, 7], P[2, 8]
+    p = (p0, p1, p2, p3, p4, p5, p6, p7, p8)
+    k = (0.0, 0.0, p2 * inv_S, p3 * inv_S, p4 * inv_S, p5 * inv_S, p6 * inv_S, p7 * inv_S, p8 * inv_S)  # K
+    for a in range(2, NX):
+        dx[a] += k[a] * innovation  # δx += K (z − δθ_z)
+    for b in range(2, NX):  # P_ab −= p_a k_b, a ≤ b, mirrored
+        k_b = k[b]
+        for a in range(b + 1):
+            v = P[a, b] - p[a] * k_b
+            P[a, b] = v
+            P[b, a] = v
 
 
 @njit(inline="always", **COMPILE)
@@ -554,7 +560,7 @@ def correct_mag(st, work, c, mag, omega):
         r *= c.mag_reject_var_factor
     if use and horizontal > 0.0:
         psi = math.atan2(m_e[0], m_e[1])  # heading error δθ_z
-        heading_update(P, work.dx, psi - work.dx[2], r, work)
+        heading_update(P, work.dx, psi - work.dx[2], r)
         inject(st, work.dx, c.bias_limit)
         return True
     return False
