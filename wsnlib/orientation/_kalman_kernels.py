@@ -676,8 +676,11 @@ def kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c, outputs)
             # samples (filtered = predicted there), so the smoother sees one consistent path.
             n_lost = gs.lost if c.record and received[t] and c.replay else 0
             path = pred_q[t - n_lost:t] if n_lost > 0 and t - n_lost >= first else no_path
-            acc_used[t], mag_used[t] = kalman_step(st, gs, history, work, c, gyr[t], acc[t],
-                                                   mag[t] if c.has_mag else mag[0], received[t], path)
+            # The sample's readings as tuples, not row views (a view costs a reference count).
+            m = t if c.has_mag else 0
+            acc_used[t], mag_used[t] = kalman_step(st, gs, history, work, c, (gyr[t, 0], gyr[t, 1], gyr[t, 2]),
+                                                   (acc[t, 0], acc[t, 1], acc[t, 2]),
+                                                   (mag[m, 0], mag[m, 1], mag[m, 2]), received[t], path)
             if path.shape[0] > 0:
                 out_q[t - n_lost:t] = path
         else:
