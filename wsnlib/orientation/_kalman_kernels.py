@@ -111,7 +111,7 @@ def small_rotation(v):
 # ------------------------------------------------------------------------------------------
 
 
-@njit(**COMPILE)
+@njit(inline="always", **COMPILE)
 def pack_upper(P, out):
     """The upper triangle of the symmetric ``P`` (9 × 9), row by row, into ``out`` (:data:`NP`,)."""
     k = 0
@@ -156,7 +156,7 @@ def transition_matrix(R, a_e, decay, dt, F):
             F[6 + a, 3 + b] = F[6 + a, 0] * F[0, 3 + b] + F[6 + a, 1] * F[1, 3 + b] + F[6 + a, 2] * F[2, 3 + b]
 
 
-@njit(**COMPILE)
+@njit(inline="always", **COMPILE)
 def transition_transpose_times(R, a_e, decay, dt, y, out):
     """``out = Fᵀ y`` (9,) for :func:`transition_matrix`'s F, from its non-zero blocks only:
 
@@ -694,7 +694,7 @@ def kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c, outputs)
         if c.record:
             pred_q[t], pred_vel[t] = work.q_pred, work.vel_pred
             pred_R[t], pred_a_e[t] = work.R, work.a_e
-            pack_upper(work.P_pred, pred_P[t])
+            pack_upper(work.P_pred, pred_P[t])  # (inlined: the row views need no reference count)
             pack_upper(st.P, post_P[t])
     # Keep the record arrays alive to here (the loop reads them through st, work, gs).
     state_array[0], work_array[0], gap_array[0] = st, work, gs

@@ -183,7 +183,7 @@ def _predicted_gap(out_q, rates, s0, s1, q0, q1, order, window, dt):
             out_q[s0 + 1 + k, a] = qb[a]
 
 
-@njit(**COMPILE)
+@njit(inline="always", **COMPILE)
 def cholesky_factor(packed, L, inv_diag):
     """``P = L Lᵀ`` into ``L``'s lower triangle for a symmetric positive definite ``P`` (9 × 9) given
     as its upper triangle ``packed`` (:func:`~._kalman_kernels.pack_upper`; ``P_ij = P_ji`` is read
@@ -202,7 +202,7 @@ def cholesky_factor(packed, L, inv_diag):
                 L[i, j] = acc_ij * inv_diag[j]
 
 
-@njit(**COMPILE)
+@njit(inline="always", **COMPILE)
 def solve_factored(L, inv_diag, b, x):
     """``x = (L Lᵀ)⁻¹ b`` by two triangular solves (``L``, ``inv_diag`` from :func:`cholesky_factor`;
     ``b`` is read only, ``x`` may be any 1-D view)."""
@@ -219,7 +219,7 @@ def solve_factored(L, inv_diag, b, x):
         x[i] = acc_i * inv_diag[i]
 
 
-@njit(**COMPILE)
+@njit(inline="always", **COMPILE)
 def symmetric_times(packed, x, out):
     """``out = P x`` for the symmetric ``P`` (9 × 9) stored as its upper triangle ``packed``
     (:func:`~._kalman_kernels.pack_upper`), each entry summed over the columns in order."""
@@ -259,6 +259,9 @@ def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, 
     chol = np.empty((NX, NX))
     y = np.empty(NX)
     inv_diag = np.empty(NX)
+    # cholesky_factor, solve_factored, transition_transpose_times and symmetric_times are inlined
+    # (inline="always"): the row views passed to them (pred_P[k + 1], post_P[k], ...) then cost no
+    # reference counting per sample, as a call's arguments do.
     for k in range(n_t - 2, first - 1, -1):
         # correction = C_k δ = P⁺_k F_{k+1}ᵀ (P⁻_{k+1})⁻¹ δ: one solve with P⁻ (Cholesky), no inverse
         q_next = (out_q[k + 1, 0], out_q[k + 1, 1], out_q[k + 1, 2], out_q[k + 1, 3])
