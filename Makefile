@@ -32,12 +32,12 @@ figures: $(STAMP)
 quick: $(STAMP)
 	$(PY) -m wsnlib.reproduce --quick --jobs $(JOBS)
 
-# The notebook tests first and alone (the quick batch runs $(JOBS) notebooks at a time, and no other
+# The quick batch's tests first and alone (the batch runs $(JOBS) notebooks at a time, and no other
 # test compiles kernels meanwhile, which would void its run-time check); then the rest in $(JOBS)
-# processes, a test file per process (its fixtures are built once).
+# processes, a test file per process (its fixtures are built once), the slowest files first.
 test: $(STAMP)
 	$(VENV)/bin/ruff check .
-	$(PY) -m pytest -m notebook
+	$(PY) -m pytest tests/test_notebooks.py -m notebook
 	$(PY) -m pytest -n $(JOBS) --dist loadfile -m "not notebook and not browser and not lab"
 
 lint: $(STAMP)
