@@ -47,8 +47,9 @@ ACC_SCALE_FACTOR_MAX = 2.0
 #: ≤ 4,000 °/s (70 rad/s), accelerometers at ≤ 16 g (a high-g one at 200 g), magnetometers at ≤ 5 mT.
 SAMPLE_NORM_MAX = {"gyr": 100.0, "acc": 2000.0, "mag": 1e4}
 
-#: At most this many samples (spread evenly in time) enter a median: cheap on a large batch.
-MEDIAN_SAMPLES = 1 << 16
+#: At most this many samples (spread evenly in time) enter a median: cheap on a long or large batch
+#: (a units check needs no more; the median of every sample cost ~10 % of a Kalman filter run).
+MEDIAN_SAMPLES = 1 << 12
 
 
 def _squared_norms(vectors: np.ndarray) -> np.ndarray:
