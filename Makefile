@@ -34,7 +34,7 @@ quick: $(STAMP)
 
 # The quick batch's tests first and alone (the batch runs $(JOBS) notebooks at a time, and no other
 # test compiles kernels meanwhile, which would void its run-time check); then the rest in $(JOBS)
-# processes, a test file per process (its fixtures are built once), the slowest files first.
+# processes, a test file per process (its fixtures are built once).
 test: $(STAMP)
 	$(VENV)/bin/ruff check .
 	$(PY) -m pytest tests/test_notebooks.py -m notebook

@@ -2,8 +2,6 @@
 
 import importlib.util
 
-import pytest
-
 from wsnlib import paths
 
 
@@ -14,7 +12,6 @@ def _load(name):
     return module
 
 
-@pytest.mark.slow(2)
 def test_madgwick_benchmark_times_every_loss_option_on_a_lossy_mask_and_agrees_with_ahrs():
     bench = _load("bench_madgwick")
     results = bench.run(quick=True, log=lambda *args: None)
@@ -25,7 +22,6 @@ def test_madgwick_benchmark_times_every_loss_option_on_a_lossy_mask_and_agrees_w
     assert text.count("PASS") + text.count("MISS") == len(results["targets"]) == 5
 
 
-@pytest.mark.slow(2)
 def test_search_benchmark_times_the_same_results_as_the_naive_loop():
     bench = _load("bench_search")
     results = bench.run(quick=True, log=lambda *args: None)
@@ -37,7 +33,6 @@ def test_search_benchmark_times_the_same_results_as_the_naive_loop():
     assert results["table3"].shape[0] == 2                                      # Table 3: one row per target
 
 
-@pytest.mark.slow(6)
 def test_stream_benchmark_outputs_every_sample_of_every_node_and_meets_deadlines_with_its_own_timing():
     from _recordings import turning_recording
 

@@ -67,7 +67,6 @@ def _cpu_flags() -> set[str]:
     return flags | ({"sse3"} if "pni" in flags else set())  # Linux calls SSE3 "pni"
 
 
-@pytest.mark.slow(20)
 def test_tables_bootstrap_simulation_and_peers_do_not_depend_on_the_blas_kernel():
     flags = _cpu_flags()
     kernels = [name for name, needs in _KERNELS.items() if needs <= flags]

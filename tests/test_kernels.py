@@ -147,7 +147,6 @@ def test_read_only_and_writable_inputs_share_one_machine_code(data):
     assert (len(_kernels.filter_stream.signatures), len(_kalman_kernels.kalman_stream.signatures)) == compiled
 
 
-@pytest.mark.slow(10)
 def test_compiled_code_is_cached_on_disk(tmp_path):
     """A fresh process writes the kernels' machine code to NUMBA_CACHE_DIR, so the next one loads it."""
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
@@ -246,7 +245,6 @@ def test_the_parallel_and_serial_checks_report_the_same_sample(data, monkeypatch
         estimate_orientation(gyr, bad, mag, fs=FS, beta=0.1, received=masks)
 
 
-@pytest.mark.slow(3)
 def test_each_version_of_the_sources_caches_apart(tmp_path):
     """Issue 23: a process that imported the old sources and compiles after an edit must not store
     its machine code where the edited sources look for theirs; other versions' files are dropped."""

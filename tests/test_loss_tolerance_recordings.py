@@ -242,7 +242,6 @@ def _cli(*args):
                           capture_output=True, text=True, timeout=600)
 
 
-@pytest.mark.slow(9)
 def test_command_line_on_recording_files(tmp_path):
     for k, name in enumerate(("walk", "run")):
         _simulated(tmp_path / f"{name}.csv", fs=40.0 + 10 * k, duration_s=6.0, seed=k)
@@ -273,7 +272,6 @@ def test_command_line_on_recording_files(tmp_path):
     assert "--loss applies to recording files" in _cli("--loss", "ge:0.1").stderr
 
 
-@pytest.mark.slow(2)
 def test_the_health_check_names_the_unit_whose_field_is_disturbed(tmp_path):
     rec = simulate_recording(reach_and_flex(fs=50.0, duration_s=6.0), rng=np.random.default_rng(0))
     mag = rec.mag.copy()

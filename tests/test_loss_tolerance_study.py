@@ -101,7 +101,6 @@ def test_a_budget_gives_every_method_the_same_number_of_settings_from_bound_to_b
         lt.Range(0.0, 1.0)
 
 
-@pytest.mark.slow(8)
 def test_the_study_gives_the_same_tables_on_one_process_local_processes_and_a_dask_cluster(small_study):
     from distributed import LocalCluster
 
@@ -724,7 +723,6 @@ def test_paper001_tables_and_findings():
     assert "What carries over" in found["text"] and "(at its default: 1.5°)" in found["text"]
 
 
-@pytest.mark.slow(20)
 def test_command_line_runs_on_two_broad_trials(tmp_path):
     """``python -m wsnlib.studies.loss_tolerance --quick``: the tables, a verdict per target, the per-trial CSV."""
     import os

@@ -194,7 +194,6 @@ def test_stated_quick_run_times_match_the_batch(quick_batch):
     assert not off, "\n".join(off) + "\n(measure again: the manifest holds each notebook's seconds)"
 
 
-@pytest.mark.slow(12)
 def test_notebook_10_runs_on_recording_files(tmp_path, monkeypatch):
     """Issue 24: notebook 10 takes ``recordings`` (files) instead of BROAD ``trials``; two simulated
     two-node recordings at 50 and 40 Hz (one with a gap in its reference and a movement column)."""

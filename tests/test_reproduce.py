@@ -36,7 +36,6 @@ def test_notebooks_are_listed_in_order():
     assert batch_selection.list_notebooks("no-such-notebook") == []
 
 
-@pytest.mark.slow(3)
 def test_solutions_run_after_the_notebooks_with_their_own_entries(output_dir, tmp_path, monkeypatch):
     nb_dir = tmp_path / "nbs"
     figure = "import matplotlib.pyplot as plt\nplt.plot([0, 1])"
@@ -106,7 +105,6 @@ def _manifest(output_dir):
     return json.loads((output_dir / "data" / "processed" / "manifest.json").read_text())
 
 
-@pytest.mark.slow(4)
 def test_a_stuck_cell_times_out_and_is_recorded(output_dir, tmp_path, monkeypatch, capfd):
     nb_dir = tmp_path / "nbs"
     _write_notebook(nb_dir / "01_stuck.ipynb", _WRITE_PARTIAL, "import time\ntime.sleep(120)")
@@ -210,7 +208,6 @@ def _save(name, sleep_s=0.0):
             f"save_table(pd.DataFrame({{'a': [1]}}), {name!r})")
 
 
-@pytest.mark.slow(3)
 def test_notebooks_side_by_side_each_list_only_what_they_wrote(output_dir, tmp_path, monkeypatch):
     nb_dir = tmp_path / "nbs"
     for i, sleep_s in enumerate((1.5, 0.0, 0.5), start=1):
@@ -245,7 +242,6 @@ def test_side_by_side_the_longest_stated_notebooks_start_first(tmp_path):
     assert reproduce.longest_first(notebooks, quick=True) == [3, 0, 1, 2]
 
 
-@pytest.mark.slow(4)
 def test_side_by_side_a_failure_starts_nothing_more(output_dir, tmp_path, monkeypatch):
     nb_dir = tmp_path / "nbs"
     _write_notebook(nb_dir / "01_fails.ipynb", "raise RuntimeError('deliberate failure')")
@@ -262,7 +258,6 @@ def test_side_by_side_a_failure_starts_nothing_more(output_dir, tmp_path, monkey
     assert waiting["status"] == "not run"
 
 
-@pytest.mark.slow(3)
 def test_side_by_side_a_signal_stops_every_running_kernel(output_dir, tmp_path, monkeypatch):
     nb_dir = tmp_path / "nbs"
     _write_notebook(nb_dir / "01_signals.ipynb", _save("a01_table"),

@@ -153,7 +153,6 @@ SHARED_TRIALS = broad_trials(present_only=True, data_dir=BROAD_DIR) if BROAD_DIR
 
 
 @pytest.mark.skipif(len(SHARED_TRIALS) < 17, reason=f"the 17 shared BROAD trials are not in {BROAD_DIR}")
-@pytest.mark.slow(3)
 def test_smoother_is_never_worse_than_its_filter_on_broad_at_ge_10_percent(monkeypatch):
     """Every shared BROAD trial × 5 Gilbert–Elliott 10 % masks: RMSE(smoother) ≤ RMSE(filter) + 0.5°,
     and the smoother is its own estimate (not the filter's output handed through)."""

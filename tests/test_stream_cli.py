@@ -42,7 +42,6 @@ def _send(recording, port, dump, *options):
     return result.stdout
 
 
-@pytest.mark.slow(5)
 def test_send_and_receive_over_udp_equal_the_batch_filter(tmp_path):
     recording = _recording(tmp_path)
     out, dump = tmp_path / "out.csv", tmp_path / "sent.npz"
@@ -71,7 +70,6 @@ def test_send_and_receive_over_udp_equal_the_batch_filter(tmp_path):
         assert not mine[mine["sample"] > last]["received"].any()
 
 
-@pytest.mark.slow(4)
 def test_ctrl_c_ends_the_receiver_cleanly(tmp_path):
     recording = _recording(tmp_path, n=300)
     out = tmp_path / "out.csv"

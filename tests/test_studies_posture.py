@@ -127,7 +127,6 @@ def test_perturbed_channel_ranges():
         perturbed_channel({"rssi_noise_db": 2.0})
 
 
-@pytest.mark.slow(5)
 def test_radio_sensitivity_quick_zero_spread_and_determinism():
     from wsnlib import optimize
     from wsnlib.studies.posture import RADIO_ASSUMPTIONS, radio_sensitivity, sensitivity_grid
