@@ -15,4 +15,3 @@ def output_dir(tmp_path, monkeypatch):
     """Send every generated file of the test to a temporary folder."""
     monkeypatch.setenv("WSNLIB_OUTPUT_DIR", str(tmp_path))
     return tmp_path
-
