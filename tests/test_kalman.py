@@ -597,3 +597,19 @@ def test_a_magnet_on_the_sensor_is_removed_while_the_field_strength_drifts():
     heading = np.abs(broad_errors_deg(out.quat, q_true)["heading"])
     assert np.max(heading) < 8.0
     assert out.mag_used.mean() > 0.9
+
+
+def test_a_drifting_field_strength_is_used_at_once_after_a_gap():
+    """The field's strength grows by 5 %/s from 10 s on (a drifting gain, half of the largest rate the
+    norm gate follows: mag_norm_gate / mag_norm_tau_s = 10 %/s) and nothing is received from 18 s to
+    20 s.  The gate's follower stood still in the gap, 15 % behind; its tolerance widens with the gap
+    by the same rate, so the first field after the gap is used (with the gate of a sample, it was
+    rejected for ~1 s, while the heading was the gap's least certain)."""
+    gyr, acc, mag, q_true = turning_recording(n=1500, seed=7, noise=0.002)
+    t = np.arange(len(mag)) / FS
+    mag = mag * np.exp(0.05 * np.clip(t - 10.0, 0.0, None))[:, None]
+    received = (t < 18.0) | (t >= 20.0)
+    out = kalman_orientation(gyr, acc, mag, fs=FS, received=received, full_output=True)
+    after = int(20.0 * FS)
+    assert out.mag_used[int(12.0 * FS):int(18.0 * FS)].all()  # the follower kept up with the drift before
+    assert out.mag_used[after:after + int(FS)].all()

@@ -500,8 +500,9 @@ def hard_iron(st, c, mag, omega):
 
 
 @njit(**COMPILE)
-def correct_mag(st, work, c, mag, omega):
-    """Heading update from the magnetometer, gated on its norm and dip; returns whether it was used."""
+def correct_mag(st, work, c, mag, omega, lost):
+    """Heading update from the magnetometer, gated on its norm and dip; returns whether it was used.
+    ``lost``: samples lost right before this one (0 without a gap)."""
     dt = c.dt
     P = st.P
     mag = hard_iron(st, c, mag, omega)
@@ -517,11 +518,19 @@ def correct_mag(st, work, c, mag, omega):
     # motion) does not reject an undisturbed field.
     dip_tolerance = c.mag_dip_gate + c.mag_dip_tilt_sigmas * math.sqrt(max(P[0, 0], P[1, 1]))
     dip_consistent = abs(dip - st.mag_ref_dip) < dip_tolerance
-    undisturbed = dip_consistent and abs(m_norm - st.mag_gate_norm) < c.mag_norm_gate * st.mag_gate_norm
+    # The norm gate's follower stands still while nothing is received: after L lost samples a
+    # norm drifting by a fraction ρ per second lags it by ρ(τ + LΔt) instead of ρτ, so the gate
+    # widens by 1 + LΔt/τ (the same largest drift rate passes as without a gap) and the follower
+    # catches up with the gain of (L + 1)Δt.
+    norm_gate, follow = c.mag_norm_gate, c.mag_gate_norm_gain
+    if lost > 0:
+        norm_gate *= 1.0 + lost * dt / c.mag_norm_tau
+        follow = -math.expm1(-(lost + 1) * dt / c.mag_norm_tau)
+    undisturbed = dip_consistent and abs(m_norm - st.mag_gate_norm) < norm_gate * st.mag_gate_norm
     if dip_consistent:
         # The gate's norm follows a field whose direction holds (a sensor's gain or the room's
         # field strength drifting): only a norm that changes faster than it follows is rejected.
-        st.mag_gate_norm += c.mag_gate_norm_gain * (m_norm - st.mag_gate_norm)
+        st.mag_gate_norm += follow * (m_norm - st.mag_gate_norm)
     # A reference not yet confirmed by mag_new_first_time_s of undisturbed fields (the first
     # sample's, taken in motion or in a disturbance) gives way to a field consistent that long.
     provisional = st.mag_ref_time < c.mag_new_first_time
@@ -585,13 +594,14 @@ def kalman_step(st, gs, history, work, c, gyr, acc, mag, received, replayed):
         _keep_prediction(st, work, c)
         return False, False
     omega = (gyr[0] - st.bias[0], gyr[1] - st.bias[1], gyr[2] - st.bias[2])
-    if c.replay and gs.lost > 0 and gs.n > gs.lost:
+    lost = gs.lost
+    if c.replay and lost > 0 and gs.n > lost:
         _replay(st, gs, history, omega, c.dt, replayed)
     predict(st, work, c, omega, acc, True, 0)
     _keep_prediction(st, work, c)
     gaps.gap_received(gs, history, omega)
     acc_used = correct_acc(st, work, c, acc, omega)
-    mag_used = correct_mag(st, work, c, mag, omega) if c.has_mag else False
+    mag_used = correct_mag(st, work, c, mag, omega, lost) if c.has_mag else False
     for a in range(4):
         st.q_last[a] = st.q[a]
     return acc_used, mag_used

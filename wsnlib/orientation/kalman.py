@@ -103,7 +103,9 @@ Gates (where they come from)
   undisturbed field; VQF has no tilt covariance and uses the fixed threshold) of a reference
   that is learned online: set from the first received sample, then low-pass filtered on
   accepted samples, and the norm gate's own reference follows every field whose dip passes
-  (``mag_norm_tau_s``); a new field that stays consistent for ``mag_new_time_s`` while the
+  (``mag_norm_tau_s``; after a gap of ``L`` samples, in which it could not follow, the norm
+  tolerance is ``mag_norm_gate · (1 + LΔt/mag_norm_tau_s)``, so the same drift rate passes as
+  without a gap); a new field that stays consistent for ``mag_new_time_s`` while the
   sensor turns faster than ``mag_new_min_rate`` becomes the new reference — or for
   ``mag_new_first_time_s``, turning or not, while the reference has not yet been confirmed by
   that long of undisturbed fields (so a recording that starts in motion or in a disturbance
@@ -665,7 +667,7 @@ class KalmanReference:
                 for w in rates:
                     q = Q.normalize(Q.multiply(q, self._exp(w * dt)))
                 self.q = q
-            self.lost = 0
+            lost, self.lost = self.lost, 0
         else:
             if self.lost == 0:
                 ar = self.gap == "ar" and len(self.rates) >= self.window and self.window >= 3 * self.order
@@ -681,7 +683,7 @@ class KalmanReference:
         self._predict(omega, acc, received)
         if received:
             self.last_rate = omega.copy()
-            self._update(acc, mag, omega)
+            self._update(acc, mag, omega, lost)
             self.q_last = self.q.copy()
         return self.q
 
@@ -723,7 +725,7 @@ class KalmanReference:
         self.b = np.clip(self.b + dx[3:6], -self.s.bias_limit, self.s.bias_limit)
         self.v = self.v + dx[6:]
 
-    def _update(self, acc, mag, omega):
+    def _update(self, acc, mag, omega, lost):
         s, dt = self.s, self.dt
         a_norm = np.linalg.norm(acc)
         dev = abs(a_norm - s.gravity)
@@ -751,9 +753,10 @@ class KalmanReference:
         if self.ref is None:
             self.ref, self.gate_norm = [m_norm, dip], m_norm
         dip_consistent = abs(dip - self.ref[1]) < s.mag_dip_gate + s.mag_dip_tilt_sigmas * np.sqrt(tilt_var)
-        if not (dip_consistent and abs(m_norm - self.gate_norm) < s.mag_norm_gate * self.gate_norm):
+        norm_gate = s.mag_norm_gate * (1.0 + lost * dt / s.mag_norm_tau_s)  # the follower stood still in the gap
+        if not (dip_consistent and abs(m_norm - self.gate_norm) < norm_gate * self.gate_norm):
             raise ValueError("the field looks disturbed: the reference covers undisturbed fields only")
-        self.gate_norm += -np.expm1(-dt / s.mag_norm_tau_s) * (m_norm - self.gate_norm)
+        self.gate_norm += -np.expm1(-(lost + 1) * dt / s.mag_norm_tau_s) * (m_norm - self.gate_norm)
         self.ref = [self.ref[0] + gain * (m_norm - self.ref[0]), self.ref[1] + gain * (dip - self.ref[1])]
         r = s.mag_noise_density**2 / dt + np.tan(min(abs(self.ref[1]), 1.5)) ** 2 * tilt_var
         self._correct(np.eye(9)[2:3], np.array([np.arctan2(m_e[0], m_e[1])]), r, heading_only=True)

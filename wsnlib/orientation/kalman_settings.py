@@ -122,7 +122,9 @@ class KalmanSettings:
         GE 10 %), at a cost of +0.1° mean lossless RMSE (the attached-magnet trials; 2 s
         followed the scale less well; ``benchmarks/eval_rates_and_starts.py`` and
         ``benchmarks/eval_kalman_accuracy.py``, November 2026).  ``inf``: the gate's norm stays
-        where the reference was set.
+        where the reference was set.  The follower cannot follow in a gap: after L lost samples
+        the norm tolerance is ``mag_norm_gate · (1 + LΔt/τ)`` and the follower catches up with
+        the gain of (L + 1)Δt (the same drift rate passes as without a gap).
     mag_new_time_s : float
         Consistent time (s) after which a new field becomes the reference, VQF's
         ``magNewTime`` = 20 s.
@@ -279,6 +281,7 @@ CONSTANTS_DTYPE = np.dtype([
     ("mag_norm_gate", "f8"), ("mag_dip_gate", "f8"),
     ("mag_ref_gain", "f8"),          # 1 − exp(−Δt/τ_ref): the reference's low-pass
     ("mag_gate_norm_gain", "f8"),    # 1 − exp(−Δt/τ_norm): the norm gate's follower
+    ("mag_norm_tau", "f8"),          # τ_norm (s): the follower after a gap
     ("mag_new_first_time", "f8"),
     ("mag_new_time", "f8"), ("mag_new_min_rate", "f8"), ("mag_max_reject", "f8"),
     ("mag_reject_var_factor", "f8"), ("mag_dip_tilt_sigmas", "f8"),
@@ -332,7 +335,7 @@ def kalman_constants(settings: KalmanSettings, dt: float, *, gap: int, replay: b
         "acc_innovation_gate": s.acc_innovation_gate, "acc_dist_factor": s.acc_disturbance_factor,
         "acc_dist_gain": -math.expm1(-dt / s.acc_disturbance_tau_s), "mag_norm_gate": s.mag_norm_gate,
         "mag_dip_gate": s.mag_dip_gate, "mag_ref_gain": -math.expm1(-dt / s.mag_reference_tau_s),
-        "mag_gate_norm_gain": -math.expm1(-dt / s.mag_norm_tau_s),
+        "mag_gate_norm_gain": -math.expm1(-dt / s.mag_norm_tau_s), "mag_norm_tau": s.mag_norm_tau_s,
         "mag_new_first_time": s.mag_new_first_time_s,
         "mag_new_time": s.mag_new_time_s, "mag_new_min_rate": s.mag_new_min_rate,
         "mag_max_reject": s.mag_max_rejection_s, "mag_reject_var_factor": s.mag_rejection_factor**2,
