@@ -42,7 +42,9 @@ NX = 9
 #: equations (``hi_A``: 00 01 02 11 12 22 of the symmetric 3 × 3, ``hi_r``), the previous received
 #: field and rate, the low-pass of (‖a‖ − g)² (``lin_var``, m²/s⁴), and the raw and hard-iron
 #: corrected field norms of the previous received sample and the low-passes of their squared
-#: steps (``hi_prev_norms``, ``hi_norm_vars``: µT, µT²).
+#: steps (``hi_prev_norms``, ``hi_norm_vars``: µT, µT²); the magnetometer's lag estimate (s), the sums
+#: of its normal equation and the previous received raw field (``lag``, ``lag_num``, ``lag_den``,
+#: ``lag_prev_mag``).
 STATE_DTYPE = np.dtype([
     ("q", "f8", (4,)), ("bias", "f8", (3,)), ("velocity", "f8", (3,)), ("P", "f8", (NX, NX)),
     ("rate", "f8", (3,)), ("q_last", "f8", (4,)), ("gap_sigma", "f8"),
@@ -52,6 +54,7 @@ STATE_DTYPE = np.dtype([
     ("hi_A", "f8", (6,)), ("hi_r", "f8", (3,)), ("hi_prev_mag", "f8", (3,)), ("hi_prev_rate", "f8", (3,)),
     ("hard_iron", "f8", (3,)), ("lin_var", "f8"), ("hi_prev_ok", "?"),
     ("hi_prev_norms", "f8", (2,)), ("hi_norm_vars", "f8", (2,)),
+    ("lag", "f8"), ("lag_num", "f8"), ("lag_den", "f8"), ("lag_prev_mag", "f8", (3,)),
 ])
 
 #: Entries of a covariance's upper triangle (row by row): how the smoother stores P.
@@ -424,6 +427,46 @@ def correct_acc(st, work, c, acc, omega):
 
 
 @njit(**COMPILE)
+def mag_lag(st, c, mag, omega):
+    """Update the online estimate of the magnetometer's lag δ with one received field; returns the
+    field advanced by it, ``m − δ̂ ω × m`` (``KalmanSettings.mag_lag_tau_s``).
+
+    A field read δ late is ``m(t) = m_true(t − δ)``; with ``ṁ_true = −ω × m_true`` (the earth's field
+    seen from a turning sensor), two consecutive received samples give ``y = ṁ + ω × m = (ω(t) −
+    ω(t − δ)) × m ≈ δ ω̇ × m`` (ṁ, ω̇ from the two samples, m and ω at their midpoint).  With the
+    unit field ``g = ω̇ × m/‖m‖``, ``δ̂ = Σ λ^k g·y/‖m‖ / (ε + Σ λ^k ‖g‖²)`` (each term × Δt; λ the
+    forgetting, ε ``lag_ridge``), clipped to ``± lag_max``.  It runs on the raw field, before the
+    hard-iron estimate (a magnet on the sensor adds ``ω × b_m`` to y, which averages out against ω̇ × m).
+    """
+    m = (mag[0], mag[1], mag[2])
+    if c.lag_max == 0.0:
+        return m
+    pm, pw = st.lag_prev_mag, st.hi_prev_rate
+    if st.hi_prev_ok:  # the previous sample was received (hard_iron keeps the flag and the rate)
+        dt = c.dt
+        rate = 1.0 / dt
+        w = (0.5 * (omega[0] + pw[0]), 0.5 * (omega[1] + pw[1]), 0.5 * (omega[2] + pw[2]))
+        mm = (0.5 * (m[0] + pm[0]), 0.5 * (m[1] + pm[1]), 0.5 * (m[2] + pm[2]))
+        norm = vec_norm(mm)
+        if norm > 0.0:
+            inv = 1.0 / norm
+            wxm = (w[1] * mm[2] - w[2] * mm[1], w[2] * mm[0] - w[0] * mm[2], w[0] * mm[1] - w[1] * mm[0])
+            y = ((m[0] - pm[0]) * rate + wxm[0], (m[1] - pm[1]) * rate + wxm[1], (m[2] - pm[2]) * rate + wxm[2])
+            wd = ((omega[0] - pw[0]) * rate, (omega[1] - pw[1]) * rate, (omega[2] - pw[2]) * rate)  # ω̇
+            g = ((wd[1] * mm[2] - wd[2] * mm[1]) * inv, (wd[2] * mm[0] - wd[0] * mm[2]) * inv,
+                 (wd[0] * mm[1] - wd[1] * mm[0]) * inv)
+            lam = c.lag_decay
+            st.lag_num = lam * st.lag_num + (g[0] * y[0] + g[1] * y[1] + g[2] * y[2]) * inv * dt
+            st.lag_den = lam * st.lag_den + (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) * dt
+            st.lag = min(max(st.lag_num / (c.lag_ridge + st.lag_den), -c.lag_max), c.lag_max)
+    for k in range(3):
+        pm[k] = m[k]
+    d = st.lag
+    wxm = (omega[1] * m[2] - omega[2] * m[1], omega[2] * m[0] - omega[0] * m[2], omega[0] * m[1] - omega[1] * m[0])
+    return (m[0] - d * wxm[0], m[1] - d * wxm[1], m[2] - d * wxm[2])
+
+
+@njit(**COMPILE)
 def hard_iron(st, c, mag, omega):
     """Update the online hard-iron estimate with one received field; returns the field to use.
 
@@ -505,7 +548,7 @@ def correct_mag(st, work, c, mag, omega, lost):
     ``lost``: samples lost right before this one (0 without a gap)."""
     dt = c.dt
     P = st.P
-    mag = hard_iron(st, c, mag, omega)
+    mag = hard_iron(st, c, mag_lag(st, c, mag, omega), omega)
     m_norm = vec_norm(mag)
     m_e = quat_rotate((st.q[0], st.q[1], st.q[2], st.q[3]), (mag[0], mag[1], mag[2]))
     horizontal = math.sqrt(m_e[0] * m_e[0] + m_e[1] * m_e[1])

@@ -115,6 +115,12 @@ Gates (where they come from)
   samples (time the sensor was observed).  The heading measured through a tilt error ε is
   off by up to ``tan(dip) · ε``, so the heading variance is ``σ_m²/Δt + tan²(dip_ref) σ_tilt²``
   (``|dip_ref|`` capped at 1.5 rad).
+* Magnetometer, lag (a sensor's own filter or sampling delay δ behind the gyroscope; BROAD's
+  ~10 ms on every trial): a field read δ late is off by ``ω δ`` in a turn (3° at 5 rad/s and
+  10 ms).  Two consecutive received samples give ``ṁ + ω × m ≈ δ ω̇ × m``; a scalar
+  least-squares estimate with a long memory (``mag_lag_tau_s``) advances every field by
+  ``−δ̂ ω × m`` before the hard-iron estimate and the gates (:func:`~._kalman_kernels.mag_lag`;
+  ``mag_lag_max_s=0`` switches it off).
 * Magnetometer, hard iron (a magnet or ferrous part fixed to the sensor, BROAD trials 33–36):
   the field is ``m = Rᵀ m_E + b_m`` with a constant body-frame ``b_m``; the gyroscope makes
   ``b_m`` observable without any orientation, ``ṁ + ω × m = ω × b_m``, and an exponentially
@@ -141,7 +147,7 @@ Implementation, in three files: :class:`KalmanSettings`, its defaults and the pe
 constants the compiled step reads (``constants.gyro_var``) are in
 :mod:`wsnlib.orientation.kalman_settings`; the compiled step on a named state (``state.bias``,
 ``state.P``) is :mod:`._kalman_kernels` — one function per step above: :func:`~._kalman_kernels.predict`,
-:func:`~._kalman_kernels.correct_acc`, :func:`~._kalman_kernels.hard_iron`,
+:func:`~._kalman_kernels.correct_acc`, :func:`~._kalman_kernels.mag_lag`, :func:`~._kalman_kernels.hard_iron`,
 :func:`~._kalman_kernels.correct_mag`, :func:`~._kalman_kernels.scalar_updates`,
 :func:`~._kalman_kernels.heading_update`,
 :func:`~._kalman_kernels.inject`, one sample :func:`~._kalman_kernels.kalman_step`, the loop
@@ -170,7 +176,7 @@ from wsnlib.orientation import _batch as B
 from wsnlib.orientation import _kalman_kernels as K
 from wsnlib.orientation import gaps
 from wsnlib.orientation._kalman_kernels import NX, run_kalman
-from wsnlib.orientation.kalman_settings import KalmanSettings, gap_prediction_order, kalman_constants
+from wsnlib.orientation.kalman_settings import MAG_LAG_RIDGE, KalmanSettings, gap_prediction_order, kalman_constants
 from wsnlib.orientation.triad import tilt_quaternion, triad
 from wsnlib.plausibility import magnetometer_problem
 
@@ -615,6 +621,7 @@ class KalmanReference:
         self.last_rate = self.rates[0] if self.rates else np.zeros(3)
         self.ref = None  # the magnetometer's reference norm and dip
         self.gate_norm = 0.0
+        self.lag, self.lag_num, self.lag_den, self.lag_prev = 0.0, 0.0, 0.0, None  # the magnetometer's lag
         self.coef, self.largest = None, 0.0
 
     @staticmethod
@@ -746,6 +753,7 @@ class KalmanReference:
         self._correct(np.eye(9)[rows], np.array(z), np.array(noise))  # tilt and velocity: one update
         if mag is None:
             return
+        mag = self._advanced_by_lag(np.asarray(mag, dtype=float), omega, lost)
         m_e = Q.rotate(self.q, mag)
         m_norm, dip = np.linalg.norm(mag), np.arctan2(-m_e[2], np.hypot(m_e[0], m_e[1]))
         tilt_var = max(self.P[0, 0], self.P[1, 1])
@@ -760,6 +768,23 @@ class KalmanReference:
         self.ref = [self.ref[0] + gain * (m_norm - self.ref[0]), self.ref[1] + gain * (dip - self.ref[1])]
         r = s.mag_noise_density**2 / dt + np.tan(min(abs(self.ref[1]), 1.5)) ** 2 * tilt_var
         self._correct(np.eye(9)[2:3], np.array([np.arctan2(m_e[0], m_e[1])]), r, heading_only=True)
+
+    def _advanced_by_lag(self, mag, omega, lost):
+        """``m − δ̂ ω × m`` with the lag's estimate updated by this sample (``mag_lag_tau_s``)."""
+        s, dt = self.s, self.dt
+        if s.mag_lag_max_s == 0.0:
+            return mag
+        if self.lag_prev is not None and lost == 0:  # two consecutive received samples
+            pm, pw = self.lag_prev
+            mm = 0.5 * (mag + pm)
+            y = (mag - pm) / dt + np.cross(0.5 * (omega + pw), mm)  # ≈ δ ω̇ × m
+            g = np.cross((omega - pw) / dt, mm) / np.linalg.norm(mm)
+            decay = np.exp(-dt / s.mag_lag_tau_s)
+            self.lag_num = decay * self.lag_num + g @ y / np.linalg.norm(mm) * dt
+            self.lag_den = decay * self.lag_den + g @ g * dt
+            self.lag = float(np.clip(self.lag_num / (MAG_LAG_RIDGE + self.lag_den), -s.mag_lag_max_s, s.mag_lag_max_s))
+        self.lag_prev = (mag.copy(), np.asarray(omega, dtype=float).copy())
+        return mag - self.lag * np.cross(omega, mag)
 
     @classmethod
     def run(cls, gyr, acc, mag, received, *, fs: float, settings=None, gap: str = "ar", replay: bool = True,

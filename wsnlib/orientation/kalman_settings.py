@@ -174,6 +174,21 @@ class KalmanSettings:
         1 s was 0.12° better lossless and within 0.02° under GE 10 %
         (``benchmarks/eval_kalman_accuracy.py --compare``, 5 draws).  3 s stays a design
         alternative of the loss study (``KALMAN_DESIGNS``), chosen in the fold.
+    mag_lag_tau_s : float
+        Forgetting time constant (s) of the online estimate of the magnetometer's lag behind the
+        gyroscope (a sensor's own filter or sampling delay δ: the field read at t is the field of
+        t − δ, so in a turn the heading is off by ω_z δ — 3° at 5 rad/s and 10 ms).  Two
+        consecutive received samples give ``ṁ + ω × m ≈ δ ω̇ × m`` (the field lags the rate that
+        turns it), a scalar least-squares estimate forgotten with this time constant, with a ridge
+        of 1 s of 3 rad/s² angular acceleration (so it stays near 0 until the sensor has turned
+        and braked), clipped to ``± mag_lag_max_s``; the field is then advanced by ``−δ̂ ω × m``
+        before everything else (:func:`wsnlib.orientation._kalman_kernels.mag_lag`).  Estimated
+        from the sensors alone, causally, on every recording anew.  Default 30 s: the lag is a
+        constant of the sensor, and a long memory averages the differentiated field's noise.
+        BROAD's magnetometer lags by ~10 ms on all 17 trials (8.4–11.7 ms offline at the native
+        rate), and the online estimate settles there within the first minute of motion.
+    mag_lag_max_s : float
+        Largest lag (s) the compensation applies, either sign; 0 switches it off.  Default 0.05 s.
     mag_hard_iron_min_bias : float
         The estimate is subtracted only when its norm is at least this times the reference
         field norm and the corrected field is closer to the reference norm or its norm steadier
@@ -237,6 +252,8 @@ class KalmanSettings:
     mag_dip_tilt_sigmas: float = 3.0
     mag_hard_iron_tau_s: float = 1.0
     mag_hard_iron_min_bias: float = 0.1
+    mag_lag_tau_s: float = 30.0
+    mag_lag_max_s: float = 0.05
     gap_rate_prediction_span_s: float = 0.96
     gap_rate_prediction_window_s: float = 6.0
     acc_disturbance_factor: float = 4.0
@@ -247,8 +264,10 @@ class KalmanSettings:
                               largest=_LARGEST_SETTING)
 
 
+#: Ridge of the magnetometer lag's estimate, ((rad/s²)² s): 1 s of 3 rad/s² angular acceleration.
+MAG_LAG_RIDGE = 9.0
 #: Settings that may be 0 (switches the feature off).
-_MAY_BE_ZERO = frozenset({"acc_disturbance_factor"})
+_MAY_BE_ZERO = frozenset({"acc_disturbance_factor", "mag_lag_max_s"})
 #: Settings that may be ``inf`` (switches the feature off).
 _MAY_BE_INFINITE = frozenset({"acc_innovation_gate", "acc_norm_gate", "acc_rate_gate",
                               "mag_norm_gate", "mag_dip_gate", "mag_reference_tau_s", "mag_norm_tau_s",
@@ -294,6 +313,9 @@ CONSTANTS_DTYPE = np.dtype([
     ("hi_decay", "f8"),              # exp(−Δt/τ_hard-iron)
     ("hi_ridge", "f8"),              # ridge of the hard-iron normal equations
     ("hi_min_bias", "f8"),
+    ("lag_decay", "f8"),             # exp(−Δt/τ_lag): the magnetometer lag's forgetting
+    ("lag_ridge", "f8"),             # its ridge ((rad/s²)² s)
+    ("lag_max", "f8"),               # largest |δ| applied (s); 0: off
     ("gap", "i8"), ("gap_factor", "f8"), ("replay", "?"),  # the gap options (wsnlib.orientation.gaps)
     ("ar_order", "i8"), ("ar_window", "i8"),
     ("has_mag", "?"),                # a magnetometer is given
@@ -348,6 +370,8 @@ def kalman_constants(settings: KalmanSettings, dt: float, *, gap: int, replay: b
         # Ridge of the hard-iron normal equations: as much as 1 s of rotation at 0.3 rad/s, so that
         # the estimate shrinks to 0 when the sensor has not turned enough to observe it.
         "hi_ridge": 0.09 / dt, "hi_min_bias": s.mag_hard_iron_min_bias,
+        # The lag's ridge: as much as 1 s of 3 rad/s² angular acceleration (unit field).
+        "lag_decay": math.exp(-dt / s.mag_lag_tau_s), "lag_ridge": MAG_LAG_RIDGE, "lag_max": s.mag_lag_max_s,
         # The held rate's factor per lost sample: 0 holds the state, 1 keeps the rate constant.
         "gap": gap, "gap_factor": 0.0 if gap == 0 else math.exp(-dt / gap_time_constant), "replay": replay,
         "ar_order": gap_prediction_order(s, dt), "ar_window": round(s.gap_rate_prediction_window_s / dt),
