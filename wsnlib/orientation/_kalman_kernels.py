@@ -426,6 +426,19 @@ def correct_acc(st, work, c, acc, omega):
     return n > 0
 
 
+@njit(inline="always", **COMPILE)
+def field_rate_residual(m, pm, omega, pw, rate):
+    """``(ω̄, m̄, y)`` of two consecutive received samples (field ``pm`` then ``m``, bias-corrected
+    rate ``pw`` then ``omega``; ``rate`` = 1/Δt): the midpoint rate and field, and ``y = ṁ + ω̄ × m̄``,
+    which is 0 for the earth's field seen from a turning sensor (``ṁ = −ω × m``); what is left is
+    what :func:`mag_lag` and :func:`hard_iron` estimate."""
+    w = (0.5 * (omega[0] + pw[0]), 0.5 * (omega[1] + pw[1]), 0.5 * (omega[2] + pw[2]))
+    mm = (0.5 * (m[0] + pm[0]), 0.5 * (m[1] + pm[1]), 0.5 * (m[2] + pm[2]))
+    wxm = (w[1] * mm[2] - w[2] * mm[1], w[2] * mm[0] - w[0] * mm[2], w[0] * mm[1] - w[1] * mm[0])
+    y = ((m[0] - pm[0]) * rate + wxm[0], (m[1] - pm[1]) * rate + wxm[1], (m[2] - pm[2]) * rate + wxm[2])
+    return w, mm, y
+
+
 @njit(**COMPILE)
 def mag_lag(st, c, mag, omega):
     """Update the online estimate of the magnetometer's lag δ with one received field; returns the
@@ -445,13 +458,10 @@ def mag_lag(st, c, mag, omega):
     if st.hi_prev_ok:  # the previous sample was received (hard_iron keeps the flag and the rate)
         dt = c.dt
         rate = 1.0 / dt
-        w = (0.5 * (omega[0] + pw[0]), 0.5 * (omega[1] + pw[1]), 0.5 * (omega[2] + pw[2]))
-        mm = (0.5 * (m[0] + pm[0]), 0.5 * (m[1] + pm[1]), 0.5 * (m[2] + pm[2]))
+        _, mm, y = field_rate_residual(m, pm, omega, pw, rate)
         norm = vec_norm(mm)
         if norm > 0.0:
             inv = 1.0 / norm
-            wxm = (w[1] * mm[2] - w[2] * mm[1], w[2] * mm[0] - w[0] * mm[2], w[0] * mm[1] - w[1] * mm[0])
-            y = ((m[0] - pm[0]) * rate + wxm[0], (m[1] - pm[1]) * rate + wxm[1], (m[2] - pm[2]) * rate + wxm[2])
             wd = ((omega[0] - pw[0]) * rate, (omega[1] - pw[1]) * rate, (omega[2] - pw[2]) * rate)  # ω̇
             g = ((wd[1] * mm[2] - wd[2] * mm[1]) * inv, (wd[2] * mm[0] - wd[0] * mm[2]) * inv,
                  (wd[0] * mm[1] - wd[1] * mm[0]) * inv)
@@ -485,12 +495,7 @@ def hard_iron(st, c, mag, omega):
     m = (mag[0], mag[1], mag[2])
     A, rr, pm, pw, b = st.hi_A, st.hi_r, st.hi_prev_mag, st.hi_prev_rate, st.hard_iron
     if st.hi_prev_ok:
-        dt = c.dt
-        w = (0.5 * (omega[0] + pw[0]), 0.5 * (omega[1] + pw[1]), 0.5 * (omega[2] + pw[2]))
-        mm = (0.5 * (m[0] + pm[0]), 0.5 * (m[1] + pm[1]), 0.5 * (m[2] + pm[2]))
-        wxm = (w[1] * mm[2] - w[2] * mm[1], w[2] * mm[0] - w[0] * mm[2], w[0] * mm[1] - w[1] * mm[0])
-        rate = 1.0 / dt
-        y = ((m[0] - pm[0]) * rate + wxm[0], (m[1] - pm[1]) * rate + wxm[1], (m[2] - pm[2]) * rate + wxm[2])
+        w, _, y = field_rate_residual(m, pm, omega, pw, 1.0 / c.dt)
         lam = c.hi_decay
         w2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
         # [ω]×ᵀ[ω]× = ‖ω‖² I − ω ωᵀ;  [ω]×ᵀ y = y × ω
