@@ -115,6 +115,8 @@ def main(argv=None) -> int:
     parser.add_argument("--draws", type=int, default=START_DRAWS,
                         help=f"GE 10 %% loss draws per trial for the starts (default {START_DRAWS})")
     args = parser.parse_args(argv)
+    if args.draws < 1:
+        parser.error(f"--draws must be at least 1, got {args.draws}")
     names = broad_trials(present_only=True)[: 3 if args.quick else None]
     if not names:
         print("no BROAD trial in $WSNLIB_BROAD_DIR: nothing measured")
@@ -131,8 +133,6 @@ def main(argv=None) -> int:
         worst = float((rates[profile] - rates.loc["50 Hz", profile]).abs().max())
         print(f"  {profile}: largest change from 50 Hz {worst:.2f}° (target ≤ {target:g}°): "
               f"{'PASS' if worst <= target else f'MISS by {worst - target:.2f}°'}")
-    if args.draws < 1:
-        parser.error(f"--draws must be at least 1, got {args.draws}")
     starts = start_table(trials, args.draws)
     per_trial = starts.groupby(["trial", "profile"], sort=False)[["started late", "scaled field"]].agg(["mean", "max"])
     print(f"\nHeading RMSE (°) from {SETTLE_S:g} s on, minus the unperturbed run's (50 Hz); "

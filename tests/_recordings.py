@@ -20,6 +20,15 @@ def _exact_signals(gyr):
     return acc, mag, quat
 
 
+def vertical_swing_recording(n):
+    """``gyr, acc, mag, quat``: a swing of up to 4 rad/s about the vertical, slower about the other
+    axes (angular accelerations up to ~18 rad/s²), exact signals."""
+    t = np.arange(n) / FS
+    gyr = np.stack([1.0 * np.sin(2 * np.pi * 0.5 * t), 0.5 * np.sin(2 * np.pi * 0.3 * t + 1.0),
+                    4.0 * np.sin(2 * np.pi * 0.7 * t + 2.0)], axis=-1)
+    return (gyr, *_exact_signals(gyr))
+
+
 def swinging_recording(n=600, freq=1.5, amp=6.0):
     """``gyr, acc, mag, quat`` of a fast swing about a fixed body axis (rate ``amp`` rad/s at
     ``freq`` Hz), exact signals."""

@@ -8,7 +8,7 @@ import warnings
 
 import numpy as np
 import pytest
-from _recordings import FS, _exact_signals, error_deg, swinging_recording, turning_recording
+from _recordings import FS, error_deg, swinging_recording, turning_recording, vertical_swing_recording
 
 from wsnlib import frames
 from wsnlib import quaternion as Q
@@ -615,14 +615,6 @@ def test_a_drifting_field_strength_is_used_at_once_after_a_gap():
     assert out.mag_used[after:after + int(FS)].all()
 
 
-def _swinging_about_the_vertical(n):
-    """``gyr, acc, mag, quat``: a swing of up to 4 rad/s about the vertical, slower about the others."""
-    t = np.arange(n) / FS
-    gyr = np.stack([1.0 * np.sin(2 * np.pi * 0.5 * t), 0.5 * np.sin(2 * np.pi * 0.3 * t + 1.0),
-                    4.0 * np.sin(2 * np.pi * 0.7 * t + 2.0)], axis=-1)
-    return (gyr, *_exact_signals(gyr))
-
-
 def _lag_estimates(gyr, acc, mag):
     state = kalman_initial_state(fs=FS, q0=Q.identity())
     lags = np.empty(len(gyr))
@@ -640,7 +632,7 @@ def test_a_magnetometer_that_lags_the_gyroscope_is_advanced_by_its_estimated_lag
     as half a sample early (−10 ms), two samples late as 30 ms.  The estimate settles there, and the
     heading error from 20 s on is less than half of the uncompensated filter's (``mag_lag_max_s=0``);
     on the field read on time the half sample costs less than 0.1°."""
-    gyr, acc, mag, q_true = _swinging_about_the_vertical(3000)
+    gyr, acc, mag, q_true = vertical_swing_recording(3000)
     late = np.concatenate([mag[:2], mag[:-2]])
     settle = int(20 * FS)
     lags = _lag_estimates(gyr, acc, late)
