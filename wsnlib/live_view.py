@@ -16,11 +16,14 @@ project's widget rule (:mod:`wsnlib.interactive`):
   starts over when it ends; the panel stops after ``seconds`` (or with its Stop button);
 * in the batch (:func:`wsnlib.paths.in_batch`): the same threads with the sender as fast as
   possible (no waiting for real time), for the recording's first ``seconds``, and a static
-  figure of what the receiver output, returned so the notebook can save it.
+  figure of what the receiver output, returned so the notebook can save it.  The receiver then
+  runs without a clock (packets are declared lost by sequence only) and reads every datagram
+  sent before it stops, so the figure is the same on every run, however busy the machine.
 """
 
 from __future__ import annotations
 
+import select
 import threading
 import time
 
@@ -93,9 +96,16 @@ class Session:
         linger = 0.5 + 2 * self.latency / self.fs  # after the last datagram: the latency's samples still come
 
         def finished():
-            return self._stop.is_set() or (self.sent.is_set() and time.monotonic() - self.sent_at > linger)
+            if self._stop.is_set():
+                return True
+            if not self.sent.is_set() or time.monotonic() - self.sent_at <= linger:
+                return False
+            return not select.select([self.sock], [], [], 0)[0]  # and every datagram sent is read
 
-        receiver, _, _ = serve(self.sock, make, self._sink, should_stop=finished, batches=Batches(256))
+        # Sent as fast as possible, arrival times say nothing about the samples' times: no receiver clock,
+        # so a busy machine (a late thread) cannot make the receiver declare packets lost that came.
+        clock = time.monotonic if self.speed is not None else None
+        receiver, _, _ = serve(self.sock, make, self._sink, should_stop=finished, clock=clock, batches=Batches(256))
         if receiver is not None:
             self._sink(receiver.flush())
         self.sock.close()
@@ -130,15 +140,17 @@ class Session:
 def _static_view(unit, *, loss_rate, latency_s, scheme, seed, seconds) -> Figure:
     session = Session(unit, loss_rate=loss_rate, latency_s=latency_s, scheme=scheme, seed=seed, speed=None,
                       seconds=seconds).start()
-    session.done.wait(timeout=120)
+    if not session.done.wait(timeout=120):
+        session.stop()
+        raise RuntimeError("the live view's replay did not end within 120 s")
     error = session.errors()
     time_s = np.arange(session.n) / session.fs
     fig = Figure(figsize=(7.5, 3.6), layout="constrained")
     grid = fig.add_gridspec(1, 3)
     frame = fig.add_subplot(grid[0, 0], projection="3d")
     ax = fig.add_subplot(grid[0, 1:])
-    # Up to the last delivered packet's last sample: what follows it depends on when the receiver's clock
-    # declared the packets after it lost (timing), what precedes it does not.
+    # Up to the last delivered packet's last sample: lost packets after it are never known to the receiver
+    # (no later packet), so nothing after it is output.
     spp = session.stream.samples_per_packet
     last = min(int(np.flatnonzero(session.delivered)[-1] + 1) * spp, session.n) - 1
     plot_body_frame(session.quat[last], ax=frame, reference=session.unit.quat_ref[last],

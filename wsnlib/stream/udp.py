@@ -106,20 +106,25 @@ def first_rate(data: np.ndarray, lengths: np.ndarray) -> float | None:
 
 def serve(sock: socket.socket, make_receiver: Callable[[float], object], sink: Callable, *,
           idle_exit_s: float | None = None, should_stop: Callable[[], bool] = lambda: False,
-          clock: Callable[[], float] = time.monotonic, batches: Batches | None = None):
+          clock: Callable[[], float] | None = time.monotonic, batches: Batches | None = None):
     """Receive on ``sock`` until no datagram has come for ``idle_exit_s`` seconds after the first one (None:
     never) or ``should_stop()`` (asked every :data:`POLL_S`) says so.
 
     The receiver is made by ``make_receiver(fs)`` from the first valid packet's rate; every output
-    (:class:`~wsnlib.stream.ReceiverOutput`) goes to ``sink``.  Returns ``(receiver or None, datagrams
-    rejected before the receiver existed, "idle" or "stopped")``; the caller flushes the receiver.
+    (:class:`~wsnlib.stream.ReceiverOutput`) goes to ``sink``.  ``clock`` (s) is the receiver's clock at
+    each arrival, by which it declares overdue packets lost; ``None``: no clock, packets are declared lost
+    by sequence only — for a recording replayed faster than real time, whose arrival times say nothing
+    about when its samples were taken (the loop's own waits use ``time.monotonic``).  Returns
+    ``(receiver or None, datagrams rejected before the receiver existed, "idle" or "stopped")``; the
+    caller flushes the receiver.
     """
     batches = batches or Batches()
     receiver, early_rejects, last = None, 0, None
     while True:
-        began = clock()
+        began = time.monotonic()
         n = batches.read(sock, POLL_S)
-        now = clock()
+        now = time.monotonic()
+        arrival = None if clock is None else clock()
         if n:
             last = now
             data, lengths = batches.data[:n], batches.lengths[:n]
@@ -129,13 +134,13 @@ def serve(sock: socket.socket, make_receiver: Callable[[float], object], sink: C
                     early_rejects += n
                     continue
                 receiver = make_receiver(fs)
-            sink(receiver.receive_array(data, lengths, now))  # (with the clock: overdue packets expire too)
-        elif receiver is not None:
-            sink(receiver.expire(now))
+            sink(receiver.receive_array(data, lengths, arrival))  # (with the clock: overdue packets expire too)
+        elif receiver is not None and arrival is not None:
+            sink(receiver.expire(arrival))
         if should_stop():
             return receiver, early_rejects, "stopped"
         if idle_exit_s is not None and last is not None and now - last >= idle_exit_s:
             return receiver, early_rejects, "idle"
-        rest = began + MIN_PERIOD_S - clock()
+        rest = began + MIN_PERIOD_S - time.monotonic()
         if rest > 0:  # gather datagrams for a while: one call per batch costs less than one per datagram
             time.sleep(rest)
