@@ -246,22 +246,26 @@ def test_command_line_on_recording_files(tmp_path):
     for k, name in enumerate(("walk", "run")):
         _simulated(tmp_path / f"{name}.csv", fs=40.0 + 10 * k, duration_s=6.0, seed=k)
     out = tmp_path / "results.csv"
+    # (Every method of the registry runs on recording files in test_notebook_10_runs_on_recording_files.)
     run = _cli(tmp_path / "walk.csv", tmp_path / "run.json", "--loss", "ge:0.10:3", "--loss", "burst:2:4",
-               "--draws", "2", "--budget", "1", "--jobs", "1", "--out", out)
+               "--draws", "2", "--budget", "1", "--jobs", "1", "--methods", "VQF", "smoother", "--out", out)
     assert run.returncode == 0, run.stderr[-3000:]
     assert "2 recording(s), 4 node(s) with a reference, at 40, 50 Hz" in run.stdout
     assert "tuned leave-one-recording-out at ge:0.10:3" in run.stdout
     table = pd.read_csv(out)
     assert list(table.columns) == list(lt.RMSE_TABLE_COLUMNS)
-    n_methods = len(lt.default_methods())
-    assert len(table) == 2 * 2 * n_methods * (1 + 2 + 1)  # lossless, 2 GE draws, the burst
+    # the smoother runs with the filter's setting: it brings "Kalman"; the registry's order
+    chosen = {"Kalman", "smoother", "VQF"}
+    assert list(dict.fromkeys(table["method"])) == [m for m in lt.default_methods() if m in chosen]
+    assert len(table) == 2 * 2 * 3 * (1 + 2 + 1)  # 2 files × 2 nodes × 3 methods × (lossless, 2 GE draws, the burst)
     assert list(dict.fromkeys(table["profile"])) == ["lossless", "ge:0.10:3", "burst:2:4"]
     assert set(table["setting_source"]) == {"leave-one-recording-out"}
     printed = run.stdout.splitlines()
     header = next(i for i, line in enumerate(printed) if line.split()[:2] == ["recording", "node"])
     assert len(printed[header + 1].split()) >= 9 and "Mean total RMSE" in run.stdout
     # One file: nothing to tune on, and the table says so.
-    single = _cli(tmp_path / "walk.csv", "--loss", "ge:0.2", "--budget", "1", "--jobs", "1", "--out", out)
+    single = _cli(tmp_path / "walk.csv", "--loss", "ge:0.2", "--budget", "1", "--jobs", "1", "--methods", "Kalman",
+                  "--out", out)
     assert single.returncode == 0, single.stderr[-3000:]
     assert "one recording: every method with its default setting" in single.stdout
     assert set(pd.read_csv(out)["setting_source"]) == {"defaults (one recording)"}
@@ -270,6 +274,8 @@ def test_command_line_on_recording_files(tmp_path):
     assert both.returncode != 0 and "not both" in both.stderr
     assert "not a loss profile" in _cli(tmp_path / "walk.csv", "--loss", "gilbert:0.1").stderr
     assert "--loss applies to recording files" in _cli("--loss", "ge:0.1").stderr
+    unknown = _cli(tmp_path / "walk.csv", "--methods", "Kalman", "kalman").stderr
+    assert "--methods: no method 'kalman'; the registry has 'hold_last'" in unknown
 
 
 def test_the_health_check_names_the_unit_whose_field_is_disturbed(tmp_path):

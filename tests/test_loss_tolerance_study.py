@@ -746,6 +746,12 @@ def test_command_line_runs_on_two_broad_trials(tmp_path):
     assert len(verdicts) == len(lts.TARGETS), run.stdout[-3000:]
     table = pd.read_csv(out)
     assert table["trial"].nunique() == 2 and set(table["profile"]) == {p.name for p in lt.PROFILES}
+    one = subprocess.run([sys.executable, "-m", "wsnlib.studies.loss_tolerance", "--quick", "--jobs", "1",
+                          "--methods", "VQF (defaults)"],
+                         env={**os.environ, "WSNLIB_BROAD_DIR": folder}, capture_output=True, text=True, timeout=900)
+    assert one.returncode == 0, one.stderr[-3000:]
+    assert "  VQF (defaults) " in one.stdout and "  Kalman " not in one.stdout
+    assert "Targets and diagnosis: not computed" in one.stdout and ": PASS" not in one.stdout
     bad = subprocess.run([sys.executable, "-m", "wsnlib.studies.loss_tolerance", "--quick", "--scheduler", "nowhere"],
                          env={**os.environ, "WSNLIB_BROAD_DIR": folder}, capture_output=True, text=True, timeout=900)
     assert bad.returncode != 0 and "scheduler" in bad.stderr

@@ -4,7 +4,7 @@
 number of nodes, each file at its own rate)::
 
     python -m wsnlib.studies.loss_tolerance walk.csv run.csv [--loss ge:0.10:3 ...] [--draws N]
-        [--out results.csv]
+        [--methods Kalman VQF ...] [--out results.csv]
 
 Every node with a reference is a unit (``"<file stem>/<node>"``, :func:`~wsnlib.studies.
 loss_tolerance.load_recordings`); notebook 10's registry is tuned leave-one-recording-out (the
@@ -35,7 +35,12 @@ search space; default :data:`~wsnlib.studies.loss_tolerance.DEFAULT_BUDGET`), e.
 cluster::
 
     python -m wsnlib.studies.loss_tolerance [--quick] [--seed 2021] [--draws 1] [--trials NAME ...]
-        [--budget N] [--jobs N | --scheduler ADDRESS] [--out F.csv]
+        [--methods NAME ...] [--budget N] [--jobs N | --scheduler ADDRESS] [--out F.csv]
+
+``--methods`` runs only the named methods of the registry (names as in notebook 10's tables; a
+smoother brings the filter whose setting it takes): a quick look at one's own recordings with the
+methods one cares about.  On BROAD the targets and the diagnosis, which compare against the whole
+registry, are then left out.
 """
 
 from __future__ import annotations
@@ -104,6 +109,10 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--seed", type=int, default=2021, help="seed of the loss masks and the bootstrap")
     parser.add_argument("--draws", type=int, default=1, help="Gilbert-Elliott masks per recording node and profile")
     parser.add_argument("--trials", nargs="+", metavar="NAME", help="BROAD trial names (default: every one present)")
+    parser.add_argument("--methods", nargs="+", metavar="NAME",
+                        help="only these methods of notebook 10's registry, e.g. 'Kalman' 'VQF' (default: every "
+                             "one); a method that runs with another's setting (a smoother) brings that one too. "
+                             "BROAD: the targets and the diagnosis, which need the whole registry, are left out")
     parser.add_argument("--out", metavar="CSV", help="also write the table (files) or the per-trial table (BROAD)")
     return parser
 
@@ -119,6 +128,25 @@ def _profiles(given) -> tuple[tuple[LossProfile, ...], str]:
         raise SystemExit(f"--loss: {twice} given twice")
     profiles = (LossProfile.none("lossless"), *lossy)
     return profiles, profiles[min(1, len(profiles) - 1)].name
+
+
+def _select(methods: dict, names) -> dict:
+    """The registry's ``methods`` named in ``--methods`` (all without it), with each one whose setting a
+    chosen method takes (:attr:`~wsnlib.studies.loss_tolerance.Method.setting_of`), in registry order."""
+    if not names:
+        return methods
+    unknown = [name for name in names if name not in methods]
+    if unknown:
+        raise SystemExit(f"--methods: no method {', '.join(map(repr, unknown))}; the registry has "
+                         + ", ".join(map(repr, methods)))
+    chosen, todo = set(), list(names)
+    while todo:
+        name = todo.pop()
+        if name not in chosen:
+            chosen.add(name)
+            if methods[name].setting_of is not None:
+                todo.append(methods[name].setting_of)
+    return {name: method for name, method in methods.items() if name in chosen}
 
 
 def _evaluate(units, methods, args, loss_rng, **options):
@@ -173,7 +201,8 @@ def main(argv=None) -> int:
         parser.error("--loss applies to recording files; the BROAD study runs notebook 10's profiles")
     loss_rng, boot_rng = np.random.default_rng(args.seed).spawn(2)
     budget = 2 if args.quick and args.budget is None else args.budget
-    methods = study.default_methods(study.DEFAULT_BUDGET if budget is None else budget)
+    registry = study.default_methods(study.DEFAULT_BUDGET if budget is None else budget)
+    methods = _select(registry, args.methods)
     where = f"Dask cluster {args.scheduler}" if args.scheduler else f"{args.jobs} local job(s)"
     if args.files:
         return _main_files(args, methods, loss_rng, where)
@@ -185,8 +214,9 @@ def main(argv=None) -> int:
         raise SystemExit("need at least 2 BROAD trials (in $WSNLIB_BROAD_DIR, or --trials) for leave-one-trial-out")
     print(f"{len(names)} BROAD trials, tuned at {study.HEADLINE} (mean burst 3 packets of 6 samples), "
           f"{args.draws} draw(s) per trial and random profile, seed {args.seed}, "
-          f"{min(len(m.grid) for m in methods.values() if m.space)} settings per method, on {where} (ours also "
-          f"with their design chosen in the fold: × {len(study.KALMAN_DESIGNS)} designs)")
+          f"{min((len(m.grid) for m in methods.values() if m.space), default=1)} settings per method, on {where}"
+          + (f" (ours also with their design chosen in the fold: × {len(study.KALMAN_DESIGNS)} designs)"
+             if any(m.designs for m in methods.values()) else ""))
     start = time.perf_counter()
     recordings = study.load_recordings(names, progress=False)
     print(study.units_health(recordings))
@@ -209,10 +239,14 @@ def main(argv=None) -> int:
     print("\nSetting chosen most often (leave-one-trial-out at the headline):")
     for method, setting in chosen.items():
         print(f"  {method:28s} {setting}")
-    # BROAD: our filter's defaults were chosen on these trials, its design-in-fold entries stand for it.
-    targets = summary.targets_table(result.per_trial, rng=boot_rng, exclude=study.DESIGNED_ON_BROAD)
-    print(f"\nTargets ({study.HEADLINE}; ratio of means or paired difference, 95 % bootstrap interval):")
-    print(summary.format_targets(targets))
+    if args.methods:
+        print(f"\nTargets and diagnosis: not computed (they compare against the whole registry; --methods ran "
+              f"{len(methods)} of its {len(registry)} methods).")
+    else:
+        # BROAD: our filter's defaults were chosen on these trials, its design-in-fold entries stand for it.
+        targets = summary.targets_table(result.per_trial, rng=boot_rng, exclude=study.DESIGNED_ON_BROAD)
+        print(f"\nTargets ({study.HEADLINE}; ratio of means or paired difference, 95 % bootstrap interval):")
+        print(summary.format_targets(targets))
     for title, pairs, metrics in (("Does gating the single frame help?", study.GATING_PAIRS,
                                    ("rmse_total", "rms_after_gap")),
                                   ("Does a gap handling help each filter, over holding?", study.GAP_PREDICTION_PAIRS,
@@ -222,8 +256,9 @@ def main(argv=None) -> int:
             comparisons = summary.paired_comparisons(result.per_trial, pairs, rng=boot_rng, metrics=metrics)
             print(f"\n{title} (paired difference with − without over trials, 95 % interval):")
             print("\n".join(f"  {line.replace('**', '')}" for line in summary.comparison_sentences(comparisons)))
-    best = summary.best_methods(result.per_trial, exclude=study.DESIGNED_ON_BROAD)
-    print("\n" + summary.diagnosis_sentence(result.per_trial, best["causal"]))
+    if not args.methods:
+        best = summary.best_methods(result.per_trial, exclude=study.DESIGNED_ON_BROAD)
+        print("\n" + summary.diagnosis_sentence(result.per_trial, best["causal"]))
     print(f"\nTotal time {elapsed:.0f} s (load + evaluate).")
     return 0
 
