@@ -615,6 +615,34 @@ def test_a_drifting_field_strength_is_used_at_once_after_a_gap():
     assert out.mag_used[after:after + int(FS)].all()
 
 
+def _rejected_after_one_field(explained: float) -> bool:
+    """One received field after a state whose hard-iron sums say a body-fixed offset b explains the share
+    ``explained`` of the field's rate residual, while the two older rules both pick the raw field: the
+    reference norm lags a gain that fell (raw norm 32.8 µT, closer to the reference's 33 than the
+    corrected 50.2) and the raw norm is the steadier.  The gate's norm follows the corrected field, so
+    only the corrected field is used; returns whether the magnetometer was rejected."""
+    state = kalman_initial_state(fs=FS, q0=Q.identity())
+    rec = state.record
+    earth = np.array([0.0, 20.0, -46.0])                      # µT, ENU; the sensor is level, heading 0
+    offset = np.array([0.0, 0.0, 20.0])                       # the magnet, body frame
+    A = 4.0 * np.array([1.0, 0.0, 0.0, 1.0, 0.0, 1.0])        # Σ [ω]×ᵀ[ω]× (packed 00 01 02 11 12 22)
+    rec["hi_A"], rec["hi_r"], rec["hard_iron"] = A, 4.0 * offset, offset  # r = A b: b solves the sums
+    rec["hi_syy"] = 4.0 * offset @ offset / explained         # Σ‖y‖²: Σ‖ω × b‖² is its share `explained`
+    rec["hi_norm_vars"] = [0.0, 1.0]                          # the raw norm looks the steadier
+    rec["mag_ref_norm"], rec["mag_gate_norm"], rec["mag_ref_time"] = 33.0, 50.2, 100.0
+    rec["mag_ref_dip"] = math.atan2(46.0, 20.0)
+    kalman_step(state, np.zeros(3), np.array([0.0, 0.0, 9.81]), earth + offset)
+    return bool(rec["mag_reject_time"][0] > 0.0)
+
+
+def test_a_magnet_the_data_show_is_removed_whatever_the_reference_norm():
+    """The hard-iron correction is used when the offset explains more of the field's rate residual than it
+    leaves (``HARD_IRON_EXPLAINED``), although the reference norm (lagging a drifting gain) and the norms'
+    steadiness both point to the raw field; at a quarter explained, those two decide (raw: rejected)."""
+    assert not _rejected_after_one_field(explained=0.8)
+    assert _rejected_after_one_field(explained=0.25)
+
+
 def _lag_estimates(gyr, acc, mag):
     state = kalman_initial_state(fs=FS, q0=Q.identity())
     lags = np.empty(len(gyr))

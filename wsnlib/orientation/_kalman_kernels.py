@@ -39,12 +39,17 @@ NX = 9
 #: (rad/s, bias-corrected) and the state after the last received sample (where a replay starts),
 #: the gap's rate-error std, the magnetometer gate (reference norm and dip, 0 = unset; the
 #: candidate's norm, dip and time; the time rejected), the hard-iron estimate's normal
-#: equations (``hi_A``: 00 01 02 11 12 22 of the symmetric 3 × 3, ``hi_r``), the previous received
+#: equations (``hi_A``: 00 01 02 11 12 22 of the symmetric 3 × 3, ``hi_r``) and the forgotten sum of
+#: the squared field-rate residuals (``hi_syy``, µT²/s²), the previous received
 #: field and rate, the low-pass of (‖a‖ − g)² (``lin_var``, m²/s⁴), and the raw and hard-iron
 #: corrected field norms of the previous received sample and the low-passes of their squared
 #: steps (``hi_prev_norms``, ``hi_norm_vars``: µT, µT²); the magnetometer's lag estimate (s), the sums
 #: of its normal equation and the previous received raw field (``lag``, ``lag_num``, ``lag_den``,
 #: ``lag_prev_mag``).
+#: A hard-iron estimate that explains this share of the field's rate residual (more than what it leaves)
+#: is used whatever the reference norm (:func:`hard_iron`).
+HARD_IRON_EXPLAINED = 0.5
+
 STATE_DTYPE = np.dtype([
     ("q", "f8", (4,)), ("bias", "f8", (3,)), ("velocity", "f8", (3,)), ("P", "f8", (NX, NX)),
     ("rate", "f8", (3,)), ("q_last", "f8", (4,)), ("gap_sigma", "f8"),
@@ -52,7 +57,7 @@ STATE_DTYPE = np.dtype([
     ("mag_cand_time", "f8"), ("mag_reject_time", "f8"), ("mag_gate_norm", "f8"),
     ("mag_ref_time", "f8"),
     ("hi_A", "f8", (6,)), ("hi_r", "f8", (3,)), ("hi_prev_mag", "f8", (3,)), ("hi_prev_rate", "f8", (3,)),
-    ("hard_iron", "f8", (3,)), ("lin_var", "f8"), ("hi_prev_ok", "?"),
+    ("hard_iron", "f8", (3,)), ("hi_syy", "f8"), ("lin_var", "f8"), ("hi_prev_ok", "?"),
     ("hi_prev_norms", "f8", (2,)), ("hi_norm_vars", "f8", (2,)),
     ("lag", "f8"), ("lag_num", "f8"), ("lag_den", "f8"), ("lag_prev_mag", "f8", (3,)),
 ])
@@ -489,8 +494,10 @@ def hard_iron(st, c, mag, omega):
     (1 s at 0.3 rad/s), so it shrinks to 0 while the sensor does not turn.  ``m − b̂_m`` is
     returned if ``‖b̂_m‖ ≥ mag_hard_iron_min_bias · ‖m_ref‖`` and its norm is closer to the
     reference norm than the raw field's or steadier (``hi_norm_vars``: low-passes, with the same
-    forgetting, of the squared change of each norm from one received sample to the next); otherwise
-    ``m``.
+    forgetting, of the squared change of each norm from one received sample to the next), or if the
+    offset explains at least :data:`HARD_IRON_EXPLAINED` of the residuals' energy, ``1 − Σ‖y − ω ×
+    b̂_m‖²/Σ‖y‖²`` (``Σ‖y‖² − 2 b̂·r + b̂ᵀ A b̂`` from the same sums: a magnet on the sensor seen in the
+    data, whatever the reference norm, which lags a sensor whose gain drifts); otherwise ``m``.
     """
     m = (mag[0], mag[1], mag[2])
     A, rr, pm, pw, b = st.hi_A, st.hi_r, st.hi_prev_mag, st.hi_prev_rate, st.hard_iron
@@ -508,6 +515,7 @@ def hard_iron(st, c, mag, omega):
         rr[0] = lam * rr[0] + (y[1] * w[2] - y[2] * w[1])
         rr[1] = lam * rr[1] + (y[2] * w[0] - y[0] * w[2])
         rr[2] = lam * rr[2] + (y[0] * w[1] - y[1] * w[0])
+        st.hi_syy = lam * st.hi_syy + y[0] * y[0] + y[1] * y[1] + y[2] * y[2]
         # (A + εI) b = r by Cramer's rule (symmetric positive definite 3 × 3)
         eps = c.hi_ridge
         a00, a01, a02 = A[0] + eps, A[1], A[2]
@@ -543,6 +551,12 @@ def hard_iron(st, c, mag, omega):
         ref = raw_norm
     if vec_norm((b[0], b[1], b[2])) >= c.hi_min_bias * ref:
         if abs(corrected_norm - ref) < abs(raw_norm - ref) or steps[1] < steps[0]:
+            return corrected
+        # Σ‖y − ω × b‖² = Σ‖y‖² − 2 b·r + bᵀ A b  (A = Σ [ω]×ᵀ[ω]×, r = Σ [ω]×ᵀ y, without the ridge)
+        bab = (A[0] * b[0] * b[0] + A[3] * b[1] * b[1] + A[5] * b[2] * b[2]
+               + 2.0 * (A[1] * b[0] * b[1] + A[2] * b[0] * b[2] + A[4] * b[1] * b[2]))
+        unexplained = st.hi_syy - 2.0 * (b[0] * rr[0] + b[1] * rr[1] + b[2] * rr[2]) + bab
+        if st.hi_syy > 0.0 and unexplained <= (1.0 - HARD_IRON_EXPLAINED) * st.hi_syy:
             return corrected
     return m
 

@@ -125,10 +125,11 @@ Gates (where they come from)
   the field is ``m = Rᵀ m_E + b_m`` with a constant body-frame ``b_m``; the gyroscope makes
   ``b_m`` observable without any orientation, ``ṁ + ω × m = ω × b_m``, and an exponentially
   forgotten least-squares estimate (``mag_hard_iron_tau_s``) is subtracted before the gate when
-  it is large (``mag_hard_iron_min_bias``) and brings the norm closer to the reference or
+  it is large (``mag_hard_iron_min_bias``) and brings the norm closer to the reference,
   makes it steadier (a low-pass of the squared norm step, ``mag_hard_iron_tau_s``: the
   earth's field keeps its norm while the sensor turns, whatever a drifting strength does to
-  the reference)
+  the reference) or explains more of ``ṁ + ω × m`` than it leaves (the same sums; a magnet
+  the data show, while the reference norm lags a drifting gain and the estimate still settles)
   (:func:`~._kalman_kernels.hard_iron`).  Without it such a field fails the norm gate
   for as long as the magnet stays, and the heading runs on the gyroscope alone.
 
