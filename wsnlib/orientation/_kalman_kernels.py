@@ -34,6 +34,10 @@ from wsnlib.orientation._scalar_kernels import (
 #: Error-state size: [δθ (3), δb (3), δv (3)].
 NX = 9
 
+#: A hard-iron estimate that explains this share of the field's rate residual (more than what it leaves)
+#: is used whatever the reference norm (:func:`hard_iron`).
+HARD_IRON_EXPLAINED = 0.5
+
 #: One stream's filter: the estimate (quaternion body → ENU, gyro bias rad/s, leaky velocity
 #: m/s in the earth frame, error covariance in the order of δx), the rate of the last prediction
 #: (rad/s, bias-corrected) and the state after the last received sample (where a replay starts),
@@ -46,10 +50,6 @@ NX = 9
 #: steps (``hi_prev_norms``, ``hi_norm_vars``: µT, µT²); the magnetometer's lag estimate (s), the sums
 #: of its normal equation and the previous received raw field (``lag``, ``lag_num``, ``lag_den``,
 #: ``lag_prev_mag``).
-#: A hard-iron estimate that explains this share of the field's rate residual (more than what it leaves)
-#: is used whatever the reference norm (:func:`hard_iron`).
-HARD_IRON_EXPLAINED = 0.5
-
 STATE_DTYPE = np.dtype([
     ("q", "f8", (4,)), ("bias", "f8", (3,)), ("velocity", "f8", (3,)), ("P", "f8", (NX, NX)),
     ("rate", "f8", (3,)), ("q_last", "f8", (4,)), ("gap_sigma", "f8"),

@@ -194,8 +194,9 @@ class KalmanSettings:
         Largest lag (s) the compensation applies, either sign; 0 switches it off.  Default 0.05 s.
     mag_hard_iron_min_bias : float
         The estimate is subtracted only when its norm is at least this times the reference
-        field norm and the corrected field is closer to the reference norm or its norm steadier
-        than the raw one's (:func:`wsnlib.orientation._kalman_kernels.hard_iron`);
+        field norm and the corrected field is closer to the reference norm, its norm steadier
+        than the raw one's, or the offset explains at least half of the field's rate residual
+        (:func:`wsnlib.orientation._kalman_kernels.hard_iron`);
         ``inf`` switches the correction off.  Default 0.1, the size ``mag_norm_gate`` would
         reject; chosen most often by LOTO from {0.1, inf}.
     gap_rate_prediction_span_s : float
