@@ -637,7 +637,7 @@ def _rejected_after_one_field(explained: float) -> bool:
 
 def test_a_magnet_the_data_show_is_removed_whatever_the_reference_norm():
     """The hard-iron correction is used when the offset explains more of the field's rate residual than it
-    leaves (``HARD_IRON_EXPLAINED``), although the reference norm (lagging a drifting gain) and the norms'
+    leaves (``MAG_HARD_IRON_EXPLAINED``), although the reference norm (lagging a drifting gain) and the norms'
     steadiness both point to the raw field; at a quarter explained, those two decide (raw: rejected)."""
     assert not _rejected_after_one_field(explained=0.8)
     assert _rejected_after_one_field(explained=0.25)

@@ -34,10 +34,6 @@ from wsnlib.orientation._scalar_kernels import (
 #: Error-state size: [δθ (3), δb (3), δv (3)].
 NX = 9
 
-#: A hard-iron estimate that explains this share of the field's rate residual (more than what it leaves)
-#: is used whatever the reference norm (:func:`hard_iron`).
-HARD_IRON_EXPLAINED = 0.5
-
 #: One stream's filter: the estimate (quaternion body → ENU, gyro bias rad/s, leaky velocity
 #: m/s in the earth frame, error covariance in the order of δx), the rate of the last prediction
 #: (rad/s, bias-corrected) and the state after the last received sample (where a replay starts),
@@ -495,7 +491,8 @@ def hard_iron(st, c, mag, omega):
     returned if ``‖b̂_m‖ ≥ mag_hard_iron_min_bias · ‖m_ref‖`` and its norm is closer to the
     reference norm than the raw field's or steadier (``hi_norm_vars``: low-passes, with the same
     forgetting, of the squared change of each norm from one received sample to the next), or if the
-    offset explains at least :data:`HARD_IRON_EXPLAINED` of the residuals' energy, ``1 − Σ‖y − ω ×
+    offset explains at least ``c.hi_min_explained``
+    (:data:`~wsnlib.orientation.kalman_settings.MAG_HARD_IRON_EXPLAINED`) of the residuals' energy, ``1 − Σ‖y − ω ×
     b̂_m‖²/Σ‖y‖²`` (``Σ‖y‖² − 2 b̂·r + b̂ᵀ A b̂`` from the same sums: a magnet on the sensor seen in the
     data, whatever the reference norm, which lags a sensor whose gain drifts); otherwise ``m``.
     """
@@ -556,7 +553,7 @@ def hard_iron(st, c, mag, omega):
         bab = (A[0] * b[0] * b[0] + A[3] * b[1] * b[1] + A[5] * b[2] * b[2]
                + 2.0 * (A[1] * b[0] * b[1] + A[2] * b[0] * b[2] + A[4] * b[1] * b[2]))
         unexplained = st.hi_syy - 2.0 * (b[0] * rr[0] + b[1] * rr[1] + b[2] * rr[2]) + bab
-        if st.hi_syy > 0.0 and unexplained <= (1.0 - HARD_IRON_EXPLAINED) * st.hi_syy:
+        if st.hi_syy > 0.0 and unexplained <= (1.0 - c.hi_min_explained) * st.hi_syy:
             return corrected
     return m
 

@@ -270,6 +270,9 @@ class KalmanSettings:
 
 #: Ridge of the magnetometer lag's estimate, ((rad/s²)² s): 1 s of 3 rad/s² angular acceleration.
 MAG_LAG_RIDGE = 9.0
+#: A hard-iron estimate that explains this share of the field's rate residual (more than it leaves) is
+#: used whatever the reference norm (:func:`wsnlib.orientation._kalman_kernels.hard_iron`).
+MAG_HARD_IRON_EXPLAINED = 0.5
 #: Settings that may be 0 (switches the feature off).
 _MAY_BE_ZERO = frozenset({"acc_disturbance_factor", "mag_lag_max_s"})
 #: Settings that may be ``inf`` (switches the feature off).
@@ -317,6 +320,7 @@ CONSTANTS_DTYPE = np.dtype([
     ("hi_decay", "f8"),              # exp(−Δt/τ_hard-iron)
     ("hi_ridge", "f8"),              # ridge of the hard-iron normal equations
     ("hi_min_bias", "f8"),
+    ("hi_min_explained", "f8"),      # share of ṁ + ω × m the offset must explain to be used regardless
     ("lag_decay", "f8"),             # exp(−Δt/τ_lag): the magnetometer lag's forgetting
     ("lag_ridge", "f8"),             # its ridge ((rad/s²)² s)
     ("lag_max", "f8"),               # largest |δ| applied (s); 0: off
@@ -374,6 +378,7 @@ def kalman_constants(settings: KalmanSettings, dt: float, *, gap: int, replay: b
         # Ridge of the hard-iron normal equations: as much as 1 s of rotation at 0.3 rad/s, so that
         # the estimate shrinks to 0 when the sensor has not turned enough to observe it.
         "hi_ridge": 0.09 / dt, "hi_min_bias": s.mag_hard_iron_min_bias,
+        "hi_min_explained": MAG_HARD_IRON_EXPLAINED,
         # The lag's ridge: as much as 1 s of 3 rad/s² angular acceleration (unit field).
         "lag_decay": math.exp(-dt / s.mag_lag_tau_s), "lag_ridge": MAG_LAG_RIDGE, "lag_max": s.mag_lag_max_s,
         # The held rate's factor per lost sample: 0 holds the state, 1 keeps the rate constant.
