@@ -15,6 +15,7 @@ width (:func:`effective_font_sizes`).  :func:`savefig` checks it: in the batch
 
 from __future__ import annotations
 
+import contextlib
 import unittest.mock
 import warnings
 from pathlib import Path
@@ -275,14 +276,34 @@ def savefig(fig: mpl.figure.Figure, name: str, formats: tuple[str, ...] = ("png"
     bad = [fmt for fmt in formats if fmt not in metadata]
     if bad or not formats:  # checked before anything is written
         raise ValueError(f"formats may contain 'png' and 'pdf' (at least one), got {formats!r}")
-    _check_legibility(fig, name)
     written = []
     for fmt in dict.fromkeys(formats):
         path = paths.figures() / f"{name}.{fmt}"
         with atomic_path(path) as tmp:  # a killed batch leaves the old figure or none, never half
-            fig.savefig(tmp, format=fmt, metadata=metadata[fmt])
+            if written:
+                fig.savefig(tmp, format=fmt, metadata=metadata[fmt])
+            else:  # the first file's own drawing shows which texts are drawn (a separate draw costs as much)
+                with _drawn_texts() as drawn:
+                    fig.savefig(tmp, format=fmt, metadata=metadata[fmt])
+                _check_legibility(fig, name, drawn)  # raising here removes the temporary file: nothing written
         written.append(path)
     return written
+
+
+@contextlib.contextmanager
+def _drawn_texts():
+    """Yield a list that collects every visible, non-empty text matplotlib draws meanwhile (not
+    hidden tick labels, axes turned off, or tick labels outside the view)."""
+    drawn = []
+    original_draw = Text.draw
+
+    def record(text, renderer):
+        if text.get_visible() and text.get_text().strip():
+            drawn.append(text)
+        return original_draw(text, renderer)
+
+    with unittest.mock.patch.object(Text, "draw", record):
+        yield drawn
 
 
 def effective_font_sizes(fig: mpl.figure.Figure, display_width_in: float = DISPLAY_WIDTH_IN) -> list[tuple[str, float]]:
@@ -305,18 +326,13 @@ def effective_font_sizes(fig: mpl.figure.Figure, display_width_in: float = DISPL
     """
     if not display_width_in > 0:
         raise ValueError(f"display_width_in must be positive, got {display_width_in!r}")
-    drawn = []
-    original_draw = Text.draw
-
-    def record(text, renderer):
-        if text.get_visible() and text.get_text().strip():
-            drawn.append(text)
-        return original_draw(text, renderer)
-
-    # Draw once, noting every text matplotlib actually draws (not hidden tick labels, axes
-    # turned off, or tick labels outside the view).
-    with unittest.mock.patch.object(Text, "draw", record):
+    with _drawn_texts() as drawn:
         fig.draw_without_rendering()
+    return _shown_sizes(fig, drawn, display_width_in)
+
+
+def _shown_sizes(fig: mpl.figure.Figure, drawn: list[Text], display_width_in: float) -> list[tuple[str, float]]:
+    """:func:`effective_font_sizes` of the texts ``drawn`` in a drawing of ``fig`` just made."""
     if mpl.rcParams["savefig.bbox"] == "tight":
         width_in = fig.get_tightbbox().width
     else:
@@ -326,9 +342,11 @@ def effective_font_sizes(fig: mpl.figure.Figure, display_width_in: float = DISPL
     return sorted(sizes, key=lambda item: item[1])
 
 
-def _check_legibility(fig: mpl.figure.Figure, name: str) -> None:
-    """Raise (in the batch) or warn (interactively) when a text of ``fig`` is below :data:`MIN_FONT_PT`."""
-    small = [(text, size) for text, size in effective_font_sizes(fig) if size < MIN_FONT_PT - 1e-9]
+def _check_legibility(fig: mpl.figure.Figure, name: str, drawn: list[Text]) -> None:
+    """Raise (in the batch) or warn (interactively) when a text of ``fig`` (``drawn``: the texts its
+    last drawing drew) is below :data:`MIN_FONT_PT`."""
+    sizes = _shown_sizes(fig, drawn, DISPLAY_WIDTH_IN)
+    small = [(text, size) for text, size in sizes if size < MIN_FONT_PT - 1e-9]
     if not small:
         return
     shown = ", ".join(f"{text!r} {size:.1f} pt" for text, size in small[:5])
