@@ -91,7 +91,6 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import signal
 from scipy.spatial.transform import Rotation
 
 from wsnlib import quaternion as quat_ops
@@ -437,6 +436,8 @@ def _masked_correlation(x, y_ext, y_ok_ext) -> np.ndarray:
     :func:`scipy.signal.correlate` (by FFT), not a loop over the windows."""
     mask = y_ok_ext.astype(float)
     y = np.where(y_ok_ext, y_ext, 0.0)
+
+    from scipy import signal  # here, not at the top: scipy.signal takes 0.5 s to import, in every kernel
 
     def window_sums(a, b):
         return signal.correlate(a, b, mode="valid")

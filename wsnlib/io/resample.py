@@ -108,7 +108,7 @@ import math
 from fractions import Fraction
 
 import numpy as np
-from scipy import interpolate, signal
+from scipy import interpolate
 
 from wsnlib import quaternion as quat_ops
 from wsnlib._validation import as_float_array, check_flag, check_positive, real_array
@@ -167,6 +167,8 @@ def _check_length(n_samples) -> None:
 @functools.lru_cache(maxsize=16)
 def _antialias_filter(up: int, down: int) -> np.ndarray:
     """scipy's resample_poly filter, with every polyphase branch scaled to DC gain 1/up."""
+    from scipy import signal  # here, not at the top: scipy.signal takes 0.5 s to import, in every kernel
+
     half_len = 10 * max(up, down)
     taps = signal.firwin(2 * half_len + 1, 1.0 / max(up, down), window=("kaiser", _KAISER_BETA))
     for phase in range(up):
@@ -200,6 +202,8 @@ def resample_signal(x, fs_in, fs_out, axis: int = -2) -> np.ndarray:
     n_out = (x.shape[axis] - 1) * up // down + 1
     if up == down:
         return x.copy()
+    from scipy import signal  # here, not at the top: scipy.signal takes 0.5 s to import, in every kernel
+
     y = signal.resample_poly(x, up, down, axis=axis, window=_antialias_filter(up, down), padtype="antireflect")
     return np.take(y, np.arange(n_out), axis=axis)
 
@@ -402,6 +406,8 @@ def _lowpass_decimate(spline, a: float, b: float, k0: int, k1: int, fs_out: floa
     pad = [(0, 0)] * fine.ndim
     pad[-2] = (j0 - start, half_len)
     extended = np.pad(fine, pad, mode="reflect", reflect_type="odd")
+    from scipy import signal  # here, not at the top: scipy.signal takes 0.5 s to import, in every kernel
+
     y = signal.resample_poly(extended, 1, factor, axis=-2, window=_antialias_filter(1, factor))
     first = k0 - start // factor
     return y[..., first:first + k1 - k0 + 1, :]

@@ -96,7 +96,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from scipy.signal import lfilter
 
 from wsnlib import fixed_order
 from wsnlib import quaternion as Q
@@ -526,6 +525,8 @@ def gauss_markov(n: int, rho: float, *, rng: np.random.Generator, shape=(), comp
 def ar1_filter(white: np.ndarray, rho: float, axis: int = -1) -> np.ndarray:
     """``x_k = ρ x_{k−1} + √(1−ρ²) w_k`` along ``axis`` from unit-variance white noise ``w``, started in
     the stationary distribution (``x_0 = w_0``), so every ``x_k`` has unit variance; ``ρ = 0`` gives ``w``."""
+    from scipy.signal import lfilter  # here, not at the top: scipy.signal takes 0.5 s to import, in every kernel
+
     e = np.sqrt(1.0 - rho**2) * white
     first = (slice(None),) * (axis % white.ndim) + (0,)
     e[first] = white[first]
