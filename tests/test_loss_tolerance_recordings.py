@@ -5,6 +5,7 @@ import dataclasses
 import numpy as np
 import pandas as pd
 import pytest
+from _study_cli import run_as_module, run_here
 
 from wsnlib import metrics
 from wsnlib.io.recording import read_recording, write_recording
@@ -234,20 +235,12 @@ def test_loss_specs_of_the_command_line():
             loss_profile(bad)
 
 
-def _cli(*args):
-    import subprocess
-    import sys
-
-    return subprocess.run([sys.executable, "-m", "wsnlib.studies.loss_tolerance", *map(str, args)],
-                          capture_output=True, text=True, timeout=600)
-
-
-def test_command_line_on_recording_files(tmp_path):
+def test_command_line_on_recording_files(tmp_path, capsys):
     for k, name in enumerate(("walk", "run")):
         _simulated(tmp_path / f"{name}.csv", fs=40.0 + 10 * k, duration_s=6.0, seed=k)
     out = tmp_path / "results.csv"
     # (Every method of the registry runs on recording files in test_notebook_10_runs_on_recording_files.)
-    run = _cli(tmp_path / "walk.csv", tmp_path / "run.json", "--loss", "ge:0.10:3", "--loss", "burst:2:4",
+    run = run_as_module(tmp_path / "walk.csv", tmp_path / "run.json", "--loss", "ge:0.10:3", "--loss", "burst:2:4",
                "--draws", "2", "--budget", "1", "--jobs", "1", "--methods", "VQF", "smoother", "--out", out)
     assert run.returncode == 0, run.stderr[-3000:]
     assert "2 recording(s), 4 node(s) with a reference, at 40, 50 Hz" in run.stdout
@@ -264,21 +257,23 @@ def test_command_line_on_recording_files(tmp_path):
     header = next(i for i, line in enumerate(printed) if line.split()[:2] == ["recording", "node"])
     assert len(printed[header + 1].split()) >= 9 and "Mean total RMSE" in run.stdout
     # One file: nothing to tune on, and the table says so.
-    single = _cli(tmp_path / "walk.csv", "--loss", "ge:0.2", "--budget", "1", "--jobs", "1", "--methods", "Kalman",
-                  "--out", out)
-    assert single.returncode == 0, single.stderr[-3000:]
-    assert "one recording: every method with its default setting" in single.stdout
+    status, stdout, stderr = run_here(capsys, tmp_path / "walk.csv", "--loss", "ge:0.2", "--budget", "1", "--jobs",
+                                       "1", "--methods", "Kalman", "--out", out)
+    assert status == 0, stderr[-3000:]
+    assert "one recording: every method with its default setting" in stdout
     assert set(pd.read_csv(out)["setting_source"]) == {"defaults (one recording)"}
     # What the command line refuses.
-    both = _cli(tmp_path / "walk.csv", "--trials", "02_undisturbed_slow_rotation_B")
-    assert both.returncode != 0 and "not both" in both.stderr
-    assert "not a loss profile" in _cli(tmp_path / "walk.csv", "--loss", "gilbert:0.1").stderr
-    assert "--loss applies to recording files" in _cli("--loss", "ge:0.1").stderr
-    unknown = _cli(tmp_path / "walk.csv", "--methods", "Kalman", "kalman").stderr
-    assert "--methods: no method 'kalman'; the registry has 'hold_last'" in unknown
+    refusals = {"not both": (tmp_path / "walk.csv", "--trials", "02_undisturbed_slow_rotation_B"),
+                "not a loss profile": (tmp_path / "walk.csv", "--loss", "gilbert:0.1"),
+                "--loss applies to recording files": ("--loss", "ge:0.1"),
+                "--methods: no method 'kalman'; the registry has 'hold_last'": (tmp_path / "walk.csv", "--methods",
+                                                                                "Kalman", "kalman")}
+    for said, args in refusals.items():
+        status, _, stderr = run_here(capsys, *args)
+        assert status != 0 and said in stderr, (args, stderr)
 
 
-def test_the_health_check_names_the_unit_whose_field_is_disturbed(tmp_path):
+def test_the_health_check_names_the_unit_whose_field_is_disturbed(tmp_path, capsys):
     rec = simulate_recording(reach_and_flex(fs=50.0, duration_s=6.0), rng=np.random.default_rng(0))
     mag = rec.mag.copy()
     mag[1, 100:200] *= 1.5              # the forearm passes a magnet for 2 s (a third of the samples)
@@ -291,10 +286,11 @@ def test_the_health_check_names_the_unit_whose_field_is_disturbed(tmp_path):
     assert health.table.loc["walk/humerus", "mag_disturbed_share"] == 0.0
     assert (health.table["fs_nominal_hz"] == 50.0).all()
     # The command line prints it before the study.
-    run = _cli(tmp_path / "walk.csv", "--loss", "none", "--budget", "1", "--jobs", "1")
-    assert run.returncode == 0, run.stderr[-3000:]
-    assert "Recording health: 1 finding(s)\n- walk/forearm: the magnetic field" in run.stdout
-    assert run.stdout.index("Recording health") < run.stdout.index("rmse_total_deg")
+    status, stdout, stderr = run_here(capsys, tmp_path / "walk.csv", "--loss", "none", "--jobs", "1", "--methods",
+                                       "Kalman")
+    assert status == 0, stderr[-3000:]
+    assert "Recording health: 1 finding(s)\n- walk/forearm: the magnetic field" in stdout
+    assert stdout.index("Recording health") < stdout.index("rmse_total_deg")
 
 
 def test_notebook_sources_take_trials_or_recordings_not_both():

@@ -723,12 +723,12 @@ def test_paper001_tables_and_findings():
     assert "What carries over" in found["text"] and "(at its default: 1.5°)" in found["text"]
 
 
-def test_command_line_runs_on_two_broad_trials(tmp_path):
+def test_command_line_runs_on_two_broad_trials(tmp_path, capsys, monkeypatch):
     """``python -m wsnlib.studies.loss_tolerance --quick``: the tables, a verdict per target, the per-trial CSV."""
     import os
-    import subprocess
-    import sys
     from pathlib import Path
+
+    from _study_cli import run_as_module, run_here
 
     from wsnlib import paths
 
@@ -736,22 +736,18 @@ def test_command_line_runs_on_two_broad_trials(tmp_path):
     folder = os.environ.get("WSNLIB_BROAD_DIR") or (str(shared) if shared.is_dir() else "")
     if not folder or len(list(Path(folder).glob("*.mat"))) < 2:
         pytest.skip("needs two BROAD trials (set WSNLIB_BROAD_DIR; `make test` does on CI)")
+    monkeypatch.setenv("WSNLIB_BROAD_DIR", folder)
     out = tmp_path / "per_trial.csv"
-    run = subprocess.run([sys.executable, "-m", "wsnlib.studies.loss_tolerance", "--quick", "--budget", "1",
-                          "--jobs", "1", "--out", str(out)],
-                         env={**os.environ, "WSNLIB_BROAD_DIR": folder}, capture_output=True, text=True, timeout=900)
+    run = run_as_module("--quick", "--budget", "1", "--jobs", "1", "--out", out)
     assert run.returncode == 0, run.stderr[-3000:]
     assert "1 settings per method, on 1 local job(s)" in run.stdout
     verdicts = [line for line in run.stdout.splitlines() if ": PASS" in line or ": MISS" in line]
     assert len(verdicts) == len(lts.TARGETS), run.stdout[-3000:]
     table = pd.read_csv(out)
     assert table["trial"].nunique() == 2 and set(table["profile"]) == {p.name for p in lt.PROFILES}
-    one = subprocess.run([sys.executable, "-m", "wsnlib.studies.loss_tolerance", "--quick", "--jobs", "1",
-                          "--methods", "VQF (defaults)"],
-                         env={**os.environ, "WSNLIB_BROAD_DIR": folder}, capture_output=True, text=True, timeout=900)
-    assert one.returncode == 0, one.stderr[-3000:]
-    assert "  VQF (defaults) " in one.stdout and "  Kalman " not in one.stdout
-    assert "Targets and diagnosis: not computed" in one.stdout and ": PASS" not in one.stdout
-    bad = subprocess.run([sys.executable, "-m", "wsnlib.studies.loss_tolerance", "--quick", "--scheduler", "nowhere"],
-                         env={**os.environ, "WSNLIB_BROAD_DIR": folder}, capture_output=True, text=True, timeout=900)
-    assert bad.returncode != 0 and "scheduler" in bad.stderr
+    status, stdout, stderr = run_here(capsys, "--quick", "--jobs", "1", "--methods", "VQF (defaults)")
+    assert status == 0, stderr[-3000:]
+    assert "  VQF (defaults) " in stdout and "  Kalman " not in stdout
+    assert "Targets and diagnosis: not computed" in stdout and ": PASS" not in stdout
+    status, _, stderr = run_here(capsys, "--quick", "--scheduler", "nowhere")
+    assert status != 0 and "scheduler" in stderr
