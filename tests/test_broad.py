@@ -174,6 +174,9 @@ def test_failed_connection_is_an_os_error_with_a_hint(tmp_path):
     with pytest.raises(OSError, match="WSNLIB_BROAD_DIR"):
         broad_io.broad_file("trials.json", tmp_path, downloader=offline)
     assert not (tmp_path / "trials.json").exists()
+    with pytest.raises(OSError, match="WSNLIB_BROAD_DIR"):  # a folder made for the download goes too
+        broad_io.broad_file("trials.json", tmp_path / "new" / "broad", downloader=offline)
+    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.parametrize(
@@ -227,7 +230,7 @@ def test_blob_id_verifies_a_download(tmp_path, blob_only_entry):
     with pytest.raises(ValueError, match="git blob id") as info:
         broad_io.broad_file(BLOB_FILE, folder, downloader=serve(BLOB_CONTENT[:100]))
     assert blob_only_entry.git_blob_sha1 in str(info.value)
-    assert list(folder.iterdir()) == []  # neither the file nor the partial download
+    assert not folder.exists()  # neither the file, the partial download nor the folder made for them
     path = broad_io.broad_file(BLOB_FILE, folder, downloader=serve(BLOB_CONTENT))
     assert path == folder / BLOB_FILE and path.read_bytes() == BLOB_CONTENT
     assert list(folder.iterdir()) == [path]

@@ -91,12 +91,15 @@ def download_verified(url: str, path: Path, expected: RegistryEntry, downloader,
 
     With a SHA-256, pooch checks it (writing to a temporary file in the same folder and moving
     it into place only on a match).  With only a git blob id, the file is downloaded under a
-    temporary name, checked here, then renamed into place (``os.replace``) or deleted.
+    temporary name, checked here, then renamed into place (``os.replace``) or deleted.  A failed
+    download also removes the folders it created, if they are still empty.
     """
     import pooch
 
+    created = [folder for folder in (path.parent, *path.parent.parents) if not folder.exists()]  # deepest first
     path.parent.mkdir(parents=True, exist_ok=True)
     partial = path.with_name(f".{path.name}.download")
+    done = False
     try:
         if expected.sha256 is not None:
             pooch.retrieve(url, known_hash=f"sha256:{expected.sha256}", fname=path.name, path=path.parent,
@@ -109,6 +112,7 @@ def download_verified(url: str, path: Path, expected: RegistryEntry, downloader,
             if actual != expected.git_blob_sha1:
                 raise ValueError(f"git blob id of the download is {actual}, expected {expected.git_blob_sha1}")
             os.replace(partial, path)
+        done = True
     except ValueError as exc:
         wanted = f"SHA-256 {expected.sha256}" if expected.sha256 else f"git blob id {expected.git_blob_sha1}"
         raise ValueError(f"download of {path.name} from {url} failed the hash check (expected {wanted}); "
@@ -118,3 +122,8 @@ def download_verified(url: str, path: Path, expected: RegistryEntry, downloader,
                       f"by hand or set ${env_var} to a folder holding it") from exc
     finally:
         partial.unlink(missing_ok=True)
+        for folder in created if not done else ():
+            try:
+                folder.rmdir()  # only if empty: another file may have arrived meanwhile
+            except OSError:
+                break
