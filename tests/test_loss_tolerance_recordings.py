@@ -241,7 +241,7 @@ def test_command_line_on_recording_files(tmp_path, capsys):
     out = tmp_path / "results.csv"
     # (Every method of the registry runs on recording files in test_notebook_10_runs_on_recording_files.)
     run = run_as_module(tmp_path / "walk.csv", tmp_path / "run.json", "--loss", "ge:0.10:3", "--loss", "burst:2:4",
-               "--draws", "2", "--budget", "1", "--jobs", "1", "--methods", "VQF", "smoother", "--out", out)
+                        "--draws", "2", "--budget", "1", "--jobs", "1", "--methods", "VQF", "smoother", "--out", out)
     assert run.returncode == 0, run.stderr[-3000:]
     assert "2 recording(s), 4 node(s) with a reference, at 40, 50 Hz" in run.stdout
     assert "tuned leave-one-recording-out at ge:0.10:3" in run.stdout

@@ -122,8 +122,9 @@ def download_verified(url: str, path: Path, expected: RegistryEntry, downloader,
                       f"by hand or set ${env_var} to a folder holding it") from exc
     finally:
         partial.unlink(missing_ok=True)
-        for folder in created if not done else ():
-            try:
-                folder.rmdir()  # only if empty: another file may have arrived meanwhile
-            except OSError:
-                break
+        if not done:
+            for folder in created:
+                try:
+                    folder.rmdir()  # only if empty: another file may have arrived meanwhile
+                except OSError:
+                    break
