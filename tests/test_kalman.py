@@ -615,19 +615,25 @@ def test_a_drifting_field_strength_is_used_at_once_after_a_gap():
     assert out.mag_used[after:after + int(FS)].all()
 
 
-def _rejected_after_one_field(explained: float) -> bool:
+def _rejected_after_one_field(explained: float, noise: float = 0.0, pairs: float = 100.0) -> bool:
     """One received field after a state whose hard-iron sums say a body-fixed offset b explains the share
-    ``explained`` of the field's rate residual, while the two older rules both pick the raw field: the
-    reference norm lags a gain that fell (raw norm 32.8 µT, closer to the reference's 33 than the
-    corrected 50.2) and the raw norm is the steadier.  The gate's norm follows the corrected field, so
-    only the corrected field is used; returns whether the magnetometer was rejected."""
+    ``explained`` of the field's rate residual y, the field's white noise the share ``noise`` and a smooth
+    residual the rest, while the two older rules both pick the raw field: the reference norm lags a gain
+    that fell (raw norm 32.8 µT, closer to the reference's 33 than the corrected 50.2) and the raw norm is
+    the steadier.  The gate's norm follows the corrected field, so only the corrected field is used;
+    the sums hold ``pairs`` residuals (none forgotten); returns whether the magnetometer was rejected."""
     state = kalman_initial_state(fs=FS, q0=Q.identity())
     rec = state.record
     earth = np.array([0.0, 20.0, -46.0])                      # µT, ENU; the sensor is level, heading 0
     offset = np.array([0.0, 0.0, 20.0])                       # the magnet, body frame
     A = 4.0 * np.array([1.0, 0.0, 0.0, 1.0, 0.0, 1.0])        # Σ [ω]×ᵀ[ω]× (packed 00 01 02 11 12 22)
     rec["hi_A"], rec["hi_r"], rec["hard_iron"] = A, 4.0 * offset, offset  # r = A b: b solves the sums
-    rec["hi_syy"] = 4.0 * offset @ offset / explained         # Σ‖y‖²: Σ‖ω × b‖² is its share `explained`
+    magnet = 4.0 * offset @ offset                            # Σ‖ω × b‖²
+    total = magnet / explained                                # Σ‖y‖²
+    white = noise * total
+    # Σ y_k·y_{k−1}: a smooth residual's products are its energy, differentiated white noise's −1/2 of it
+    rec["hi_syy"], rec["hi_syy1"] = total, total - white - 0.5 * white
+    rec["hi_w"], rec["hi_w2"] = pairs, pairs
     rec["hi_norm_vars"] = [0.0, 1.0]                          # the raw norm looks the steadier
     rec["mag_ref_norm"], rec["mag_gate_norm"], rec["mag_ref_time"] = 33.0, 50.2, 100.0
     rec["mag_ref_dip"] = math.atan2(46.0, 20.0)
@@ -641,6 +647,24 @@ def test_a_magnet_the_data_show_is_removed_whatever_the_reference_norm():
     steadiness both point to the raw field; at a quarter explained, those two decide (raw: rejected)."""
     assert not _rejected_after_one_field(explained=0.8)
     assert _rejected_after_one_field(explained=0.25)
+
+
+def test_a_magnet_is_judged_on_the_residual_beyond_the_fields_white_noise():
+    """The differentiated field's white noise is most of ṁ + ω × m on BROAD at 50 Hz (BROAD trial 34, a
+    magnet 3 cm from the sensor: the offset explains 0.2–0.3 of it, the rest mostly noise) and no offset
+    can explain it: an offset that explains a quarter of the residual, where the rest is white noise but
+    a twentieth, is the magnet (corrected field used), while a quarter of a residual whose rest is smooth
+    is not (the older rules decide: raw field, rejected)."""
+    assert not _rejected_after_one_field(explained=0.25, noise=0.7)
+    assert _rejected_after_one_field(explained=0.25, noise=0.0)
+
+
+def test_a_residual_beyond_the_noise_counts_only_when_significant():
+    """Beyond white noise that is 0.7 of the residual, 0.3 is left: with 100 pairs in the sums that is
+    16 standard deviations of what noise alone gives (the magnet: corrected field used); with 3 pairs (just
+    after the start) it is 2.7, under MAG_HARD_IRON_SIGNIFICANCE = 3, and the older rules decide (rejected)."""
+    assert not _rejected_after_one_field(explained=0.25, noise=0.7, pairs=100.0)
+    assert _rejected_after_one_field(explained=0.25, noise=0.7, pairs=3.0)
 
 
 def _lag_estimates(gyr, acc, mag):

@@ -39,13 +39,14 @@ NX = 9
 #: (rad/s, bias-corrected) and the state after the last received sample (where a replay starts),
 #: the gap's rate-error std, the magnetometer gate (reference norm and dip, 0 = unset; the
 #: candidate's norm, dip and time; the time rejected), the hard-iron estimate's normal
-#: equations (``hi_A``: 00 01 02 11 12 22 of the symmetric 3 × 3, ``hi_r``) and the forgotten sum of
-#: the squared field-rate residuals (``hi_syy``, µT²/s²), the previous received
-#: field and rate, the low-pass of (‖a‖ − g)² (``lin_var``, m²/s⁴), and the raw and hard-iron
-#: corrected field norms of the previous received sample and the low-passes of their squared
-#: steps (``hi_prev_norms``, ``hi_norm_vars``: µT, µT²); the magnetometer's lag estimate (s), the sums
-#: of its normal equation and the previous received raw field (``lag``, ``lag_num``, ``lag_den``,
-#: ``lag_prev_mag``).
+#: equations (``hi_A``: 00 01 02 11 12 22 of the symmetric 3 × 3, ``hi_r``) and the forgotten sums of
+#: the squared field-rate residuals and of the products of consecutive ones (``hi_syy``, ``hi_syy1``,
+#: µT²/s²), the previous residual and whether it was of the previous sample (``hi_prev_y``, ``hi_prev_y_ok``),
+#: the sums' weights and squared weights (``hi_w``, ``hi_w2``), the previous received field and rate, the
+#: low-pass of (‖a‖ − g)² (``lin_var``, m²/s⁴), and the raw and hard-iron corrected field norms of the previous
+#: received sample and the low-passes of their squared steps (``hi_prev_norms``, ``hi_norm_vars``: µT, µT²); the
+#: magnetometer's lag estimate (s), the sums of its normal equation and the previous received raw field (``lag``,
+#: ``lag_num``, ``lag_den``, ``lag_prev_mag``).
 STATE_DTYPE = np.dtype([
     ("q", "f8", (4,)), ("bias", "f8", (3,)), ("velocity", "f8", (3,)), ("P", "f8", (NX, NX)),
     ("rate", "f8", (3,)), ("q_last", "f8", (4,)), ("gap_sigma", "f8"),
@@ -54,6 +55,7 @@ STATE_DTYPE = np.dtype([
     ("mag_ref_time", "f8"),
     ("hi_A", "f8", (6,)), ("hi_r", "f8", (3,)), ("hi_prev_mag", "f8", (3,)), ("hi_prev_rate", "f8", (3,)),
     ("hard_iron", "f8", (3,)), ("hi_syy", "f8"), ("lin_var", "f8"), ("hi_prev_ok", "?"),
+    ("hi_syy1", "f8"), ("hi_prev_y", "f8", (3,)), ("hi_prev_y_ok", "?"), ("hi_w", "f8"), ("hi_w2", "f8"),
     ("hi_prev_norms", "f8", (2,)), ("hi_norm_vars", "f8", (2,)),
     ("lag", "f8"), ("lag_num", "f8"), ("lag_den", "f8"), ("lag_prev_mag", "f8", (3,)),
 ])
@@ -492,12 +494,28 @@ def hard_iron(st, c, mag, omega):
     reference norm than the raw field's or steadier (``hi_norm_vars``: low-passes, with the same
     forgetting, of the squared change of each norm from one received sample to the next), or if the
     offset explains at least ``c.hi_min_explained``
-    (:data:`~wsnlib.orientation.kalman_settings.MAG_HARD_IRON_EXPLAINED`) of the residuals' energy, ``1 − Σ‖y − ω ×
-    b̂_m‖²/Σ‖y‖²`` (``Σ‖y‖² − 2 b̂·r + b̂ᵀ A b̂`` from the same sums: a magnet on the sensor seen in the
-    data, whatever the reference norm, which lags a sensor whose gain drifts); otherwise ``m``.
+    (:data:`~wsnlib.orientation.kalman_settings.MAG_HARD_IRON_EXPLAINED`) of the residuals' energy beyond
+    the field's white noise, ``(Σ‖y‖² − Σ‖y − ω × b̂_m‖²)/S`` (``Σ‖y − ω × b̂_m‖² = Σ‖y‖² − 2 b̂·r + b̂ᵀ A
+    b̂`` from the same sums: a magnet on the sensor seen in the data, whatever the reference norm, which
+    lags a sensor whose gain drifts); otherwise ``m``.
+
+    ``S`` leaves out the field's white noise, which no offset can explain and which the
+    differentiation amplifies (its energy in ``y`` grows with the rate squared; BROAD trial 34 at
+    50 Hz, at rest: 60 µT/s rms, as much as ``ω × b_m`` of a 20 µT magnet turning at 3 rad/s).
+    Differentiated white noise ``(n_k − n_{k−1})/Δt`` has energy ``N`` per sample and the product of
+    consecutive residuals ``−N/2`` on average, while a smooth residual (``ω × b_m``, a lag, a
+    misalignment) has a product close to its energy ``S``: with ``Σ y_k·y_{k−1}`` (``hi_syy1``, same
+    forgetting) ``Σ‖y‖² = S + N`` and ``Σ y_k·y_{k−1} = S − N/2`` give ``S = (Σ‖y‖² + 2 Σ y_k·y_{k−1})/3``.
+    On white noise alone (``S = 0``) this estimate is a difference of large sums: it averages 0 with a
+    standard deviation of ``√(2/27) N √(Σw²)/Σw`` (``w`` the forgetting weights, ``hi_w``, ``hi_w2``:
+    ``1/√n`` for ``n`` pairs without forgetting), so the rule counts only while ``S`` is at least
+    ``c.hi_significance`` (:data:`~wsnlib.orientation.kalman_settings.MAG_HARD_IRON_SIGNIFICANCE`) of
+    them; otherwise a chance ``S`` near 0 would let any offset "explain" it.
     """
     m = (mag[0], mag[1], mag[2])
     A, rr, pm, pw, b = st.hi_A, st.hi_r, st.hi_prev_mag, st.hi_prev_rate, st.hard_iron
+    had_y = st.hi_prev_y_ok
+    st.hi_prev_y_ok = st.hi_prev_ok
     if st.hi_prev_ok:
         w, _, y = field_rate_residual(m, pm, omega, pw, 1.0 / c.dt)
         lam = c.hi_decay
@@ -513,6 +531,14 @@ def hard_iron(st, c, mag, omega):
         rr[1] = lam * rr[1] + (y[2] * w[0] - y[0] * w[2])
         rr[2] = lam * rr[2] + (y[0] * w[1] - y[1] * w[0])
         st.hi_syy = lam * st.hi_syy + y[0] * y[0] + y[1] * y[1] + y[2] * y[2]
+        st.hi_w = lam * st.hi_w + 1.0
+        st.hi_w2 = lam * lam * st.hi_w2 + 1.0
+        py = st.hi_prev_y  # the residual of the previous pair, if that pair ended at the previous sample
+        if had_y:
+            st.hi_syy1 = lam * st.hi_syy1 + y[0] * py[0] + y[1] * py[1] + y[2] * py[2]
+        else:
+            st.hi_syy1 = lam * st.hi_syy1
+        py[0], py[1], py[2] = y[0], y[1], y[2]
         # (A + εI) b = r by Cramer's rule (symmetric positive definite 3 × 3)
         eps = c.hi_ridge
         a00, a01, a02 = A[0] + eps, A[1], A[2]
@@ -553,7 +579,13 @@ def hard_iron(st, c, mag, omega):
         bab = (A[0] * b[0] * b[0] + A[3] * b[1] * b[1] + A[5] * b[2] * b[2]
                + 2.0 * (A[1] * b[0] * b[1] + A[2] * b[0] * b[2] + A[4] * b[1] * b[2]))
         unexplained = st.hi_syy - 2.0 * (b[0] * rr[0] + b[1] * rr[1] + b[2] * rr[2]) + bab
-        if st.hi_syy > 0.0 and unexplained <= (1.0 - c.hi_min_explained) * st.hi_syy:
+        smooth = (st.hi_syy + 2.0 * st.hi_syy1) / 3.0  # Σ‖y‖² without the field's white noise
+        noise = st.hi_syy - smooth
+        # S is significant: above hi_significance of its standard deviation on white noise alone,
+        # √(2/27) N √(Σw²)/Σw (a difference of large sums when the residual is mostly noise)
+        spread2 = (2.0 / 27.0) * noise * noise * st.hi_w2  # (its standard deviation × Σw)²
+        significant = smooth > 0.0 and (smooth * st.hi_w) ** 2 >= c.hi_significance**2 * spread2
+        if significant and st.hi_syy - unexplained >= c.hi_min_explained * smooth:
             return corrected
     return m
 

@@ -128,10 +128,13 @@ Gates (where they come from)
   it is large (``mag_hard_iron_min_bias``) and brings the norm closer to the reference,
   makes it steadier (a low-pass of the squared norm step, ``mag_hard_iron_tau_s``: the
   earth's field keeps its norm while the sensor turns, whatever a drifting strength does to
-  the reference) or explains more of ``ṁ + ω × m`` than it leaves (the same sums; a magnet
-  the data show, while the reference norm lags a drifting gain and the estimate still settles)
-  (:func:`~._kalman_kernels.hard_iron`).  Without it such a field fails the norm gate
-  for as long as the magnet stays, and the heading runs on the gyroscope alone.
+  the reference) or explains more of ``ṁ + ω × m`` than it leaves, the field's white noise
+  aside (the same sums, and that of consecutive residuals' products, which sets the noise
+  apart; counted while what is left beyond the noise is three standard deviations above
+  chance; a magnet the data show, while the reference norm lags a drifting gain and the
+  estimate still settles) (:func:`~._kalman_kernels.hard_iron`).  Without it such a field
+  fails the norm gate for as long as the magnet stays, and the heading runs on the gyroscope
+  alone.
 
 Initialisation: with ``q0=None`` each batch element starts at its first received sample from
 TRIAD (``mag`` given) or the tilt (no ``mag``, zero heading), as Madgwick's filter in wsnlib

@@ -196,7 +196,7 @@ class KalmanSettings:
         The estimate is subtracted only when its norm is at least this times the reference
         field norm and the corrected field is closer to the reference norm, its norm steadier
         than the raw one's, or the offset explains at least half of the field's rate residual
-        (:func:`wsnlib.orientation._kalman_kernels.hard_iron`);
+        beyond its white noise (:func:`wsnlib.orientation._kalman_kernels.hard_iron`);
         ``inf`` switches the correction off.  Default 0.1, the size ``mag_norm_gate`` would
         reject; chosen most often by LOTO from {0.1, inf}.
     gap_rate_prediction_span_s : float
@@ -270,9 +270,13 @@ class KalmanSettings:
 
 #: Ridge of the magnetometer lag's estimate, ((rad/s²)² s): 1 s of 3 rad/s² angular acceleration.
 MAG_LAG_RIDGE = 9.0
-#: A hard-iron estimate that explains this share of the field's rate residual (more than it leaves) is
-#: used whatever the reference norm (:func:`wsnlib.orientation._kalman_kernels.hard_iron`).
+#: A hard-iron estimate that explains this share of the field's rate residual beyond the field's white
+#: noise (more than it leaves) is used whatever the reference norm
+#: (:func:`wsnlib.orientation._kalman_kernels.hard_iron`).
 MAG_HARD_IRON_EXPLAINED = 0.5
+#: ... counted only while that residual is this many standard deviations above what white noise alone
+#: gives (three, set from the noise statistics before looking at any recording).
+MAG_HARD_IRON_SIGNIFICANCE = 3.0
 #: Settings that may be 0 (switches the feature off).
 _MAY_BE_ZERO = frozenset({"acc_disturbance_factor", "mag_lag_max_s"})
 #: Settings that may be ``inf`` (switches the feature off).
@@ -320,7 +324,8 @@ CONSTANTS_DTYPE = np.dtype([
     ("hi_decay", "f8"),              # exp(−Δt/τ_hard-iron)
     ("hi_ridge", "f8"),              # ridge of the hard-iron normal equations
     ("hi_min_bias", "f8"),
-    ("hi_min_explained", "f8"),      # share of ṁ + ω × m the offset must explain to be used regardless
+    ("hi_min_explained", "f8"),      # share of ṁ + ω × m (noise aside) the offset must explain to be used regardless
+    ("hi_significance", "f8"),       # standard deviations (on white noise) that residual must exceed
     ("lag_decay", "f8"),             # exp(−Δt/τ_lag): the magnetometer lag's forgetting
     ("lag_ridge", "f8"),             # its ridge ((rad/s²)² s)
     ("lag_max", "f8"),               # largest |δ| applied (s); 0: off
@@ -378,7 +383,7 @@ def kalman_constants(settings: KalmanSettings, dt: float, *, gap: int, replay: b
         # Ridge of the hard-iron normal equations: as much as 1 s of rotation at 0.3 rad/s, so that
         # the estimate shrinks to 0 when the sensor has not turned enough to observe it.
         "hi_ridge": 0.09 / dt, "hi_min_bias": s.mag_hard_iron_min_bias,
-        "hi_min_explained": MAG_HARD_IRON_EXPLAINED,
+        "hi_min_explained": MAG_HARD_IRON_EXPLAINED, "hi_significance": MAG_HARD_IRON_SIGNIFICANCE,
         # The lag's ridge: as much as 1 s of 3 rad/s² angular acceleration (unit field).
         "lag_decay": math.exp(-dt / s.mag_lag_tau_s), "lag_ridge": MAG_LAG_RIDGE, "lag_max": s.mag_lag_max_s,
         # The held rate's factor per lost sample: 0 holds the state, 1 keeps the rate constant.
