@@ -178,9 +178,41 @@ def test_smoother_is_never_worse_than_its_filter_on_broad_at_ge_10_percent(monke
     assert min(gain) > 0.1  # on every trial the two differ by more than 0.1° on half the samples
 
 
+def test_the_backward_pass_recomputes_each_prediction_covariance_bit_for_bit():
+    """The smoother stores P⁺ only and recomputes ``P⁻_{k+1} = F P⁺_k Fᵀ + Q`` from the recorded R(q⁻),
+    a_E and Q's diagonal: on received and lost samples (a gap's growing Q), that is the filter's own
+    P⁻ bit for bit, and F P⁺ Fᵀ + Q in matrix form to rounding."""
+    from wsnlib.orientation import _kalman_kernels as KK
+    from wsnlib.orientation.kalman import kalman_initial_state, kalman_step
+
+    gyr, acc, mag, _ = turning_recording(n=300, seed=4, noise=0.01)
+    received = np.ones(300, dtype=bool)
+    received[120:150] = False
+    state = kalman_initial_state(fs=FS)
+    c = state.constants[0]
+    checked = {True: 0, False: 0}
+    for t in range(300):
+        P_post = state.covariance.copy()
+        kalman_step(state, gyr[t], acc[t], mag[t], received=bool(received[t]))
+        if t < 2:  # the first received sample only initialises
+            continue
+        w = state.work[0]
+        P = P_post.copy()
+        KK.propagate_covariance(P, w["R"], w["a_e"], c["vel_decay"], c["dt"])
+        KK.add_process_noise(P, w["noise"], c["bias_var"])
+        np.testing.assert_array_equal(P, w["P_pred"])
+        F = state.prediction["transition"]
+        Q = np.diag(np.repeat([w["noise"][0], c["bias_var"], w["noise"][1]], 3))
+        np.testing.assert_allclose(P, F @ P_post @ F.T + Q, rtol=1e-10, atol=1e-15)
+        checked[bool(received[t])] += 1
+        if not received[t]:  # the gap's extrapolated rate adds to the attitude's noise
+            assert w["noise"][0] > c["gyro_var"]
+    assert checked == {True: 268, False: 30}
+
+
 def test_backward_pass_products_from_the_packed_covariances_and_f_blocks():
     """Fᵀ y from F's blocks is the dense product bit for bit (same terms, same order); the
-    Cholesky solve from the packed P⁻ and P⁺ δ from the packed P⁺ match numpy."""
+    Cholesky solve with P⁻ and P⁺ δ from the packed P⁺ match numpy."""
     from wsnlib.orientation._kalman_kernels import NP, pack_upper, transition_matrix, transition_transpose_times
     from wsnlib.orientation.smoothing import cholesky_factor, solve_factored, symmetric_times
 
@@ -201,7 +233,7 @@ def test_backward_pass_products_from_the_packed_covariances_and_f_blocks():
     packed = np.empty(NP)
     pack_upper(P, packed)
     L, inv_diag, x = np.empty((9, 9)), np.empty(9), np.empty(9)
-    cholesky_factor(packed, L, inv_diag)
+    cholesky_factor(P, L, inv_diag)
     solve_factored(L, inv_diag, y, x)
     np.testing.assert_allclose(x, np.linalg.solve(P, y), rtol=1e-10, atol=1e-12)
     symmetric_times(packed, y, x)

@@ -81,7 +81,7 @@ def record(ring, st, work, c, sample, received, scratch):
                 for m in range(NX):
                     s += F[a, m] * P_post[m, b]
                 FP[a, b] = s
-        cholesky_factor(e.P_pred, chol, inv_diag)
+        cholesky_factor(work.P_pred, chol, inv_diag)  # P⁻ (e.P_pred packed)
         for b in range(NX):  # column b of (P⁻)⁻¹ F P⁺ = row b of C (P⁺, P⁻ symmetric)
             solve_factored(chol, inv_diag, FP[:, b], prev.gain[b])
         prev.has_gain = True

@@ -58,11 +58,14 @@ from wsnlib.orientation import gaps
 from wsnlib.orientation._kalman_kernels import (
     NP,
     NX,
+    add_process_noise,
     kalman_stream,
     new_records,
     packed_index,
+    propagate_covariance,
     small_rotation,
     transition_transpose_times,
+    unpack_upper,
 )
 from wsnlib.orientation._kernels import (
     COMPILE,
@@ -184,15 +187,14 @@ def _predicted_gap(out_q, rates, s0, s1, q0, q1, order, window, dt):
 
 
 @njit(inline="always", **COMPILE)
-def cholesky_factor(packed, L, inv_diag):
-    """``P = L Lᵀ`` into ``L``'s lower triangle for a symmetric positive definite ``P`` (9 × 9) given
-    as its upper triangle ``packed`` (:func:`~._kalman_kernels.pack_upper`; ``P_ij = P_ji`` is read
-    there, no unpacking), and ``1/L_jj`` into ``inv_diag``: the factor and the solves multiply by
-    it, one division per column instead of one per entry (divisions are the long links of the
+def cholesky_factor(P, L, inv_diag):
+    """``P = L Lᵀ`` into ``L``'s lower triangle for a symmetric positive definite ``P`` (9 × 9; its upper
+    triangle is read), and ``1/L_jj`` into ``inv_diag``: the factor and the solves multiply by it,
+    one division per column instead of one per entry (divisions are the long links of the
     dependent chain)."""
     for i in range(NX):
         for j in range(i + 1):
-            acc_ij = packed[packed_index(j, i)]
+            acc_ij = P[j, i]
             for k in range(j):
                 acc_ij -= L[i, k] * L[j, k]
             if i == j:
@@ -249,7 +251,7 @@ def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, 
     n_t = out_q.shape[0]
     # The filter's q, b, v are smoothed in place: sample k is overwritten after its RTS step read it.
     smooth_b, smooth_v, acc_used, mag_used, rates = scratch[:5]
-    pred_q, pred_v, pred_P, post_P, pred_R, pred_a_e = records = scratch[5:]
+    pred_q, pred_v, post_P, pred_R, pred_a_e, pred_noise = records = scratch[5:]
     kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c,
                   (out_q, smooth_b, smooth_v, np.empty((0, NX, NX)), acc_used, mag_used) + records)
     if n_t == 0:
@@ -259,9 +261,11 @@ def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, 
     chol = np.empty((NX, NX))
     y = np.empty(NX)
     inv_diag = np.empty(NX)
-    # cholesky_factor, solve_factored, transition_transpose_times and symmetric_times are inlined
-    # (inline="always"): the row views passed to them (pred_P[k + 1], post_P[k], ...) then cost no
-    # reference counting per sample, as a call's arguments do.
+    P_pred = np.empty((NX, NX))
+    dt, decay, bias_var = c.dt, c.vel_decay, c.bias_var
+    # cholesky_factor, solve_factored, transition_transpose_times, symmetric_times and the prediction's
+    # propagate_covariance, add_process_noise are inlined (inline="always"): the row views passed to them
+    # (post_P[k], pred_R[k + 1], ...) then cost no reference counting per sample, as a call's arguments do.
     for k in range(n_t - 2, first - 1, -1):
         # correction = C_k δ = P⁺_k F_{k+1}ᵀ (P⁻_{k+1})⁻¹ δ: one solve with P⁻ (Cholesky), no inverse
         q_next = (out_q[k + 1, 0], out_q[k + 1, 1], out_q[k + 1, 2], out_q[k + 1, 3])
@@ -271,9 +275,13 @@ def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, 
             delta[a] = d_theta[a]
             delta[3 + a] = smooth_b[k + 1, a] - smooth_b[k, a]  # b⁻_{k+1} = b⁺_k, not yet smoothed
             delta[6 + a] = smooth_v[k + 1, a] - pred_v[k + 1, a]
-        cholesky_factor(pred_P[k + 1], chol, inv_diag)  # P⁻_{k+1} = L Lᵀ
+        # P⁻_{k+1} = F_{k+1} P⁺_k F_{k+1}ᵀ + Q_{k+1}, as the filter's prediction computed it
+        unpack_upper(post_P[k], P_pred)
+        propagate_covariance(P_pred, pred_R[k + 1], pred_a_e[k + 1], decay, dt)
+        add_process_noise(P_pred, pred_noise[k + 1], bias_var)
+        cholesky_factor(P_pred, chol, inv_diag)  # P⁻_{k+1} = L Lᵀ
         solve_factored(chol, inv_diag, delta, y)
-        transition_transpose_times(pred_R[k + 1], pred_a_e[k + 1], c.vel_decay, c.dt, y, delta)  # delta ← Fᵀ y
+        transition_transpose_times(pred_R[k + 1], pred_a_e[k + 1], decay, dt, y, delta)  # delta ← Fᵀ y
         symmetric_times(post_P[k], delta, y)  # y ← P⁺_k delta, the correction
         q = quat_normalize(quat_multiply(small_rotation((y[0], y[1], y[2])),
                                          (out_q[k, 0], out_q[k, 1], out_q[k, 2], out_q[k, 3])))
@@ -284,7 +292,6 @@ def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, 
             smooth_v[k, a] += y[6 + a]
     if not interpolate_gaps:
         return
-    dt = c.dt
     # Rates for the gaps' linear prediction: bias-corrected where received, linear between
     # the received neighbours where lost (only read inside the windows).
     order, window = c.ar_order, c.ar_window
@@ -376,8 +383,9 @@ def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
         raise ValueError(f"interpolate_gaps must be True or False, got {interpolate_gaps!r}")
     n_batch = inputs.index.shape[0]
     n_slots = 1 if n_batch == 1 else get_num_threads()
-    # Output, plus each thread's scratch: b, v, the records (q⁻, v⁻, packed P⁻ and P⁺, R, a_E), rates per sample.
-    B.check_memory(8 * inputs.n_t * (4 * n_batch + n_slots * (6 + 7 + 2 * NP + 12 + 3)),
+    # Output, plus each thread's scratch: b, v, the records (q⁻, v⁻, packed P⁺, R, a_E, Q's diagonal),
+    # rates per sample.
+    B.check_memory(8 * inputs.n_t * (4 * n_batch + n_slots * (6 + 7 + NP + 12 + 2 + 3)),
                    f"smooth_orientation's output for batch {inputs.batch}, T = {inputs.n_t}")
     out_q = np.empty((n_batch, inputs.n_t, 4))
     scratch = new_scratch(n_slots, inputs.n_t)
