@@ -162,7 +162,7 @@ def test_gap_rate_fit_matches_numpy_least_squares_and_predicts_an_oscillation():
                       0.1 + 0.0 * t], axis=1)
     order, window, end = 4, 50, 60
     coef = np.zeros((3, order))
-    largest = ar_fit(rates, end, window, order, coef, np.empty((order, order + 1)), np.empty(order + 1))
+    largest = ar_fit(rates, end, window, order, coef, np.empty((3, order, order + 1)), np.empty((3, order + 1)))
     for a in range(3):  # reference: ridge least squares with numpy
         x = rates[end - window:end, a]
         X = np.stack([x[i:window - order + i] for i in range(order)], axis=1)
@@ -187,7 +187,7 @@ def test_gap_rate_fit_at_the_default_order_matches_numpy_least_squares():
                       0.3 * np.sin(2 * np.pi * 2.1 * t + 1.0)], axis=1) + rng.normal(0.0, 0.05, (400, 3))
     order, window, end = 48, 300, 380
     coef = np.zeros((3, order))
-    ar_fit(rates, end, window, order, coef, np.empty((order, order + 1)), np.empty(order + 1))
+    ar_fit(rates, end, window, order, coef, np.empty((3, order, order + 1)), np.empty((3, order + 1)))
     for a in range(3):
         x = rates[end - window:end, a]
         X = np.stack([x[i:window - order + i] for i in range(order)], axis=1)

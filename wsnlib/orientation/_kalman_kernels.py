@@ -77,7 +77,7 @@ WORK_DTYPE = np.dtype([
     ("R", "f8", (3, 3)), ("a_e", "f8", (3,)), ("dx", "f8", (NX,)),
     ("index", "i8", (MAX_UPDATES,)), ("z", "f8", (MAX_UPDATES,)), ("r", "f8", (MAX_UPDATES,)),
     ("gains", "f8", (MAX_UPDATES, NX)), ("rows", "f8", (MAX_UPDATES, NX)),
-    ("ar_A", "f8", (gaps.MAX_ORDER, gaps.MAX_ORDER + 1)), ("ar_r", "f8", (gaps.MAX_ORDER + 1,)),
+    ("ar_A", "f8", (3, gaps.MAX_ORDER, gaps.MAX_ORDER + 1)), ("ar_r", "f8", (3, gaps.MAX_ORDER + 1)),
     ("q_pred", "f8", (4,)), ("bias_pred", "f8", (3,)), ("vel_pred", "f8", (3,)), ("P_pred", "f8", (NX, NX)),
     ("noise", "f8", (2,)),
 ])

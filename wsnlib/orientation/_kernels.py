@@ -221,8 +221,8 @@ def filter_stream(gyr, acc, mag, use_mag, received, q0, has_q0, method, replay, 
     turns_in_gap = gs.mode != gaps.HOLD
     history = np.zeros((history_rows, 3))
     fits = gs.mode == gaps.AR
-    scratch_A = np.empty((gaps.MAX_ORDER, gaps.MAX_ORDER + 1) if fits else (1, 1))
-    scratch_r = np.empty(gaps.MAX_ORDER + 1 if fits else 2)
+    scratch_A = np.empty((3, gaps.MAX_ORDER, gaps.MAX_ORDER + 1) if fits else (1, 1, 1))
+    scratch_r = np.empty((3, gaps.MAX_ORDER + 1) if fits else (1, 2))
     predicted = np.empty(3)
     trusted, ref_norm, ref_dip = True, 0.0, 0.0  # gated hybrid: the field's reference
     for t in range(n_t):

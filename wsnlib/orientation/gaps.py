@@ -114,8 +114,8 @@ def gap_lost(gs, history, work_A, work_r):
     """A lost sample: the rate (3-tuple) to turn the state by, recorded in the history.
 
     At a gap's first sample the AR predictor is fitted if ``mode`` is :data:`AR` and a full
-    window of rates precedes it (``work_A`` (MAX_ORDER, MAX_ORDER + 1) and ``work_r`` (MAX_ORDER + 1,)
-    are scratch).
+    window of rates precedes it (``work_A`` (3, MAX_ORDER, MAX_ORDER + 1) and ``work_r``
+    (3, MAX_ORDER + 1) are scratch, :func:`ar_fit`'s ``A`` and ``r``).
     """
     order, window = gs.order, gs.window
     if gs.lost == 0:
@@ -203,16 +203,6 @@ def _copy(y, y0, x, x0, n):
 
 
 @njit(inline="always", **COMPILE)
-def _dot(u, v, start, n):
-    """``Σ_{j<n} u[start + j] v[start + j]``, summed in order (unsigned indices, as :func:`axpy`)."""
-    total = 0.0
-    first = np.uint64(start)
-    for j in range(np.uint64(n)):
-        total += u[first + j] * v[first + j]
-    return total
-
-
-@njit(inline="always", **COMPILE)
 def _rotate(u, v, start, c, s):
     """``(u, v) ← (c u + s v, c v − s u)`` from index ``start`` on (a Givens rotation; vectorised as :func:`axpy`)."""
     for j in range(np.uint64(start), np.uint64(u.shape[0])):
@@ -255,9 +245,21 @@ def ar_fit(rates, end, window, order, coef, A, r):
     negative ones, and a hyperbolic rotation between them) leaves one non-zero in the
     generator's row k; its first column is then L's column k, and shifted down by one it is the
     next step's.  L's last row is z with ``L_p z = Xᵀy`` (L_p the leading p × p block), and
-    ``L_pᵀ c = z`` gives the coefficients.  ``rates`` is the ring history (row ``k mod H``) of the
-    rates the filter used; ``coef`` (3, ≥ order) receives the coefficients; ``A``
-    (≥ order, ≥ order + 1) and ``r`` (≥ order + 1,) are scratch (A's row k: L's column k).
+    ``L_pᵀ c = z`` gives the coefficients.
+
+    The factorisations run axis by axis, their rotations vectorised loops over the generator's
+    rows; the back-substitutions run in lockstep, the three axes' sums side by side in one loop:
+    each sum is a chain of dependent additions (in index order, so that the result does not
+    depend on how the loop is compiled), and three independent chains overlap in the processor
+    instead of waiting for each other.  Every number gets exactly the operations, in the same
+    order, of one axis after the other.  (The factorisations in lockstep too, one fused pass
+    over the three axes' rows per step, were faster only where ``order`` and ``window`` were
+    compile-time constants; with the run-time values of the filters their loops no longer
+    vectorise, and the smoother got slower.)
+
+    ``rates`` is the ring history (row ``k mod H``) of the rates the filter used; ``coef``
+    (3, ≥ order) receives the coefficients; ``A`` (3, ≥ order, ≥ order + 1) and ``r``
+    (3, ≥ order + 1) are scratch (``A[a]``'s row k: axis a's column k of L; ``r[a]``: M's first row).
     """
     lo = end - window
     size = rates.shape[0]
@@ -275,23 +277,23 @@ def ar_fit(rates, end, window, order, coef, A, r):
     n = window - p  # equations: k = 0 … n − 1 predict x[k + p] from x[k … k + p − 1]
     generator = np.empty((4, p + 1))
     for a in range(3):
-        x = xs[a]
+        x, first_row, L = xs[a], r[a], A[a]
         # M's first row, E_0j = Σ_{k<n} x[k] x[k + j], as axpys over the lags (vectorised), and
         # tr(XᵀX) from E's diagonal by the same shift.
         for j in range(p + 1):
-            r[j] = 0.0
+            first_row[j] = 0.0
         for k in range(n):
-            axpy(r, 0, x, k, p + 1, x[k])
-        diagonal = trace = r[0]
+            axpy(first_row, 0, x, k, p + 1, x[k])
+        diagonal = trace = first_row[0]
         for i in range(1, p):
             diagonal = diagonal - x[i - 1] * x[i - 1] + x[n + i - 1] * x[n + i - 1]
             trace += diagonal
-        r[0] += AR_RIDGE * max(1.0, trace / p)
+        first_row[0] += AR_RIDGE * max(1.0, trace / p)
         plus, plus2, minus, minus2 = generator[0], generator[1], generator[2], generator[3]
-        scale = 1.0 / math.sqrt(r[0])
+        scale = 1.0 / math.sqrt(first_row[0])
         for j in range(p + 1):
-            plus[j] = r[j] * scale
-            minus[j] = r[j] * scale
+            plus[j] = first_row[j] * scale
+            minus[j] = first_row[j] * scale
         minus[0] = 0.0
         plus2[0] = minus2[0] = 0.0
         for j in range(1, p + 1):
@@ -310,14 +312,23 @@ def ar_fit(rates, end, window, order, coef, A, r):
                 ratio = minus[k] / plus[k]
                 cosh = 1.0 / math.sqrt((1.0 - ratio) * (1.0 + ratio))
                 _rotate_hyperbolic(plus, minus, k, cosh, ratio * cosh)
-            column = A[k]  # L's column k (rows k … p), and the generator's first column shifted down by one (Z)
+            column = L[k]  # L's column k (rows k … p), and the generator's first column shifted down by one (Z)
             _copy(column, k, plus, k, p + 1 - k)
             _copy(plus, k + 1, column, k, p - k)
             plus[k] = 0.0
-        c = coef[a]
-        for i in range(p - 1, -1, -1):  # L_pᵀ c = z (backward), z = L's row p
-            u = A[i]
-            c[i] = (u[p] - _dot(u, c, i + 1, p - 1 - i)) / u[i]
+    # L_pᵀ c = z (backward), z = L's row p, for the three axes side by side (each sum in index order).
+    L_0, L_1, L_2 = A[0], A[1], A[2]
+    c_0, c_1, c_2 = coef[0], coef[1], coef[2]
+    for i in range(p - 1, -1, -1):
+        u_0, u_1, u_2 = L_0[i], L_1[i], L_2[i]
+        sum_0 = sum_1 = sum_2 = 0.0
+        for j in range(np.uint64(i + 1), np.uint64(p)):
+            sum_0 += u_0[j] * c_0[j]
+            sum_1 += u_1[j] * c_1[j]
+            sum_2 += u_2[j] * c_2[j]
+        c_0[i] = (u_0[p] - sum_0) / u_0[i]
+        c_1[i] = (u_1[p] - sum_1) / u_1[i]
+        c_2[i] = (u_2[p] - sum_2) / u_2[i]
     return largest
 
 
@@ -414,8 +425,8 @@ def gap_rates(rates, n_lost, measured, mode, factor, order, window):
             row[a] = rates[k, a]
     gs.n = n - 1
     gap_received(gs, history, (rates[n - 1, 0], rates[n - 1, 1], rates[n - 1, 2]))
-    work_A = np.empty((MAX_ORDER, MAX_ORDER + 1))
-    work_r = np.empty(MAX_ORDER + 1)
+    work_A = np.empty((3, MAX_ORDER, MAX_ORDER + 1))
+    work_r = np.empty((3, MAX_ORDER + 1))
     predicted = np.empty((n_lost, 3))
     for k in range(n_lost):
         predicted[k, 0], predicted[k, 1], predicted[k, 2] = gap_lost(gs, history, work_A, work_r)

@@ -152,8 +152,8 @@ def _predicted_gap(out_q, rates, s0, s1, q0, q1, order, window, dt):
     time order, so a later gap's window before it holds predicted rates)."""
     n = s1 - s0 - 1
     coef = np.zeros((3, order))
-    A = np.empty((order, order + 1))
-    r = np.empty(order + 1)
+    A = np.empty((3, order, order + 1))
+    r = np.empty((3, order + 1))
     buf = np.empty((window + n, 3))
     fwd = np.empty((n, 3))
     bwd = np.empty((n, 3))
