@@ -18,11 +18,13 @@ from wsnlib.orientation import madgwick
 from wsnlib.orientation.gaps import AR_RIDGE, ar_end_weights, ar_fit, ar_predict
 from wsnlib.orientation.kalman import (
     KALMAN_GAP_TIME_CONSTANT_S,
+    MAG_LONG_REJECTION_S,
     KalmanReference,
     KalmanSettings,
     kalman_initial_state,
     kalman_orientation,
     kalman_step,
+    long_mag_rejections,
 )
 from wsnlib.orientation.kalman_settings import gap_prediction_order
 from wsnlib.sim.arm import arm_kinematics, movement_set
@@ -558,6 +560,36 @@ def test_a_magnetometer_rejected_for_longer_than_10_s_is_counted_and_warned_once
                                  settings=NO_HARD_IRON, full_output=True)
     assert len([w for w in caught if "magnetometer" in str(w.message)]) == 1
     np.testing.assert_array_equal(out.long_mag_rejections, [1, 0])
+
+
+def _long_rejections_by_runs(used, received, fs):
+    """The definition, one rejection at a time: the rejected received samples between two used ones."""
+    count, run = 0, []
+    for t in [*np.flatnonzero(received), None]:
+        if t is not None and not used[t]:
+            run.append(t)
+            continue
+        count += bool(run) and (run[-1] - run[0] + 1) / fs > MAG_LONG_REJECTION_S
+        run = []
+    return count
+
+
+def test_long_mag_rejections_span_lost_samples_and_end_at_a_used_one():
+    fs = 10.0  # 10 s = 100 samples
+    used, received = np.ones((4, 400), dtype=bool), np.ones((4, 400), dtype=bool)
+    used[0, 50:151] = False  # 101 samples: 10.1 s, counted
+    used[1, 50:150] = False  # 100 samples: 10 s, not longer
+    used[2, 50:120] = used[2, 130:181] = False  # two short ones ...
+    received[2, 120:130] = False  # ... joined by lost samples: 50 … 180, counted
+    used[3, 10:130] = used[3, 250:400] = False  # a used sample at 130 ends the first; the second runs to the end
+    np.testing.assert_array_equal(long_mag_rejections(used, received, fs), [1, 0, 1, 2])
+    rng = np.random.default_rng(8)  # random rejections and gaps in runs, against the definition
+    used = np.repeat(rng.random((50, 40)) < 0.7, 10, axis=1)
+    received = np.repeat(rng.random((50, 80)) < 0.8, 5, axis=1)
+    counts = long_mag_rejections(used, received, 2.0)
+    assert counts.sum() > 10
+    want = [_long_rejections_by_runs(u, r, 2.0) for u, r in zip(used, received, strict=True)]
+    np.testing.assert_array_equal(counts, want)
 
 
 def test_a_field_whose_strength_halves_is_used_again_within_seconds():

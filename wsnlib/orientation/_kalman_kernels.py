@@ -841,3 +841,31 @@ def run_kalman(gyr, acc, mag, received, index, q_init, start, init_only, constan
         kalman_stream(gyr[index[n, 0]], acc[index[n, 1]], mag[index[n, 2]], received[index[n, 3]], q_init[n],
                       start[n], init_only, constants[0],
                       (out_q[n], out_bias[n], out_vel[n], out_P[p], acc_used[n], mag_used[n]) + no_records)
+
+
+@njit(**COMPILE)
+def long_rejections(used, received, fs, longest_s, counts):
+    """Per row ``n`` of ``used`` and ``received`` (N, T) bool, into ``counts[n]``: how many times
+    ``used`` stayed False on every received sample for longer than ``longest_s`` (s) at ``fs`` (Hz).
+
+    Lost samples inside do not end a rejection; its length, ``(last − first + 1)/fs``, runs from its
+    first to its last rejected received sample (the magnetometer's long rejections,
+    :func:`wsnlib.orientation.kalman.long_mag_rejections`).  One pass, nothing allocated.
+    """
+    for n in range(used.shape[0]):
+        count = 0
+        first = last = -1  # the current rejection's first and last received samples (-1: none open)
+        for t in range(used.shape[1]):
+            if not received[n, t]:
+                continue
+            if not used[n, t]:
+                if first < 0:
+                    first = t
+                last = t
+                continue
+            if first >= 0 and (last - first + 1) / fs > longest_s:
+                count += 1
+            first = -1
+        if first >= 0 and (last - first + 1) / fs > longest_s:
+            count += 1
+        counts[n] = count

@@ -299,14 +299,10 @@ MAG_LONG_REJECTION_S = 10.0
 def long_mag_rejections(mag_used: np.ndarray, received: np.ndarray, fs: float) -> np.ndarray:
     """Per row of ``mag_used``/``received`` (N, T): how many times the magnetometer stayed rejected on
     every received sample for longer than :data:`MAG_LONG_REJECTION_S` (lost samples inside do
-    not end a rejection; its length runs from its first to its last rejected sample)."""
+    not end a rejection; its length runs from its first to its last rejected sample), counted in
+    one compiled pass (:func:`._kalman_kernels.long_rejections`)."""
     counts = np.zeros(mag_used.shape[0], dtype=np.int64)
-    for n, (used, got) in enumerate(zip(mag_used, received, strict=True)):
-        samples = np.flatnonzero(got)
-        rejected = ~used[samples]
-        edges = np.diff(np.concatenate(([0], rejected.astype(np.int8), [0])))
-        starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
-        counts[n] = int(np.sum((samples[ends] - samples[starts] + 1) / fs > MAG_LONG_REJECTION_S))
+    K.long_rejections(B.kernel_input(mag_used), B.kernel_input(received), float(fs), MAG_LONG_REJECTION_S, counts)
     return counts
 
 
@@ -317,8 +313,8 @@ def _warn_if_magnetometer_unused(mag_used: np.ndarray, received: np.ndarray, lon
     most received samples (a magnet fixed near the sensor, a saturated or frozen sensor, a field
     whose strength changes faster than ``mag_norm_tau_s`` follows): the heading then rests on
     the gyroscope."""
-    settings = settings or KalmanSettings()
-    rejected = float((received & ~mag_used).sum()) / max(int(received.sum()), 1)
+    n_received = np.count_nonzero(received)
+    rejected = (n_received - np.count_nonzero(received & mag_used)) / max(n_received, 1)
     mostly = mag_used.shape[1] >= 3.0 * settings.mag_new_time_s * fs and rejected > MAG_REJECTED_FRACTION
     if long_rejections.any() or mostly:
         warnings.warn(f"the magnetometer was rejected on {rejected:.0%} of the received samples, "
@@ -451,9 +447,10 @@ def kalman_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
     MemoryError
         At once, with the size, if the outputs would not fit in memory.
     """
+    settings = KalmanSettings() if settings is None else settings  # built once: each construction checks every field
     c = constants(settings, fs, gap=gap, replay=replay, gap_time_constant=gap_time_constant,
                   has_mag=mag is not None, filter_name="kalman_orientation")
-    inputs = prepare_inputs(gyr, acc, mag, received, q0, (settings or KalmanSettings()).gravity)
+    inputs = prepare_inputs(gyr, acc, mag, received, q0, settings.gravity)
     hold_output = B.check_output_on_lost(output_on_lost)
     n_batch, n_t, batch = inputs.index.shape[0], inputs.n_t, inputs.batch
     n_floats = 4 + 3 + 3 + (NX * NX if full_output else 0) + 3  # quaternion, bias, velocity, covariance, history
