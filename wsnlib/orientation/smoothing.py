@@ -376,11 +376,9 @@ def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
         As :func:`~wsnlib.orientation.kalman.kalman_orientation`.
     """
     settings = KalmanSettings() if settings is None else settings  # built once: each construction checks every field
-    # (anything but a KalmanSettings is refused by constants() below, after the inputs' checks)
-    inputs = prepare_inputs(gyr, acc, mag, received, q0, (settings or KalmanSettings()).gravity)
-    c = constants(settings, fs, gap=gap, replay=replay,
-                  gap_time_constant=gap_time_constant, has_mag=inputs.has_mag, filter_name="smooth_orientation",
-                  record=True)
+    c = constants(settings, fs, gap=gap, replay=replay, gap_time_constant=gap_time_constant, has_mag=mag is not None,
+                  filter_name="smooth_orientation", record=True)
+    inputs = prepare_inputs(gyr, acc, mag, received, q0, settings.gravity)
     if not isinstance(interpolate_gaps, bool):
         raise ValueError(f"interpolate_gaps must be True or False, got {interpolate_gaps!r}")
     n_batch = inputs.index.shape[0]
