@@ -402,6 +402,16 @@ def test_kalman_filters_refuse_acc_that_does_not_match_their_gravity(name):
     run(gyr, acc / 9.81, mag, fs=50.0, settings=KalmanSettings(gravity=1.0))  # consistent units are fine
 
 
+@pytest.mark.parametrize("name", ["kalman_orientation", "smooth_orientation"])
+def test_kalman_filters_refuse_settings_that_are_not_kalman_settings(name):
+    from wsnlib.orientation import kalman_orientation, smooth_orientation
+
+    run = {"kalman_orientation": kalman_orientation, "smooth_orientation": smooth_orientation}[name]
+    gyr, acc, mag = _still_recording()
+    with pytest.raises(ValueError, match="settings must be a KalmanSettings, got dict"):
+        run(gyr, acc, mag, fs=50.0, settings={"gravity": 9.81})
+
+
 def test_kalman_settings_that_underflow_name_the_field():
     from wsnlib.orientation import KalmanSettings, kalman_orientation
 
