@@ -755,7 +755,7 @@ def new_records(n_t):
     diagonal (``work.noise``).  Not b⁻: it is the previous sample's b⁺ (the prediction keeps the bias).
     Not P⁻: ``P⁻_{k+1} = F_{k+1} P⁺_k F_{k+1}ᵀ + Q_{k+1}`` is recomputed from these
     (:func:`propagate_covariance`, :func:`add_process_noise`: the same operations, so the same bits),
-    which saves 45 of 111 numbers per sample of the smoother's memory."""
+    which takes the smoother's scratch from 118 to 75 numbers per sample."""
     return (np.empty((n_t, 4)), np.empty((n_t, 3)), np.empty((n_t, NP)), np.empty((n_t, 3, 3)), np.empty((n_t, 3)),
             np.empty((n_t, 2)))
 
