@@ -453,8 +453,9 @@ def test_one_implausible_sample_is_treated_as_lost(name):
     for signal, value in (("gyr", 1e6), ("acc", 1e200)):
         bad = {"gyr": gyr.copy(), "acc": acc.copy()}
         bad[signal][100] *= value
-        with pytest.warns(UserWarning, match=r"1 received sample\(s\) with an implausible reading"):
+        with pytest.warns(UserWarning, match=r"1 received sample\(s\) with an implausible reading") as caught:
             out = run(bad["gyr"], bad["acc"], mag)
+        assert [w.filename for w in caught] == [__file__]  # the user's call, at any depth of the library
         assert np.all(np.isfinite(out))
         # a lost sample costs a little; the corrupted sample used to leave tens of degrees for seconds
         assert Q.angle_between(out[150:], clean[150:]).max() < np.radians(5.0)
@@ -471,12 +472,14 @@ def test_kalman_full_output_counts_what_it_treated_as_lost_and_warns_of_an_unuse
     assert out.treated_as_lost.sum() == 2 and out.treated_as_lost[50] and out.treated_as_lost[60]
     frozen = np.broadcast_to(mag[0], mag.shape).copy()
     frozen[:, 0] += np.repeat(np.arange(4), 100) * 1e-3  # updates once in 100 samples
-    with pytest.warns(UserWarning, match="mag is frozen: 99% of the received samples"):
+    with pytest.warns(UserWarning, match="mag is frozen: 99% of the received samples") as caught:
         kalman_orientation(_still_recording(400)[0], acc, frozen, fs=50.0)
+    assert {w.filename for w in caught} == {__file__}
     gyr, acc, mag = _still_recording(4000)  # 80 s: longer than 3 × mag_new_time_s
     magnet = mag + np.where(np.arange(4000)[:, None] >= 500, [0.0, 300.0, 0.0], 0.0)  # a magnet from 10 s on
-    with pytest.warns(UserWarning, match=r"magnetometer was rejected on \d+% of the received samples"):
+    with pytest.warns(UserWarning, match=r"magnetometer was rejected on \d+% of the received samples") as caught:
         kalman_orientation(gyr, acc, magnet, fs=50.0)
+    assert {w.filename for w in caught} == {__file__}
 
 
 def test_a_saturated_magnetometer_is_named():

@@ -11,12 +11,12 @@ import fcntl
 import json
 import os
 import sys
-import warnings
 from collections.abc import Iterator
 from pathlib import Path
 
 from wsnlib import paths
 from wsnlib._files import atomic_write_text, is_temporary, sha256_of
+from wsnlib._warnings import warn_user
 from wsnlib.batch_selection import list_batch, notebook_name
 
 MANIFEST_NAME = "manifest.json"
@@ -123,8 +123,8 @@ def previous_outputs() -> dict[str, list[str]]:
             manifest = json.loads(path.read_text(encoding="utf-8"))
             previous = {e["notebook"]: [o["path"] for o in e.get("outputs", [])] for e in manifest["notebooks"]}
         except (OSError, ValueError, KeyError, TypeError) as exc:
-            warnings.warn(f"{path} is unreadable ({type(exc).__name__}: {exc}); the outputs it listed cannot be "
-                          f"moved aside before their notebooks run again", UserWarning, stacklevel=2)
+            warn_user(f"{path} is unreadable ({type(exc).__name__}: {exc}); the outputs it listed cannot be "
+                      f"moved aside before their notebooks run again")
     root = paths.output_root().resolve()
     for journal in sorted((paths.output_root() / JOURNAL_FOLDER).glob("*.txt")):
         notebook = journal.stem.replace("__", "/")

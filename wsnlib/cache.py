@@ -18,7 +18,6 @@ from __future__ import annotations
 import hashlib
 import json
 import pickle
-import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -26,6 +25,7 @@ from typing import Any
 import wsnlib
 from wsnlib import paths
 from wsnlib._files import atomic_write_bytes
+from wsnlib._warnings import warn_user
 
 #: Bumped when the file layout changes.
 CACHE_VERSION = 1
@@ -75,8 +75,7 @@ def cached(name: str, arguments: dict, compute: Callable[..., Any]) -> Any:
             with open(path, "rb") as handle:
                 return pickle.load(handle)
         except Exception as exc:  # truncated, empty or garbage: any unpickling error
-            warnings.warn(f"{path}: unreadable cache file ({type(exc).__name__}: {exc}); computing {name} again",
-                          UserWarning, stacklevel=2)
+            warn_user(f"{path}: unreadable cache file ({type(exc).__name__}: {exc}); computing {name} again")
     result = compute(**arguments)
     atomic_write_bytes(path, pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL))
     return result

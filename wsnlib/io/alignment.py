@@ -87,7 +87,6 @@ reference series on the IMU's time stamps.
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -95,6 +94,7 @@ from scipy.spatial.transform import Rotation
 
 from wsnlib import quaternion as quat_ops
 from wsnlib._validation import as_float_array, check_positive
+from wsnlib._warnings import warn_user
 from wsnlib.plausibility import check_imu_plausible
 
 #: Residuals beyond this multiple of their median get weight 0 (outliers) in the robust fits.
@@ -243,12 +243,12 @@ def estimate_alignment(gyr, acc, mag, time_s, quat_ref, ref_time_s, *, max_lag_s
     fit = fits[inverse]
     if inverse:
         plain = f"{fits[False].relative_residual:.2f}" if False in fits else "no fit"
-        warnings.warn(f"quat_ref's rates agree with the gyro only when it is read as the inverse rotation (relative "
-                      f"residual {fit.relative_residual:.2f}, against {plain} as given): it is world → marker, or "
-                      f"scalar-last [x, y, z, w], which the rates cannot tell apart.  It was read as the inverse: the "
-                      f"aligned reference (align_reference) is right either way, but sensor_to_marker and "
-                      f"reference_to_enu refer to that reading; fix quat_ref's convention and run again to have them "
-                      f"in the cluster's and the lab's own axes", stacklevel=2)
+        warn_user(f"quat_ref's rates agree with the gyro only when it is read as the inverse rotation (relative "
+                  f"residual {fit.relative_residual:.2f}, against {plain} as given): it is world → marker, or "
+                  f"scalar-last [x, y, z, w], which the rates cannot tell apart.  It was read as the inverse: the "
+                  f"aligned reference (align_reference) is right either way, but sensor_to_marker and "
+                  f"reference_to_enu refer to that reading; fix quat_ref's convention and run again to have them "
+                  f"in the cluster's and the lab's own axes")
 
     sensor_to_marker = fit.marker_to_sensor.inv()
     world = _fit_world(acc, mag, time_s, _read_reference(raw, inverse), ref_time_s, fit.lag_s,

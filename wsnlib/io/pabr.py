@@ -102,13 +102,13 @@ import json
 import logging
 import re
 import urllib.parse
-import warnings
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from wsnlib._validation import check_choice, check_count
+from wsnlib._warnings import warn_user
 from wsnlib.io.download import RegistryEntry, data_folder, download_verified, read_registry
 from wsnlib.io.vectors import RssVectors, window_readings
 
@@ -398,8 +398,8 @@ def _drop_invalid(table: pd.DataFrame, what: str) -> pd.DataFrame:
     table = table.loc[valid & ~repeated].reset_index(drop=True)
     table.attrs.update(n_packets_read=n_read, n_dropped_repeated=n_repeated, n_dropped_invalid_rssi=n_dropped)
     if n_repeated:
-        warnings.warn(f"PABR {what}: dropped {n_repeated} of {n_read} packets that repeat an earlier line exactly "
-                      f"(the same packet stored twice)", UserWarning, stacklevel=3)
+        warn_user(f"PABR {what}: dropped {n_repeated} of {n_read} packets that repeat an earlier line exactly "
+                  f"(the same packet stored twice)")
     logger.info("PABR %s: dropped %d of %d packets with RSSI outside [%g, %g] dBm", what, n_dropped, n_read,
                 RSSI_MIN_DBM, RSSI_MAX_DBM)
     return table
@@ -565,8 +565,8 @@ def load_pabr_tracks(tracks=None, data_dir=None, *, download: bool = True, downl
     table = _drop_invalid(table, "tracks")
     unheard = [name for name in receivers["receiver"] if name not in set(table["receiver"])]
     if unheard:
-        warnings.warn(f"PABR tracks {names}: receiver(s) {unheard} of cnf/tetam.dev heard no valid packet; their "
-                      f"columns of pabr_vectors will be all NaN", UserWarning, stacklevel=2)
+        warn_user(f"PABR tracks {names}: receiver(s) {unheard} of cnf/tetam.dev heard no valid packet; their "
+                  f"columns of pabr_vectors will be all NaN")
     table.attrs["source"] = str(folder)
     return table
 

@@ -78,7 +78,6 @@ The sidecar machinery all CSV + JSON formats share is :mod:`wsnlib.io.sidecar`.
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -86,6 +85,7 @@ import numpy as np
 import pandas as pd
 
 from wsnlib._validation import as_float_array, check_positive, check_type, real_array
+from wsnlib._warnings import warn_user
 from wsnlib.io.sidecar import (
     check_columns,
     check_names,
@@ -345,9 +345,9 @@ def read_recording(path) -> Recording:
         numeric.update(_reference_columns(frame, path, version))
     node_col = name_column(frame, "node", path)
     if meta is None:
-        warnings.warn(f"{path}: no sidecar {sidecar_path(path).name}; fs and the node order are inferred, and a copy "
-                      f"cut short at a row boundary cannot be told from a shorter recording (write_recording "
-                      f"writes the sidecar with the row count and SHA-256)", UserWarning, stacklevel=2)
+        warn_user(f"{path}: no sidecar {sidecar_path(path).name}; fs and the node order are inferred, and a copy "
+                  f"cut short at a row boundary cannot be told from a shorter recording (write_recording "
+                  f"writes the sidecar with the row count and SHA-256)")
         nodes = tuple(dict.fromkeys(node_col))
     else:
         stray = sorted(set(node_col) - set(nodes))

@@ -10,11 +10,11 @@ broadcast copies of the signals), after checking that the output fits in memory,
 from __future__ import annotations
 
 import os
-import warnings
 
 import numpy as np
 
 from wsnlib._validation import as_float_array, check_choice, real_array
+from wsnlib._warnings import warn_user
 from wsnlib.orientation import _kernels as K
 from wsnlib.orientation import gaps
 from wsnlib.plausibility import SAMPLE_NORM_MAX, check_imu_plausible, implausible_samples
@@ -340,8 +340,8 @@ def check_usable(signals: dict[str, np.ndarray], received: np.ndarray, gravity: 
     if implausible is not None and (implausible & received).any():
         n_lost = int((implausible & received).sum())
         limits = ", ".join(f"|{name}| > {SAMPLE_NORM_MAX[name]:g}" for name in signals)
-        warnings.warn(f"{n_lost} received sample(s) with an implausible reading ({limits}; rad/s, m/s², µT) "
-                      f"are treated as lost", UserWarning, stacklevel=3)
+        warn_user(f"{n_lost} received sample(s) with an implausible reading ({limits}; rad/s, m/s², µT) "
+                  f"are treated as lost")
         received = received & ~implausible
     return received
 

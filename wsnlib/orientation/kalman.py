@@ -169,13 +169,13 @@ Madgwick's filter.  The argument checks are Madgwick's (:mod:`wsnlib.orientation
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from wsnlib import quaternion as Q
 from wsnlib._validation import check_flag
+from wsnlib._warnings import warn_user
 from wsnlib.orientation import _batch as B
 from wsnlib.orientation import _kalman_kernels as K
 from wsnlib.orientation import gaps
@@ -232,8 +232,8 @@ def prepare_inputs(gyr, acc, mag, received, q0, gravity: float) -> KalmanInputs:
         mask = B.check_usable(signals, mask, gravity)
         problem = None if mag is None else magnetometer_problem(signals["mag"], mask)
         if problem:
-            warnings.warn(f"{problem}; the filter's magnetometer gates will reject it, and the heading then rests "
-                          f"on the gyroscope alone", UserWarning, stacklevel=3)
+            warn_user(f"{problem}; the filter's magnetometer gates will reject it, and the heading then rests "
+                      f"on the gyroscope alone")
     if q0 is None:
         B.check_has_sample(mask, batch)
     has_mag = mag is not None
@@ -317,11 +317,10 @@ def _warn_if_magnetometer_unused(mag_used: np.ndarray, received: np.ndarray, lon
     rejected = (n_received - np.count_nonzero(received & mag_used)) / max(n_received, 1)
     mostly = mag_used.shape[1] >= 3.0 * settings.mag_new_time_s * fs and rejected > MAG_REJECTED_FRACTION
     if long_rejections.any() or mostly:
-        warnings.warn(f"the magnetometer was rejected on {rejected:.0%} of the received samples, "
-                      f"{int(long_rejections.sum())} time(s) for longer than {MAG_LONG_REJECTION_S:g} s (saturated, "
-                      f"frozen, a magnetic disturbance, or a field strength that drifts?): the heading rests on the "
-                      f"gyroscope there; full_output's mag_used and long_mag_rejections say where",
-                      UserWarning, stacklevel=3)
+        warn_user(f"the magnetometer was rejected on {rejected:.0%} of the received samples, "
+                  f"{int(long_rejections.sum())} time(s) for longer than {MAG_LONG_REJECTION_S:g} s (saturated, "
+                  f"frozen, a magnetic disturbance, or a field strength that drifts?): the heading rests on the "
+                  f"gyroscope there; full_output's mag_used and long_mag_rejections say where")
 
 
 def check_finite_output(quat: np.ndarray) -> np.ndarray:

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import contextlib
 import unittest.mock
-import warnings
 from pathlib import Path
 
 import matplotlib as mpl
@@ -27,6 +26,7 @@ from matplotlib.text import Text
 
 from wsnlib import paths
 from wsnlib._files import atomic_path
+from wsnlib._warnings import warn_user
 
 #: The Okabe–Ito palette (colour-blind safe): the only colours of the notebooks' figures, plus
 #: ``"grey"`` for references and context.  :func:`use_style` makes it matplotlib's colour cycle.
@@ -355,4 +355,4 @@ def _check_legibility(fig: mpl.figure.Figure, name: str, drawn: list[Text]) -> N
                "narrower figure")
     if paths.in_batch():
         raise ValueError(message)
-    warnings.warn(message, stacklevel=3)
+    warn_user(message)
