@@ -38,7 +38,7 @@ quick: $(STAMP)
 test: $(STAMP)
 	$(VENV)/bin/ruff check .
 	$(PY) -m pytest tests/test_notebooks.py -m notebook
-	$(PY) -m pytest -n $(JOBS) --dist loadfile -m "not notebook and not browser and not lab"
+	$(PY) -m pytest -n $(JOBS) --dist loadfile --no-loadscope-reorder -m "not notebook and not browser and not lab"
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
