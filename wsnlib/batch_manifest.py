@@ -16,7 +16,7 @@ from pathlib import Path
 
 from wsnlib import paths
 from wsnlib._files import atomic_write_text, is_temporary, sha256_of
-from wsnlib._warnings import warn_user
+from wsnlib._user_warnings import warn_user
 from wsnlib.batch_selection import list_batch, notebook_name
 
 MANIFEST_NAME = "manifest.json"

@@ -25,7 +25,7 @@ from typing import Any
 import wsnlib
 from wsnlib import paths
 from wsnlib._files import atomic_write_bytes
-from wsnlib._warnings import warn_user
+from wsnlib._user_warnings import warn_user
 
 #: Bumped when the file layout changes.
 CACHE_VERSION = 1

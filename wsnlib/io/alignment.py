@@ -93,8 +93,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from wsnlib import quaternion as quat_ops
+from wsnlib._user_warnings import warn_user
 from wsnlib._validation import as_float_array, check_positive
-from wsnlib._warnings import warn_user
 from wsnlib.plausibility import check_imu_plausible
 
 #: Residuals beyond this multiple of their median get weight 0 (outliers) in the robust fits.

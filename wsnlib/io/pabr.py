@@ -107,8 +107,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from wsnlib._user_warnings import warn_user
 from wsnlib._validation import check_choice, check_count
-from wsnlib._warnings import warn_user
 from wsnlib.io.download import RegistryEntry, data_folder, download_verified, read_registry
 from wsnlib.io.vectors import RssVectors, window_readings
 

@@ -84,8 +84,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from wsnlib._user_warnings import warn_user
 from wsnlib._validation import as_float_array, check_positive, check_type, real_array
-from wsnlib._warnings import warn_user
 from wsnlib.io.sidecar import (
     check_columns,
     check_names,

@@ -13,8 +13,8 @@ import os
 
 import numpy as np
 
+from wsnlib._user_warnings import warn_user
 from wsnlib._validation import as_float_array, check_choice, real_array
-from wsnlib._warnings import warn_user
 from wsnlib.orientation import _kernels as K
 from wsnlib.orientation import gaps
 from wsnlib.plausibility import SAMPLE_NORM_MAX, check_imu_plausible, implausible_samples

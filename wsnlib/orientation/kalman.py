@@ -174,8 +174,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from wsnlib import quaternion as Q
+from wsnlib._user_warnings import warn_user
 from wsnlib._validation import check_flag
-from wsnlib._warnings import warn_user
 from wsnlib.orientation import _batch as B
 from wsnlib.orientation import _kalman_kernels as K
 from wsnlib.orientation import gaps

@@ -26,7 +26,7 @@ from matplotlib.text import Text
 
 from wsnlib import paths
 from wsnlib._files import atomic_path
-from wsnlib._warnings import warn_user
+from wsnlib._user_warnings import warn_user
 
 #: The Okabe–Ito palette (colour-blind safe): the only colours of the notebooks' figures, plus
 #: ``"grey"`` for references and context.  :func:`use_style` makes it matplotlib's colour cycle.
