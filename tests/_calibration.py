@@ -2,7 +2,7 @@
 
 The library holds the calibrated settings (:data:`~wsnlib.sim.disturbance.UNDISTURBED_BROAD`,
 :data:`~wsnlib.sim.disturbance.DISTURBED_BROAD`) and TRIAD's recorded errors on BROAD
-(:data:`~wsnlib.sim.disturbance.BROAD_TRIAD_ERROR_DEG`); this module holds how they were
+(:data:`~wsnlib.sim.triad_calibration.BROAD_TRIAD_ERROR_DEG`); this module holds how they were
 obtained: the grid fit (:func:`calibrate_disturbance` over :data:`CALIBRATION_GRIDS`) and the
 recording of TRIAD's errors from the BROAD files (:func:`broad_triad_errors` on
 :data:`BROAD_CALIBRATION_TRIALS`, :func:`broad_triad_statistics`).
@@ -22,19 +22,17 @@ import pandas as pd
 
 from wsnlib import frames
 from wsnlib import quaternion as Q
-from wsnlib.sim.disturbance import (
+from wsnlib.sim.disturbance import CALIBRATION_BASE, Disturbance, _grid_setting
+from wsnlib.sim.triad_calibration import (
     BROAD_GROUPS,
     BROAD_TRIAD_ERROR_DEG,
-    CALIBRATION_BASE,
     ERROR_KINDS,
-    Disturbance,
-    _grid_setting,
     error_statistics,
     error_table,
     simulated_triad_errors,
 )
 
-#: The BROAD trials :data:`~wsnlib.sim.disturbance.BROAD_TRIAD_ERROR_DEG` comes from (the 17 shared ones).
+#: The BROAD trials :data:`~wsnlib.sim.triad_calibration.BROAD_TRIAD_ERROR_DEG` comes from (the 17 shared ones).
 BROAD_CALIBRATION_TRIALS = (
     "02_undisturbed_slow_rotation_B", "04_undisturbed_slow_rotation_with_breaks_A",
     "05_undisturbed_slow_rotation_with_breaks_B", "07_undisturbed_fast_rotation_B",

@@ -1,4 +1,5 @@
-"""Tests of the simulator's magnetic disturbance and acceleration-rich motion (wsnlib.sim.disturbance)."""
+"""Tests of the simulator's magnetic disturbance and acceleration-rich motion (wsnlib.sim.disturbance) and
+of its calibration against BROAD (wsnlib.sim.triad_calibration)."""
 
 import dataclasses
 import os
@@ -13,6 +14,7 @@ from wsnlib import quaternion as Q
 from wsnlib.io import broad
 from wsnlib.loss import LossProfile
 from wsnlib.sim import disturbance as D
+from wsnlib.sim import triad_calibration as TC
 from wsnlib.sim.arm import arm_kinematics, movement_set
 from wsnlib.sim.imu import ImuSpec, simulate_imu
 from wsnlib.sim.trials import arm_loss_trials
@@ -113,14 +115,14 @@ def test_passing_dipole_is_time_local(truth):
 
 def test_calibrated_simulator_matches_broad_within_tolerance():
     for seed in (3, 4):
-        for group in D.BROAD_GROUPS:
-            stats = D.error_statistics(D.simulated_triad_errors(
+        for group in TC.BROAD_GROUPS:
+            stats = TC.error_statistics(TC.simulated_triad_errors(
                 D.BROAD_CALIBRATED[group], rng=np.random.default_rng(seed), n_repetitions=32)["total"])
             for stat in ("median", "p90"):
-                target = D.BROAD_TRIAD_ERROR_DEG[group]["total"][stat]
+                target = TC.BROAD_TRIAD_ERROR_DEG[group]["total"][stat]
                 assert abs(stats[stat] / target - 1.0) < C.CALIBRATION_TOLERANCE, (seed, group, stat, stats)
-    clean = D.error_statistics(D.simulated_triad_errors(None, rng=np.random.default_rng(3), n_repetitions=4)["total"])
-    assert clean["p90"] < 0.25 * D.BROAD_TRIAD_ERROR_DEG["undisturbed"]["total"]["median"]
+    clean = TC.error_statistics(TC.simulated_triad_errors(None, rng=np.random.default_rng(3), n_repetitions=4)["total"])
+    assert clean["p90"] < 0.25 * TC.BROAD_TRIAD_ERROR_DEG["undisturbed"]["total"]["median"]
 
 
 def test_calibrated_point_beats_its_grid_neighbours():
@@ -131,10 +133,10 @@ def test_calibrated_point_beats_its_grid_neighbours():
 
 
 def test_calibration_table_layout():
-    table = D.triad_calibration_table(n_repetitions=2)
-    assert list(table.index) == [(g, k) for g in D.BROAD_GROUPS for k in D.ERROR_KINDS]
+    table = TC.triad_calibration_table(n_repetitions=2)
+    assert list(table.index) == [(g, k) for g in TC.BROAD_GROUPS for k in TC.ERROR_KINDS]
     assert table.notna().all().all()
-    assert table.loc[("undisturbed", "total"), "BROAD median (°)"] == D.BROAD_TRIAD_ERROR_DEG["undisturbed"][
+    assert table.loc[("undisturbed", "total"), "BROAD median (°)"] == TC.BROAD_TRIAD_ERROR_DEG["undisturbed"][
         "total"]["median"]
 
 
@@ -171,7 +173,7 @@ def test_gravity_reference_unchanged():
 def test_recorded_broad_statistics_match_the_files():
     errors = C.broad_triad_errors(C.BROAD_CALIBRATION_TRIALS, data_dir=BROAD_DIR)
     stats = C.broad_triad_statistics(errors)
-    for group in D.BROAD_GROUPS:
-        for kind in D.ERROR_KINDS:
+    for group in TC.BROAD_GROUPS:
+        for kind in TC.ERROR_KINDS:
             for stat in ("median", "p90"):
-                assert stats[group][kind][stat] == pytest.approx(D.BROAD_TRIAD_ERROR_DEG[group][kind][stat], abs=0.006)
+                assert stats[group][kind][stat] == pytest.approx(TC.BROAD_TRIAD_ERROR_DEG[group][kind][stat], abs=0.006)

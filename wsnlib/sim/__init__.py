@@ -1,8 +1,8 @@
 """Simulation of both papers' set-ups; this package gathers the public names of its modules.
 
 Paper 001's two-node arm: joint-angle trajectories and their exact kinematics (:mod:`.arm`),
-and the IMU sensors (:mod:`.imu`; disturbances calibrated against BROAD in
-:mod:`.disturbance`, Monte Carlo trials with packet loss in :mod:`.trials`)::
+and the IMU sensors (:mod:`.imu`; disturbances in :mod:`.disturbance`, calibrated against BROAD
+with :mod:`.triad_calibration`; Monte Carlo trials with packet loss in :mod:`.trials`)::
 
     rng = np.random.default_rng(seed)
     trajectory = arm_extension(fs=50.0)
@@ -32,20 +32,21 @@ Which notebook each module serves (directly, or through :mod:`wsnlib.studies`; "
 solutions notebook of the same number; notebook 05 uses only the arm, for the paper's movement,
 notebooks 10 and 11 nothing, and ``benchmarks/bench_madgwick.py`` uses :mod:`.arm` and :mod:`.imu`):
 
-=====================  =================================================================================
-module                 notebooks
-=====================  =================================================================================
-:mod:`.arm`            01–05, sol 01–04
-:mod:`.imu`            01–04, sol 01–04
-:mod:`.disturbance`    01–04, sol 03 (calibrated in 03; 01, 02 and 04 simulate with its ``UNDISTURBED_BROAD``)
-:mod:`.trials`         02–04, sol 03, sol 04
-:mod:`.body`           06–09, sol 06–09
-:mod:`.arm_motion`     06–09, sol 06–09
-:mod:`.radio`          06–09, sol 06–09 (08 also perturbs the channel: radio sensitivity)
-:mod:`.sunspot`        07–09, sol 07–09
-:mod:`.optical`        Kinect 07–09 and sol 07–09; the hand-derived reference 09 only
-:mod:`.campaign`       06 and sol 06 (``simulate_campaign``); 07–09 and sol 07–09 (``dynamic_campaign``)
-=====================  =================================================================================
+==========================  =================================================================================
+module                      notebooks
+==========================  =================================================================================
+:mod:`.arm`                 01–05, sol 01–04
+:mod:`.imu`                 01–04, sol 01–04
+:mod:`.disturbance`         01–04, sol 03 (calibrated in 03; 01, 02 and 04 simulate with its ``UNDISTURBED_BROAD``)
+:mod:`.triad_calibration`   03 (TRIAD's error, simulated against BROAD: the calibration's fit)
+:mod:`.trials`              02–04, sol 03, sol 04
+:mod:`.body`                06–09, sol 06–09
+:mod:`.arm_motion`          06–09, sol 06–09
+:mod:`.radio`               06–09, sol 06–09 (08 also perturbs the channel: radio sensitivity)
+:mod:`.sunspot`             07–09, sol 07–09
+:mod:`.optical`             Kinect 07–09 and sol 07–09; the hand-derived reference 09 only
+:mod:`.campaign`            06 and sol 06 (``simulate_campaign``); 07–09 and sol 07–09 (``dynamic_campaign``)
+==========================  =================================================================================
 """
 
 from wsnlib.sim.arm import (
