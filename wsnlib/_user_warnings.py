@@ -16,9 +16,14 @@ PACKAGE_DIR = str(Path(__file__).resolve().parent)
 
 
 def warn_user(message: str, category: type[Warning] = UserWarning) -> None:
-    """``warnings.warn(message, category)`` attributed to the innermost frame outside the package
-    (a notebook cell, a test, a script), so that the warning names the user's call."""
+    """``warnings.warn(message, category)`` attributed to the innermost frame outside the package (a
+    notebook cell, a script, a test), so that the warning names the user's call; from a command line
+    of the package (``python -m wsnlib…``, called by the interpreter's own frozen ``runpy``), to the
+    package's outermost frame."""
     frame, level = sys._getframe(1), 2  # level 2: warn_user's caller
-    while frame is not None and frame.f_code.co_filename.startswith(PACKAGE_DIR):
-        frame, level = frame.f_back, level + 1
+    while frame.f_code.co_filename.startswith(PACKAGE_DIR):
+        outer = frame.f_back
+        if outer is None or outer.f_code.co_filename.startswith("<frozen"):
+            break
+        frame, level = outer, level + 1
     warnings.warn(message, category, stacklevel=level)
