@@ -267,7 +267,10 @@ def test_command_line_on_recording_files(tmp_path, capsys):
                 "not a loss profile": (tmp_path / "walk.csv", "--loss", "gilbert:0.1"),
                 "--loss applies to recording files": ("--loss", "ge:0.1"),
                 "--methods: no method 'kalman'; the registry has 'hold_last'": (tmp_path / "walk.csv", "--methods",
-                                                                                "Kalman", "kalman")}
+                                                                                "Kalman", "kalman"),
+                "argument --jobs: '0': needs a whole number >= 1, or -1 (one per core)": (tmp_path / "walk.csv",
+                                                                                           "--jobs", "0"),
+                "argument --draws: '0': needs a whole number >= 1": (tmp_path / "walk.csv", "--draws", "0")}
     for said, args in refusals.items():
         status, _, stderr = run_here(capsys, *args)
         assert status != 0 and said in stderr, (args, stderr)

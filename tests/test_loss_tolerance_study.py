@@ -148,6 +148,17 @@ def test_run_jobs_keeps_the_jobs_order_and_checks_its_arguments():
         run_jobs(pow, jobs, scheduler=8786)
 
 
+def test_local_workers_counts_what_run_jobs_starts():
+    import joblib
+
+    from wsnlib.parallel import local_workers
+
+    assert local_workers(-1) == joblib.cpu_count() and local_workers(3) == 3
+    for bad in (0, -2, 1.5, True):
+        with pytest.raises(ValueError, match="n_jobs"):
+            local_workers(bad)
+
+
 def test_settings_grid():
     grid = lt.settings_grid({"mag_norm_gate": 0.05}, replay=(True, False), acc_innovation_gate=(13.8, 6.0))
     assert grid == ({"mag_norm_gate": 0.05, "replay": True, "acc_innovation_gate": 13.8},

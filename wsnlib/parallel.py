@@ -22,7 +22,7 @@ from collections.abc import Callable, Iterable
 
 import joblib
 
-__all__ = ["CONNECT_TIMEOUT_S", "connect", "run_jobs"]
+__all__ = ["CONNECT_TIMEOUT_S", "connect", "local_workers", "run_jobs"]
 
 #: How long to wait for a Dask scheduler to answer (s).
 CONNECT_TIMEOUT_S = 10
@@ -32,6 +32,13 @@ def _check_n_jobs(n_jobs) -> int:
     if isinstance(n_jobs, bool) or not isinstance(n_jobs, int) or not (n_jobs >= 1 or n_jobs == -1):
         raise ValueError(f"n_jobs must be a positive integer or -1 (one process per core), got {n_jobs!r}")
     return n_jobs
+
+
+def local_workers(n_jobs: int) -> int:
+    """How many local processes :func:`run_jobs` uses for ``n_jobs`` (-1: one per core, as joblib counts
+    them: the cores this process may use)."""
+    n_jobs = _check_n_jobs(n_jobs)
+    return joblib.cpu_count() if n_jobs == -1 else n_jobs
 
 
 def connect(address: str):
