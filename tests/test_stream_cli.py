@@ -93,3 +93,24 @@ def test_loss_spec():
     for bad in ("ge", "ge:1.5", "ge:0.1:0.5", "burst:1:2", "ge:x"):
         with pytest.raises(Exception, match="not a loss"):
             loss_spec(bad)
+
+
+def test_the_command_line_refuses_bad_arguments_with_a_message(tmp_path, capsys):
+    from wsnlib.stream.__main__ import main
+
+    recording = str(_recording(tmp_path, n=60))
+    (tmp_path / "my_trial.mat").write_bytes(b"")  # a .mat file is read as a BROAD trial, by its name
+    refusals = {
+        ("send", str(tmp_path / "nothere.mat"), "--port", "5005"): "nothere.mat: no such file",
+        ("send", str(tmp_path / "my_trial.mat"), "--port", "5005"): "my_trial.mat: unknown BROAD trial 'my_trial'",
+        ("send", recording, "--port", "0"): "argument --port: '0': needs a whole number 1-65535",
+        ("send", recording, "--port", "5005", "--samples-per-packet", "0"): "'0': needs a whole number 1-32",
+        ("send", recording, "--port", "5005", "--fs", "-3"): "argument --fs: '-3': needs a number > 0",
+        ("receive", "--port", "70000", "--out", str(tmp_path / "x.csv")): "'70000': needs a whole number 0-65535",
+    }
+    for args, said in refusals.items():
+        with pytest.raises(SystemExit) as stopped:
+            main(list(args))
+        code = stopped.value.code
+        assert code not in (0, None), args
+        assert said in capsys.readouterr().err + (code if isinstance(code, str) else ""), args
