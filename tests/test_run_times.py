@@ -35,7 +35,7 @@ def test_the_sentence_takes_the_manifests_seconds(notebooks, tmp_path):
     assert run_times.update_run_times(full, quick, month="November 2026") == []  # nothing left to change
 
 
-def test_a_failed_run_or_a_missing_sentence_is_refused(notebooks, tmp_path):
+def test_a_failed_run_or_a_missing_sentence_is_refused(notebooks, tmp_path, capsys):
     with pytest.raises(ValueError, match="not every notebook ran ok"):
         run_times.update_run_times(_manifest(tmp_path / "f.json", 3, "failed"), _manifest(tmp_path / "q.json", 1))
     nb = nbformat.read(notebooks / "01_a.ipynb", as_version=4)
@@ -43,6 +43,9 @@ def test_a_failed_run_or_a_missing_sentence_is_refused(notebooks, tmp_path):
     nbformat.write(nb, notebooks / "01_a.ipynb")
     with pytest.raises(ValueError, match="no run-time sentence"):
         run_times.update_run_times(_manifest(tmp_path / "f.json", 3), _manifest(tmp_path / "q.json", 1))
+    with pytest.raises(SystemExit):  # the command line names a missing manifest (no traceback)
+        run_times.main([str(tmp_path / "f.json"), str(tmp_path / "missing.json")])
+    assert "missing.json: no such file" in capsys.readouterr().err
 
 
 def test_side_by_side_runs_are_named_in_the_sentence(notebooks, tmp_path):

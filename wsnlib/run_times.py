@@ -90,10 +90,13 @@ def update_run_times(full_manifest, quick_manifest, month: str | None = None) ->
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m wsnlib.run_times", description=__doc__.splitlines()[0])
     parser.add_argument("full_manifest", type=Path)
     parser.add_argument("quick_manifest", type=Path)
     args = parser.parse_args(argv)
+    for manifest in (args.full_manifest, args.quick_manifest):
+        if not manifest.is_file():
+            parser.error(f"{manifest}: no such file (a batch's data/processed/manifest.json)")
     for name in update_run_times(args.full_manifest, args.quick_manifest):
         print(f"updated {name}")
     return 0
