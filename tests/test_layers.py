@@ -22,7 +22,7 @@ ROOT = Path(wsnlib.__file__).parent
 #: The layers from the bottom up, and the top-level modules and packages of wsnlib in each.
 LAYERS = {
     "core":       "__init__ quaternion frames testbed arm_model loss metrics paths _files _validation _user_warnings "
-                  "paper_values cache fixed_order parallel plausibility",
+                  "_arguments paper_values cache fixed_order parallel plausibility",
     "io":         "io",
     "algorithms": "orientation radio posture optimize tuning loto stats stream",
     "sim":        "sim",

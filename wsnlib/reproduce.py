@@ -87,6 +87,7 @@ from pathlib import Path
 from unittest import mock
 
 from wsnlib import paths
+from wsnlib._arguments import positive_number, whole_number
 from wsnlib._files import WRITTEN_LOG_ENV
 from wsnlib._validation import check_count
 from wsnlib.batch_manifest import (
@@ -331,17 +332,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("-p", "--parameter", nargs=2, action="append", default=[], metavar=("NAME", "VALUE"),
                         help="override a notebook parameter (VALUE is a Python literal); repeatable")
     parser.add_argument("--kernel", default=paths.KERNEL_NAME, help="Jupyter kernel name (default: %(default)s)")
-    parser.add_argument("--cell-timeout", type=float, default=DEFAULT_CELL_TIMEOUT_S, metavar="SECONDS",
+    parser.add_argument("--cell-timeout", type=positive_number, default=DEFAULT_CELL_TIMEOUT_S, metavar="SECONDS",
                         help="stop the batch when one cell runs longer than this (default: %(default)g s)")
-    parser.add_argument("--jobs", type=int, default=1, metavar="N",
+    parser.add_argument("--jobs", type=whole_number(1), default=1, metavar="N",
                         help="run up to N notebooks at a time, each in its own kernel (default: %(default)s)")
     args = parser.parse_args(argv)
     if args.only is not None and not args.only.strip():
         parser.error("--only needs a non-empty PATTERN (leave --only out to run every notebook)")
-    if args.jobs < 1:
-        parser.error(f"--jobs must be at least 1, got {args.jobs}")
-    if not args.cell_timeout > 0 or args.cell_timeout == float("inf"):
-        parser.error(f"--cell-timeout must be a positive number of seconds, got {args.cell_timeout!r}")
     notebooks = list_batch(args.only)
     if not notebooks:
         names = ", ".join(notebook_name(nb) for nb in list_batch())

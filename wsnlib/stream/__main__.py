@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from wsnlib._arguments import positive_number, whole_number
 from wsnlib.loss import SAMPLES_PER_PACKET, gilbert_elliott, packets_to_samples
 from wsnlib.stream.packet import LAYOUTS, MAX_REDUNDANCY, MAX_SAMPLES_PER_PACKET, REDUNDANCY_BITS
 from wsnlib.stream.receiver import DEFAULT_REORDER, Receiver, ReceiverOutput
@@ -72,39 +73,16 @@ def _speed(text: str) -> float | None:
     return value
 
 
-def _whole(lowest: int, highest: int):
-    """An argparse type: a whole number in ``lowest`` … ``highest``."""
-    def whole(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            value = lowest - 1
-        if not lowest <= value <= highest:
-            raise argparse.ArgumentTypeError(f"{text!r}: needs a whole number {lowest}-{highest}")
-        return value
-    return whole
-
-
-def _positive(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = -1.0
-    if not 0.0 < value < float("inf"):
-        raise argparse.ArgumentTypeError(f"{text!r}: needs a number > 0")
-    return value
-
-
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m wsnlib.stream",
                                      description="Replay a recording as packets over UDP, and receive them.")
     commands = parser.add_subparsers(dest="command", required=True)
     send = commands.add_parser("send", help="replay a recording as packets to 127.0.0.1:PORT")
     send.add_argument("recording", type=Path, help="a BROAD .mat file, or a recording .csv/.json (wsnlib.io.recording)")
-    send.add_argument("--port", type=_whole(1, 65535), required=True)
+    send.add_argument("--port", type=whole_number(1, 65535), required=True)
     send.add_argument("--loss", type=loss_spec, default=None, help="'none' or 'ge:RATE[:MEAN_BURST]' (default none)")
     send.add_argument("--seed", type=int, default=0, help="seed of the loss draw (default 0)")
-    send.add_argument("--fs", type=_positive, default=None,
+    send.add_argument("--fs", type=positive_number, default=None,
                       help=f"rate to send at (Hz; default {BROAD_SEND_FS:g} for BROAD, else the recording's own)")
     send.add_argument("--speed", type=_speed, default=1.0, help="1 real time (default), 2 twice as fast, 'max'")
     send.add_argument("--redundancy", type=int, default=0, choices=range(MAX_REDUNDANCY + 1), metavar="K",
@@ -113,12 +91,12 @@ def _parser() -> argparse.ArgumentParser:
                       metavar="BITS", help="bits per summary value (default 12)")
     send.add_argument("--layout", choices=LAYOUTS, default="doubling", help="summary layout (default doubling)")
     send.add_argument("--node", type=int, default=0, help="id of the (first) node (default 0)")
-    send.add_argument("--samples-per-packet", type=_whole(1, MAX_SAMPLES_PER_PACKET), default=SAMPLES_PER_PACKET,
+    send.add_argument("--samples-per-packet", type=whole_number(1, MAX_SAMPLES_PER_PACKET), default=SAMPLES_PER_PACKET,
                       metavar="N",
                       help=f"samples per packet, 1-{MAX_SAMPLES_PER_PACKET} (default {SAMPLES_PER_PACKET})")
     send.add_argument("--dump", type=Path, default=None, help="write what the receiver should reconstruct (.npz)")
     receive = commands.add_parser("receive", help="receive on 127.0.0.1:PORT, one CSV row per sample")
-    receive.add_argument("--port", type=_whole(0, 65535), required=True, help="0: a free port (printed)")
+    receive.add_argument("--port", type=whole_number(0, 65535), required=True, help="0: a free port (printed)")
     receive.add_argument("--out", type=Path, required=True)
     receive.add_argument("--latency", type=int, default=0, help="samples of fixed-lag smoothing (default 0)")
     receive.add_argument("--reorder", type=int, default=DEFAULT_REORDER,

@@ -52,6 +52,7 @@ import numpy as np
 import pandas as pd
 
 from wsnlib import parallel
+from wsnlib._arguments import whole_number
 from wsnlib.io.broad import broad_trials
 from wsnlib.loss import SAMPLES_PER_PACKET, LossProfile
 from wsnlib.studies import loss_tolerance as study
@@ -91,23 +92,12 @@ def loss_profile(spec: str) -> LossProfile:
                                      f"'ge:RATE[:MEAN_BURST[:PACKET]]' or 'burst:START_S:PACKETS[:PERIOD_S[:PACKET]]'")
 
 
-def _count(text: str) -> int:
-    """A whole number ≥ 1 (``--budget``, ``--draws``)."""
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{text!r}: needs a whole number >= 1")
-    return value
-
-
 def _jobs(text: str) -> int:
     """``--jobs``: a whole number ≥ 1, or -1 (one per core)."""
     if text.strip() == "-1":
         return -1
     try:
-        return _count(text)
+        return whole_number(1)(text)
     except argparse.ArgumentTypeError:
         raise argparse.ArgumentTypeError(f"{text!r}: needs a whole number >= 1, or -1 (one per core)") from None
 
@@ -120,7 +110,7 @@ def _parser() -> argparse.ArgumentParser:
                         help="recording files (wsnlib.io.recording: the CSV or its JSON sidecar); none: BROAD")
     parser.add_argument("--loss", action="append", type=loss_profile, metavar="SPEC", help=LOSS_HELP)
     parser.add_argument("--quick", action="store_true", help="2 settings per method (and 2 BROAD trials)")
-    parser.add_argument("--budget", type=_count, metavar="N",
+    parser.add_argument("--budget", type=whole_number(1), metavar="N",
                         help="settings per method, log-spaced between the physical bounds of its search space "
                              f"(default {study.DEFAULT_BUDGET})")
     parser.add_argument("--jobs", type=_jobs, default=-1, metavar="N",
@@ -128,7 +118,8 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="run on the Dask cluster of this scheduler, e.g. tcp://host:8786")
     parser.add_argument("--seed", type=int, default=2021, help="seed of the loss masks and the bootstrap")
-    parser.add_argument("--draws", type=_count, default=1, help="Gilbert-Elliott masks per recording node and profile")
+    parser.add_argument("--draws", type=whole_number(1), default=1,
+                        help="Gilbert-Elliott masks per recording node and profile")
     parser.add_argument("--trials", nargs="+", metavar="NAME", help="BROAD trial names (default: every one present)")
     parser.add_argument("--methods", nargs="+", metavar="NAME",
                         help="only these methods of notebook 10's registry, e.g. 'Kalman' 'VQF' (default: every "
