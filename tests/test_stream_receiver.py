@@ -208,3 +208,19 @@ def test_receiver_arguments_are_checked():
         Receiver(FS, latency=-1)
     with pytest.raises(ValueError, match="no packet from node"):
         Receiver(FS).filter_state(3)
+
+
+def test_encode_stream_refuses_a_node_id_or_packet_index_the_header_cannot_hold():
+    """A node id outside 16 bits was cut to its low bits (node 70000 arrived as node 4464), and a packet
+    index outside the stream was read from the wrong packet (-1: the last one)."""
+    stream = _stream(n=60)
+    refusals = {"node must be a non-negative integer": {"node": -1},
+                "node must be an integer in \\[0, 65535\\]": {"node": 70000},
+                "first_seq must be a non-negative integer": {"first_seq": -2},
+                "packets must be indices in \\[0, 9\\]": {"packets": [0, 10]},
+                "packets must be indices in \\[0, 9\\].*got -1": {"packets": [-1]},
+                "packets must be a 1-D array of packet indices": {"packets": [0.5]}}
+    for said, options in refusals.items():
+        with pytest.raises(ValueError, match=said):
+            encode_stream(stream, **options)
+    assert decode_packet(encode_stream(stream, node=65535)[0]).node == 65535 and encode_stream(stream, packets=[]) == []

@@ -214,10 +214,19 @@ def _mean_acc(acc: np.ndarray, starts, stops, layout_code: int, k_max: int) -> n
 
 def encode_stream(stream: NodeStream, *, node: int = 0, packets=None, first_seq: int = 0) -> list[bytes]:
     """The bytes of packets ``packets`` (indices; default all) of ``stream``, sequence numbers
-    ``first_seq + p`` (mod 65536)."""
+    ``first_seq + p`` (mod 65536); ``node`` in 0 … 65535 (the header's 16 bits)."""
     if not isinstance(stream, NodeStream):
         raise ValueError(f"stream must be a NodeStream (node_stream), got {type(stream).__name__}")
-    index = np.arange(stream.n_packets) if packets is None else np.asarray(packets, dtype=np.int64)
+    if check_count(node, "node", minimum=0) > 0xFFFF:  # the header would keep its low 16 bits: another node
+        raise ValueError(f"node must be an integer in [0, 65535], got {node!r}")
+    check_count(first_seq, "first_seq", minimum=0)
+    index = np.arange(stream.n_packets) if packets is None else np.asarray(packets)
+    if index.ndim != 1 or not (index.size == 0 or np.issubdtype(index.dtype, np.integer)):
+        raise ValueError(f"packets must be a 1-D array of packet indices, got shape {index.shape}, dtype {index.dtype}")
+    index = index.astype(np.int64)
+    if index.size and not (0 <= index.min() and index.max() < stream.n_packets):
+        raise ValueError(f"packets must be indices in [0, {stream.n_packets - 1}] (the stream's packets), got "
+                         f"{int(index.min())} … {int(index.max())}")
     spp, out = stream.samples_per_packet, {}
     n = np.minimum(spp, stream.n_samples - index * spp)
     shapes = np.stack([n, stream.summary_k[index]], axis=1)
