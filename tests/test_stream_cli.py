@@ -107,6 +107,11 @@ def test_the_command_line_refuses_bad_arguments_with_a_message(tmp_path, capsys)
         ("send", recording, "--port", "5005", "--samples-per-packet", "0"): "'0': needs a whole number 1-32",
         ("send", recording, "--port", "5005", "--fs", "-3"): "argument --fs: '-3': needs a number > 0",
         ("receive", "--port", "70000", "--out", str(tmp_path / "x.csv")): "'70000': needs a whole number 0-65535",
+        ("send", recording, "--port", "5005", "--node", "65535"): "the recording's 2 nodes need ids up to 65535",
+        ("send", recording, "--port", "5005", "--speed", "0"): "argument --speed: '0': needs a number > 0, or 'max'",
+        ("receive", "--port", "0", "--out", "x.csv", "--latency", "-1"): "'-1': needs a whole number >= 0",
+        ("receive", "--port", "0", "--out", "x.csv", "--reorder", "0"): "'0': needs a whole number >= 1",
+        ("receive", "--port", "0", "--out", "x.csv", "--idle-exit", "-2"): "'-2': needs a number > 0",
     }
     for args, said in refusals.items():
         with pytest.raises(SystemExit) as stopped:

@@ -62,15 +62,13 @@ def loss_spec(spec: str) -> tuple[float, float] | None:
 
 
 def _speed(text: str) -> float | None:
+    """``--speed``: a number > 0 (× real time), or ``max`` (as fast as possible: None)."""
     if text == "max":
         return None
     try:
-        value = float(text)
-    except ValueError:
-        value = -1.0
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"--speed must be a number > 0 or 'max', got {text!r}")
-    return value
+        return positive_number(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"{text!r}: needs a number > 0, or 'max'") from None
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -90,7 +88,8 @@ def _parser() -> argparse.ArgumentParser:
     send.add_argument("--bits", type=int, default=12, choices=range(REDUNDANCY_BITS[0], REDUNDANCY_BITS[1] + 1),
                       metavar="BITS", help="bits per summary value (default 12)")
     send.add_argument("--layout", choices=LAYOUTS, default="doubling", help="summary layout (default doubling)")
-    send.add_argument("--node", type=int, default=0, help="id of the (first) node (default 0)")
+    send.add_argument("--node", type=whole_number(0, 65535), default=0,
+                      help="id of the (first) node, 0-65535 (default 0)")
     send.add_argument("--samples-per-packet", type=whole_number(1, MAX_SAMPLES_PER_PACKET), default=SAMPLES_PER_PACKET,
                       metavar="N",
                       help=f"samples per packet, 1-{MAX_SAMPLES_PER_PACKET} (default {SAMPLES_PER_PACKET})")
@@ -98,10 +97,11 @@ def _parser() -> argparse.ArgumentParser:
     receive = commands.add_parser("receive", help="receive on 127.0.0.1:PORT, one CSV row per sample")
     receive.add_argument("--port", type=whole_number(0, 65535), required=True, help="0: a free port (printed)")
     receive.add_argument("--out", type=Path, required=True)
-    receive.add_argument("--latency", type=int, default=0, help="samples of fixed-lag smoothing (default 0)")
-    receive.add_argument("--reorder", type=int, default=DEFAULT_REORDER,
+    receive.add_argument("--latency", type=whole_number(0), default=0,
+                         help="samples of fixed-lag smoothing (default 0)")
+    receive.add_argument("--reorder", type=whole_number(1), default=DEFAULT_REORDER,
                          help=f"reorder window in packets (default {DEFAULT_REORDER})")
-    receive.add_argument("--idle-exit", type=float, default=None, metavar="SECONDS",
+    receive.add_argument("--idle-exit", type=positive_number, default=None, metavar="SECONDS",
                          help="exit once no packet has arrived for this long (after the first)")
     return parser
 
@@ -138,6 +138,8 @@ def run_send(args) -> int:
     except ValueError as exc:  # not a BROAD trial, not a recording file, or a rate it cannot be resampled to
         message = str(exc)
         raise SystemExit(message if str(args.recording) in message else f"{args.recording}: {message}") from None
+    if args.node + len(nodes) - 1 > 0xFFFF:
+        raise SystemExit(f"--node {args.node}: the recording's {len(nodes)} nodes need ids up to 65535")
     rngs = np.random.default_rng(args.seed).spawn(len(nodes))
     datagrams, times, dump = [], [], {"fs": fs, "node": np.arange(args.node, args.node + len(nodes))}
     per_node = {key: [] for key in ("gyr", "acc", "mag", "received", "quat_ref")}
