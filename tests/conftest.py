@@ -17,7 +17,7 @@ def output_dir(tmp_path, monkeypatch):
     return tmp_path
 
 
-#: The test files that take longest (seconds of one warm unit run on the 2-core CI machine, November
+#: The test files that take longest (seconds of one warm unit run on this 2-core machine, November
 #: 2026), run first: ``make test`` hands whole files to its two processes in collection order
 #: (``--dist loadfile --no-loadscope-reorder``), and with the long ones first the two finish
 #: together instead of one running the last long file alone.  Only the wall time depends on it.
