@@ -286,3 +286,58 @@ def test_slerp_on_the_sphere_follows_the_quaternion_slerp():
     assert labels == ["μ = 0", "μ = 0.5", "μ = 1"]
     assert {"single frame (μ = 0)", "data fusion (μ = 1)", "μ"} <= set(ax_zoom.get_legend_handles_labels()[1])
     plt.close(fig)
+
+
+def _laid_out_figure():
+    """A constrained-layout figure with what moves its layout: a colorbar, a log axis, a legend, a suptitle."""
+    plotting.use_style()
+    fig, (ax_image, ax_log) = plt.subplots(1, 2, figsize=(7.0, 3.0), layout="constrained")
+    image = ax_image.imshow(np.arange(12.0).reshape(3, 4))
+    fig.colorbar(image, ax=ax_image, label="value (°)")
+    ax_log.plot([1.0, 2.0, 3.0], [1.0, 10.0, 100.0], label="a series")
+    ax_log.set_yscale("log")
+    ax_log.legend()
+    fig.suptitle("a suptitle")
+    return fig
+
+
+def _media_box(pdf: bytes) -> np.ndarray:
+    import re
+
+    return np.array(re.search(rb"/MediaBox \[ *([-\d. ]+)\]", pdf).group(1).split(), float)
+
+
+def test_savefig_writes_matplotlibs_own_files_and_leaves_the_figure_as_it_was(output_dir):
+    """savefig lays the figure out once for both files; the PNG is the bytes matplotlib's own
+    savefig writes (which lays it out anew per file), the PDF has its page size, and the figure
+    keeps its layout engine and dpi (a notebook then shows it as before)."""
+    import io
+
+    fig = _laid_out_figure()
+    engine, dpi = fig.get_layout_engine(), fig.dpi
+    png, pdf = plotting.savefig(fig, "laid_out")
+    assert fig.get_layout_engine() is engine and fig.dpi == dpi
+    own = {}
+    for fmt in ("png", "pdf"):
+        buffer = io.BytesIO()
+        _laid_out_figure().savefig(buffer, format=fmt, metadata=plotting.style._PNG_METADATA if fmt == "png"
+                                   else plotting.style._PDF_METADATA)
+        own[fmt] = buffer.getvalue()
+    assert png.read_bytes() == own["png"]
+    np.testing.assert_allclose(_media_box(pdf.read_bytes()), _media_box(own["pdf"]), atol=0.5)  # points
+    with matplotlib.rc_context({"savefig.bbox": None}):  # not cropped: the figure's own size
+        (whole,) = plotting.savefig(fig, "whole", formats="png")
+    dots = matplotlib.rcParams["savefig.dpi"]
+    assert plt.imread(whole).shape[:2] == (round(3.0 * dots), round(7.0 * dots))
+    plt.close("all")
+
+
+def test_savefig_restores_the_figure_when_it_refuses(output_dir, monkeypatch):
+    monkeypatch.setenv("WSNLIB_BATCH", "1")
+    small = _figure_with_text(6.0, 6.0)
+    small.set_layout_engine("constrained")
+    engine, dpi = small.get_layout_engine(), small.dpi
+    with pytest.raises(ValueError, match="smaller than"):
+        plotting.savefig(small, "refused")
+    assert small.get_layout_engine() is engine and small.dpi == dpi
+    plt.close("all")
