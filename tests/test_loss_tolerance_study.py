@@ -735,11 +735,11 @@ def test_paper001_tables_and_findings():
 
 
 def test_command_line_runs_on_two_broad_trials(tmp_path, capsys, monkeypatch):
-    """``python -m wsnlib.studies.loss_tolerance --quick``: the tables, a verdict per target, the per-trial CSV."""
+    """The BROAD study's command line, ``--quick``: the tables, a verdict per target, the per-trial CSV."""
     import os
     from pathlib import Path
 
-    from _study_cli import run_as_module, run_here
+    from _study_cli import run_here
 
     from wsnlib import paths
 
@@ -749,11 +749,12 @@ def test_command_line_runs_on_two_broad_trials(tmp_path, capsys, monkeypatch):
         pytest.skip("needs two BROAD trials (set WSNLIB_BROAD_DIR; `make test` does on CI)")
     monkeypatch.setenv("WSNLIB_BROAD_DIR", folder)
     out = tmp_path / "per_trial.csv"
-    run = run_as_module("--quick", "--budget", "1", "--jobs", "1", "--out", out)
-    assert run.returncode == 0, run.stderr[-3000:]
-    assert "1 settings per method, on 1 local job(s)" in run.stdout
-    verdicts = [line for line in run.stdout.splitlines() if ": PASS" in line or ": MISS" in line]
-    assert len(verdicts) == len(lts.TARGETS), run.stdout[-3000:]
+    # In this process (its kernels are loaded); test_loss_tolerance_recordings runs the module's own interpreter.
+    status, stdout, stderr = run_here(capsys, "--quick", "--budget", "1", "--jobs", "1", "--out", out)
+    assert status == 0, stderr[-3000:]
+    assert "1 settings per method, on 1 local job(s)" in stdout
+    verdicts = [line for line in stdout.splitlines() if ": PASS" in line or ": MISS" in line]
+    assert len(verdicts) == len(lts.TARGETS), stdout[-3000:]
     table = pd.read_csv(out)
     assert table["trial"].nunique() == 2 and set(table["profile"]) == {p.name for p in lt.PROFILES}
     status, stdout, stderr = run_here(capsys, "--quick", "--jobs", "1", "--methods", "VQF (defaults)")
