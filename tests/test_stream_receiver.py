@@ -224,3 +224,25 @@ def test_encode_stream_refuses_a_node_id_or_packet_index_the_header_cannot_hold(
         with pytest.raises(ValueError, match=said):
             encode_stream(stream, **options)
     assert decode_packet(encode_stream(stream, node=65535)[0]).node == 65535 and encode_stream(stream, packets=[]) == []
+
+
+@pytest.mark.parametrize("latency", [0, 5, 25])
+def test_a_stream_that_ends_in_a_short_packet_outputs_every_received_sample_once(latency):
+    """A sender's last packet holds fewer samples (50 = 8 × 6 + 2); the receiver's clock then declares the
+    silent node's next packets lost.  Every received sample is output once, smoothed up to the short
+    packet's last sample: the samples between it and the next packet's first do not exist, so the
+    smoother's window ends there (with a latency the receiver used to skip 4 of the samples it held)."""
+    stream = _stream(n=50)
+    assert stream.n_samples % SPP != 0
+    held = Receiver(FS, latency=latency)
+    held_out = _run(held, encode_stream(stream))  # flushed at once: the reference
+    rx = Receiver(FS, latency=latency)
+    parts = [rx.receive(encode_stream(stream), now=1.0)]
+    parts += [rx.expire(now) for now in np.arange(1.05, 4.0, 0.05)]
+    parts.append(rx.flush())
+    out = ReceiverOutput.concatenate(parts)
+    ours = out.sample < stream.n_samples
+    np.testing.assert_array_equal(out.sample[ours], np.arange(stream.n_samples))
+    np.testing.assert_array_equal(out.quat[ours], held_out.quat)
+    assert not out.received[~ours].any() and out.sample[~ours].min() == stream.n_packets * SPP
+    assert len(np.unique(out.sample)) == len(out)

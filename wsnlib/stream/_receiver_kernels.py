@@ -197,6 +197,16 @@ def _remember_rotation(nodes, i, seq, state, q):
 
 
 @njit(**COMPILE)
+def _end_of_stream_packet(i, nodes, cfg, out, dense, lags, scratch):
+    """Node ``i``'s packet just released held fewer samples than its packets do (a sender's last
+    packet): the next packet's first sample is not the one after it, so the smoother's window ends
+    here.  Emit the samples held for the latency now (within their deadline), smoothed up to this
+    packet's last sample, and go on from the next packet's first sample."""
+    flush_output(i, nodes, cfg, out, dense, lags, scratch)
+    nodes[0][i].emitted = nodes[0][i].next_sample
+
+
+@njit(**COMPILE)
 def release_lost(i, nodes, cfg, consts, bconsts, out, dense, lags, scratch):
     """The next packet of node ``i`` is lost: its samples are predicted (and output)."""
     book = nodes[0][i]
@@ -372,6 +382,8 @@ def release_received(i, nodes, b, cfg, consts, bconsts, out, dense, lags, scratc
     book.recent = ((book.recent << 1) | 1) & ((1 << RECENT_BITS) - 1)
     book.next_seq += 1
     book.next_sample += book.spp
+    if n < book.spp:
+        _end_of_stream_packet(i, nodes, cfg, out, dense, lags, scratch)
 
 
 # ------------------------------------------------------------------------------------------

@@ -29,7 +29,9 @@ Rules (the compiled code is :mod:`wsnlib.stream._receiver_kernels`):
   and :meth:`Receiver.expire` called now and then): each node's sample clock runs at ``fs`` from
   the earliest its packets' arrivals allow (a late arrival does not delay it), and a packet is
   declared lost when the one ``reorder`` after it is due.
-  :meth:`Receiver.flush` ends the stream: what is held is released.
+  :meth:`Receiver.flush` ends the stream: what is held is released.  So does a packet with fewer
+  samples than the node's packets hold (a sender's last packet): no sample follows it, so the
+  samples held for the latency are output when it is released, smoothed up to its last sample.
 * **Redundancy** (``bridge``): a packet whose summary (:class:`~wsnlib.stream.packet.Summary`)
   covers lost packets just before it bridges the gap: the filter is re-run from its state at the
   gap's start, turned on each covered lost sample by the measured rotation
