@@ -219,12 +219,12 @@ def test_notebook_10_runs_on_recording_files(tmp_path, monkeypatch):
     from wsnlib.io.recording import write_recording
     from wsnlib.sim import pitch_ramp, simulate_recording
 
-    ramp = simulate_recording(pitch_ramp(fs=50.0, duration_s=20.0), rng=np.random.default_rng(1))
+    ramp = simulate_recording(pitch_ramp(fs=50.0, duration_s=10.0), rng=np.random.default_rng(1))
     quat = ramp.quat_true.copy()
     quat[:, 300:320] = np.nan
     ramp = dataclasses.replace(ramp, quat_true=quat, movement=np.arange(ramp.n_samples)[None, :].repeat(2, 0) >= 50)
     write_recording(ramp, tmp_path / "ramp.csv")
-    lift = simulate_recording(pitch_ramp(fs=40.0, duration_s=20.0, pitch_start_deg=-30.0, pitch_end_deg=80.0),
+    lift = simulate_recording(pitch_ramp(fs=40.0, duration_s=10.0, pitch_start_deg=-30.0, pitch_end_deg=80.0),
                               rng=np.random.default_rng(2))
     write_recording(lift, tmp_path / "lift.csv")
     for name, value in {**reproduce.BATCH_ENV, paths.OUTPUT_ENV_VAR: str(tmp_path / "out")}.items():
