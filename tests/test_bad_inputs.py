@@ -395,9 +395,9 @@ def test_kalman_filters_refuse_acc_that_does_not_match_their_gravity(name):
 
     run = {"kalman_orientation": kalman_orientation, "smooth_orientation": smooth_orientation}[name]
     gyr, acc, mag = _still_recording()
-    with pytest.raises(ValueError, match=r"acc's median norm is 1 m/s² but the filter's gravity is 9.807.*in g\?"):
+    with pytest.raises(ValueError, match=r"median norm is 1 m/s² where gravity of 9.807 m/s² is expected: .*in g\?"):
         run(gyr, acc / 9.81, mag, fs=50.0)
-    with pytest.raises(ValueError, match="filter's gravity is 1 m/s²: .*gravity setting"):
+    with pytest.raises(ValueError, match="gravity of 1 m/s² is expected: .*gravity given to the filter right"):
         run(gyr, acc, mag, fs=50.0, settings=KalmanSettings(gravity=1.0))
     run(gyr, acc / 9.81, mag, fs=50.0, settings=KalmanSettings(gravity=1.0))  # consistent units are fine
 

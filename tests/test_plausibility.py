@@ -39,9 +39,9 @@ def test_acc_and_mag_swapped(recording):
 @pytest.mark.parametrize(("scale", "hint"), [(1 / STANDARD_GRAVITY, "in g"), (1000.0, "other units")])
 def test_acc_scale_against_the_filters_gravity(recording, scale, hint):
     gyr, acc, mag = recording
-    with pytest.raises(ValueError, match=rf"gravity is 9\.807 m/s²: .*{hint}"):
+    with pytest.raises(ValueError, match=rf"gravity of 9\.807 m/s² is expected: .*{hint}"):
         check_imu_plausible(gyr, acc * scale, mag, gravity=STANDARD_GRAVITY)
-    with pytest.raises(ValueError, match="gravity is 1.62"):
+    with pytest.raises(ValueError, match="gravity of 1.62 m/s² is expected"):
         check_imu_plausible(gyr, acc, mag, gravity=1.62)
 
 

@@ -139,11 +139,12 @@ def imu_unit_problems(gyr: np.ndarray | None, acc: np.ndarray, mag: np.ndarray |
             if 0.5 <= acc_median <= 2.0:
                 hint = "the accelerometer in g? multiply it by 9.80665"
             elif 7.0 <= acc_median <= 13.0:
-                hint = "the accelerometer reads m/s²: is the filter's gravity setting right?"
+                hint = "the accelerometer reads m/s²: is the gravity given to the filter right?"
             else:
                 hint = "acc in other units than m/s²?"
-            problems.append(f"acc's median norm is {acc_median:.3g} m/s² but the filter's gravity is "
-                            f"{gravity:.4g} m/s²: {hint} (or set gravity to what the data reads at rest)")
+            # (said for a filter's own setting and for the health check's standard gravity alike)
+            problems.append(f"acc's median norm is {acc_median:.3g} m/s² where gravity of {gravity:.4g} m/s² is "
+                            f"expected: {hint} (or give the filters the gravity the data reads at rest)")
     return problems
 
 
