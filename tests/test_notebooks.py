@@ -232,7 +232,8 @@ def test_notebook_10_runs_on_recording_files(tmp_path, monkeypatch):
     notebook = next(nb for nb in NOTEBOOKS if nb.name.startswith("10_"))
     executed = tmp_path / notebook.name
     papermill.execute_notebook(str(notebook), str(executed), kernel_name=paths.KERNEL_NAME, cwd=str(notebook.parent),
-                               progress_bar=False, parameters={"quick": True, "recordings": [
+                               progress_bar=False, shutdown_kernel="immediate",  # as wsnlib.reproduce does
+                               parameters={"quick": True, "recordings": [
                                    str(tmp_path / "ramp.csv"), str(tmp_path / "lift.json")]})
     per_trial = pd.read_csv(tmp_path / "out" / "data" / "processed" / "a10_per_trial.csv")
     assert set(per_trial["trial"]) == {"ramp/humerus", "ramp/forearm", "lift/humerus", "lift/forearm"}
