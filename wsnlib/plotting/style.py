@@ -255,6 +255,12 @@ def savefig(fig: mpl.figure.Figure, name: str, formats: tuple[str, ...] = ("png"
         before anything is written; each file is written to a temporary file in the figures
         folder and renamed into place, so an interrupted save leaves the old file or none.
 
+    The figure is laid out once (its layout engine runs, at ``savefig.dpi``) and cropped to one
+    tight box (``savefig.bbox: tight``, padded by ``savefig.pad_inches``); every file is drawn
+    from that layout, once.  Matplotlib's own ``savefig`` lays the figure out anew for each
+    file: the PNG is the same bytes, at two draws fewer per figure.  ``fig`` keeps its layout
+    engine and dpi.
+
     Returns
     -------
     list of pathlib.Path
