@@ -257,9 +257,9 @@ def savefig(fig: mpl.figure.Figure, name: str, formats: tuple[str, ...] = ("png"
 
     The figure is laid out once (its layout engine runs, at ``savefig.dpi``) and cropped to one
     tight box (``savefig.bbox: tight``, padded by ``savefig.pad_inches``); every file is drawn
-    from that layout, once.  Matplotlib's own ``savefig`` lays the figure out anew for each
-    file: the PNG is the same bytes, at two draws fewer per figure.  ``fig`` keeps its layout
-    engine and dpi.
+    from that layout, once.  Matplotlib's own ``savefig`` lays the figure out and measures its
+    tight box anew for each file; the PNG is the same bytes.  ``fig`` keeps its layout engine and
+    dpi.
 
     Returns
     -------
