@@ -49,7 +49,7 @@ def test_jittered_stamps_give_the_true_rate_and_the_jitter(clean, rng):
     assert row.fs_nominal_hz == FS
     text = " ".join(health.findings)
     assert re.search(r"run at 47\.(29|30)\d* Hz \(median step\), not the nominal 50 Hz", text)
-    assert "jitters by" in text and "wsnlib.io.resample" in text
+    assert "jitters by" in text and "wsnlib.io.resample_timestamps" in text
 
 
 def test_missing_rows_and_repeated_stamps_are_counted(clean):

@@ -71,7 +71,7 @@ def test_irregular_time_stamps_are_refused_with_a_pointer_to_resampling():
     time_s[40:] += 0.02             # one sample dropped: a 40 ms step at sample 39
     jittered = dataclasses.replace(rec, time_s=time_s)
     with pytest.raises(ValueError, match=r"not regular at fs = 50 Hz: the step after sample 39 is 0\.04 s.*"
-                                         r"wsnlib\.io\.resample"):
+                                         r"wsnlib\.io\.resample_timestamps"):
         lt.from_recording(jittered, "x")
     time_s = rec.time_s * 1.01      # a clock 1 % fast: within the tolerance
     assert list(lt.from_recording(dataclasses.replace(rec, time_s=time_s), "x")) == ["x/humerus", "x/forearm"]

@@ -9,7 +9,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from wsnlib import quaternion as Q
-from wsnlib.io import resample
+from wsnlib.io import resample, resample_timestamps
 
 T0 = 3.0  # s; the stamps' origin is arbitrary
 
@@ -42,7 +42,7 @@ def _interior(time_s, t_in, margin=0.5):
 def test_grid_starts_at_the_first_stamp_and_stays_inside_the_span(rng, fs_out, n_out):
     t = np.linspace(T0, T0 + 10.0, 901)  # 90 Hz, exactly 10 s
     t[1:-1] += rng.uniform(-0.3, 0.3, 899) / 90.0
-    out = resample.resample_signal_timestamped(_imu(t), t, fs_out)
+    out = resample_timestamps.resample_signal_timestamped(_imu(t), t, fs_out)
     assert out.time_s.shape == (n_out,) and out.values.shape == (n_out, 3) and out.valid.shape == (n_out,)
     np.testing.assert_allclose(out.time_s, T0 + np.arange(n_out) / fs_out, rtol=0, atol=1e-12)
     assert out.time_s[0] == T0 and out.time_s[-1] <= t[-1] + 1e-9
@@ -63,7 +63,7 @@ def test_grid_starts_at_the_first_stamp_and_stays_inside_the_span(rng, fs_out, n
 )
 def test_jittered_90_hz_sine_matches_the_analytic_sine(rng, freq, fs_out, atol):
     t = _jittered_stamps(rng, 1800, 90.0, 0.3)
-    out = resample.resample_signal_timestamped(_sine(t, freq), t, fs_out)
+    out = resample_timestamps.resample_signal_timestamped(_sine(t, freq), t, fs_out)
     assert out.valid.all()
     inner = _interior(out.time_s, t)
     error = np.abs(out.values[inner, 0] - _sine(out.time_s[inner], freq)[:, 0])
@@ -83,7 +83,7 @@ def test_linear_interpolation_would_fail_the_upsampling_tolerance(rng):
 def test_constant_and_linear_trend_survive_downsampling_including_edges(rng):
     t = _jittered_stamps(rng, 900, 90.0, 0.3)
     x = np.stack([1.0 + 0.5 * (t - T0), -2.0 * (t - T0), 9.81 + 0.01 * np.sin(t)], -1)
-    out = resample.resample_signal_timestamped(x, t, 50.0)
+    out = resample_timestamps.resample_signal_timestamped(x, t, 50.0)
     tt = out.time_s
     expected = np.stack([1.0 + 0.5 * (tt - T0), -2.0 * (tt - T0), 9.81 + 0.01 * np.sin(tt)], -1)
     np.testing.assert_allclose(out.values, expected, atol=2e-4)
@@ -99,7 +99,7 @@ def test_tone_above_the_new_nyquist_is_attenuated_55_db(rng, freq, fs_in, jitter
     """99.73 → 50 Hz is no small-integer ratio (the rational path refuses it); ~500 Hz jittered."""
     t = _jittered_stamps(rng, int(30 * fs_in), fs_in, jitter)
     x = np.cos(2 * np.pi * freq * t + 0.3)[:, None]
-    out = resample.resample_signal_timestamped(x, t, 50.0)
+    out = resample_timestamps.resample_signal_timestamped(x, t, 50.0)
     inner = _interior(out.time_s, t)
     assert np.max(np.abs(out.values[inner, 0])) < 10 ** (-55 / 20)
     # without the filter the tone would fold to 50 - freq Hz at full amplitude
@@ -110,7 +110,7 @@ def test_tone_above_the_new_nyquist_is_attenuated_55_db(rng, freq, fs_in, jitter
 def test_passband_edge_keeps_its_gain(rng):
     """0.4·fs_out: gain within 0.21 % (the filter's documented passband)."""
     t = _jittered_stamps(rng, 15000, 500.0, 0.3)
-    out = resample.resample_signal_timestamped(_sine(t, 20.0), t, 50.0)
+    out = resample_timestamps.resample_signal_timestamped(_sine(t, 20.0), t, 50.0)
     inner = _interior(out.time_s, t)
     np.testing.assert_allclose(out.values[inner, 0], _sine(out.time_s[inner], 20.0)[:, 0], atol=2.5e-3)
 
@@ -134,14 +134,14 @@ def _sample_and_hold(rng, fs_sensor=50.0, polls_per_update=4, seconds=20.0):
 @pytest.mark.parametrize("fs_out", [100.0, 20.0])
 def test_sample_and_hold_copies_make_no_stair(rng, fs_out):
     stamps, values = _sample_and_hold(rng)
-    out = resample.resample_signal_timestamped(values, stamps, fs_out)
+    out = resample_timestamps.resample_signal_timestamped(values, stamps, fs_out)
     inner = _interior(out.time_s, stamps)
     # the last update's copies reach past its measuring time: nothing fresh after it
     assert out.valid[inner].all()
     error = np.abs(out.values[inner] - _imu(out.time_s[inner]))
     assert error.max() < 2.5e-3
     # keeping the copies draws the stair: the error is then the signal's change over a hold
-    stair = resample.resample_signal_timestamped(values, stamps, fs_out, drop_repeated_values=False)
+    stair = resample_timestamps.resample_signal_timestamped(values, stamps, fs_out, drop_repeated_values=False)
     assert np.abs(stair.values[inner] - _imu(stair.time_s[inner])).max() > 10 * 2.5e-3
 
 
@@ -151,7 +151,7 @@ def test_samples_sharing_a_stamp_are_averaged(rng):
     # each stamp twice: truth + d and truth - d; their mean is the truth
     stamps = np.repeat(t, 2)
     values = np.stack([_imu(t) + noise, _imu(t) - noise], axis=1).reshape(2000, 3)
-    out = resample.resample_signal_timestamped(values, stamps, 100.0)
+    out = resample_timestamps.resample_signal_timestamped(values, stamps, 100.0)
     np.testing.assert_allclose(out.time_s, t, atol=1e-12)
     np.testing.assert_allclose(out.values, _imu(t), atol=1e-12)
 
@@ -162,7 +162,7 @@ def test_a_stuck_sensor_is_a_gap(rng):
     stuck = (t > T0 + 8.0) & (t < T0 + 8.3)
     first = np.argmax(stuck)
     x[stuck] = x[first]  # the value of the run's first sample, held
-    out = resample.resample_signal_timestamped(x, t, 50.0)
+    out = resample_timestamps.resample_signal_timestamped(x, t, 50.0)
     last_fresh, next_fresh = t[first], t[np.flatnonzero(stuck)[-1] + 1]
     np.testing.assert_array_equal(out.valid, ~((out.time_s > last_fresh) & (out.time_s < next_fresh)))
     assert np.isnan(out.values[~out.valid]).all() and np.isfinite(out.values[out.valid]).all()
@@ -180,7 +180,7 @@ def test_missing_stamps_longer_than_the_max_gap_are_invalid(rng, fs_out):
     lost = np.isin(index, lost_run) | (index == 1000)  # and a single sample: bridged
     lost |= (index >= 1400) & (index < 1403)  # three samples: 4 intervals > 2.5 median intervals
     t, x = t_all[~lost], _imu(t_all[~lost])
-    out = resample.resample_signal_timestamped(x, t, fs_out)
+    out = resample_timestamps.resample_signal_timestamped(x, t, fs_out)
     gaps = [(t_all[lost_run[0] - 1], t_all[lost_run[-1] + 1]), (t_all[1399], t_all[1403])]
     in_gap = np.zeros(out.time_s.size, bool)
     for before, after in gaps:
@@ -195,7 +195,7 @@ def test_missing_stamps_longer_than_the_max_gap_are_invalid(rng, fs_out):
     keep = ~near_edge & _interior(out.time_s, t)
     assert np.abs(out.values[keep] - _imu(out.time_s[keep])).max() < 2.5e-3
     # a larger max_gap_s bridges everything
-    assert resample.resample_signal_timestamped(x, t, fs_out, max_gap_s=0.6).valid.all()
+    assert resample_timestamps.resample_signal_timestamped(x, t, fs_out, max_gap_s=0.6).valid.all()
 
 
 def test_default_max_gap_is_2_5_median_intervals():
@@ -203,21 +203,21 @@ def test_default_max_gap_is_2_5_median_intervals():
     keep = np.ones(200, bool)
     keep[[50, 51]] = False  # 3 intervals (0.03 s) > 2.5 × 0.01 s
     keep[100] = False  # 2 intervals, bridged
-    out = resample.resample_signal_timestamped(_imu(t[keep]), t[keep], 100.0)
+    out = resample_timestamps.resample_signal_timestamped(_imu(t[keep]), t[keep], 100.0)
     expected = np.ones(out.time_s.size, bool)
     expected[[50, 51]] = False
     np.testing.assert_array_equal(out.valid, expected)
-    assert resample.resample_signal_timestamped(_imu(t[keep]), t[keep], 100.0, max_gap_s=0.03).valid.all()
-    assert resample.MAX_GAP_INTERVALS == 2.5
+    assert resample_timestamps.resample_signal_timestamped(_imu(t[keep]), t[keep], 100.0, max_gap_s=0.03).valid.all()
+    assert resample_timestamps.MAX_GAP_INTERVALS == 2.5
 
 
 def test_batches_share_the_stamps(rng):
     t = _jittered_stamps(rng, 500, 90.0, 0.3)
     x = rng.normal(size=(2, 3, 500, 3))
     for fs_out in (50.0, 200.0):
-        out = resample.resample_signal_timestamped(x, t, fs_out)
+        out = resample_timestamps.resample_signal_timestamped(x, t, fs_out)
         assert out.values.shape == (2, 3, out.time_s.size, 3) and out.valid.shape == out.time_s.shape
-        single = resample.resample_signal_timestamped(x[1, 2], t, fs_out)
+        single = resample_timestamps.resample_signal_timestamped(x[1, 2], t, fs_out)
         np.testing.assert_allclose(out.values[1, 2], single.values, rtol=0, atol=1e-12)
 
 
@@ -238,7 +238,7 @@ def test_slerp_of_a_constant_rate_rotation_onto_an_irregular_grid_is_exact(rng):
     quat[::3] *= 2.5  # not normalised
     inside = rng.uniform(t[0], t[-1], 700)
     times = np.concatenate([inside, t[[0, 17, 399]], [t[0] - 0.01, t[-1] + 0.01]])
-    out = resample.resample_quaternion_timestamped(quat, t, times)
+    out = resample_timestamps.resample_quaternion_timestamped(quat, t, times)
     assert out.shape == (times.size, 4)
     assert np.isnan(out[-2:]).all()  # outside the span
     good = out[:-2]
@@ -260,8 +260,8 @@ def test_40_hz_reference_with_11_percent_nan_frames(rng):
     quat[nan_frame] = np.nan
     present = np.ones(n, bool)
     present[600:606] = False  # rows (and stamps) missing: frames 599 → 606 is 7 intervals
-    grid = resample.resample_signal_timestamped(np.zeros((n, 3)) + frames[:, None], T0 + frames / 40.0, 50.0)
-    out = resample.resample_quaternion_timestamped(quat[present], T0 + frames[present] / 40.0, grid.time_s)
+    grid = resample_timestamps.resample_signal_timestamped(np.zeros((n, 3)) + frames[:, None], T0 + frames / 40.0, 50.0)
+    out = resample_timestamps.resample_quaternion_timestamped(quat[present], T0 + frames[present] / 40.0, grid.time_s)
     k = np.arange(grid.time_s.size)
     lower, on_frame = 4 * k // 5, 4 * k % 5 == 0
     upper = np.minimum(lower + 1, n - 1)
@@ -281,9 +281,9 @@ def test_quaternion_batches_and_shared_stamps(rng):
     quat = np.stack([_constant_rate_rotation(t, rate=r) for r in (0.5, 4.0)])
     quat[1, 50] = np.nan
     times = T0 + np.sort(rng.uniform(0.0, 4.9, 300))
-    out = resample.resample_quaternion_timestamped(quat, t, times)
+    out = resample_timestamps.resample_quaternion_timestamped(quat, t, times)
     assert out.shape == (2, 300, 4)
-    np.testing.assert_array_equal(out[0], resample.resample_quaternion_timestamped(quat[0], t, times))
+    np.testing.assert_array_equal(out[0], resample_timestamps.resample_quaternion_timestamped(quat[0], t, times))
     np.testing.assert_array_equal(np.isnan(out[1, :, 0]), (times > t[49]) & (times < t[51]))
     assert not np.isnan(out[0]).any()
 
@@ -296,7 +296,7 @@ def test_quaternions_sharing_a_stamp_are_averaged_on_the_shorter_arc():
     minus[::2] *= -1.0
     pairs = np.stack([plus, minus], axis=1).reshape(200, 4)
     pairs[[10, 51]] = np.nan  # one of a pair missing: the other one stands
-    out = resample.resample_quaternion_timestamped(pairs, np.repeat(t, 2), t)
+    out = resample_timestamps.resample_quaternion_timestamped(pairs, np.repeat(t, 2), t)
     expected = truth.copy()
     expected[5], expected[25] = minus[5], plus[25]
     assert np.max(Q.angle_between(out, expected)) < 1e-12
@@ -307,10 +307,10 @@ def test_a_held_reference_pose_is_a_gap_and_drop_repeated_values_false_keeps_it(
     quat = _constant_rate_rotation(t)
     quat[200:210] = quat[199]  # the system held its last pose for 10 frames
     times = T0 + np.arange(0, 399, 0.5) / 40.0
-    out = resample.resample_quaternion_timestamped(quat, t, times)
+    out = resample_timestamps.resample_quaternion_timestamped(quat, t, times)
     held = (times > t[199]) & (times < t[210])
     np.testing.assert_array_equal(np.isnan(out[:, 0]), held)
-    kept = resample.resample_quaternion_timestamped(quat, t, times, drop_repeated_values=False)
+    kept = resample_timestamps.resample_quaternion_timestamped(quat, t, times, drop_repeated_values=False)
     assert not np.isnan(kept).any()
 
 
@@ -325,7 +325,7 @@ def test_mask_takes_the_nearest_sample_and_is_invalid_in_gaps(rng):
     t = t_all[present]
     mask = rng.random((2, t.size)) < 0.5
     times = rng.uniform(t[0] - 0.05, t[-1] + 0.05, 900)
-    out = resample.resample_mask_timestamped(mask, t, times)
+    out = resample_timestamps.resample_mask_timestamped(mask, t, times)
     assert out.values.shape == (2, 900) and out.valid.shape == (900,)
     np.testing.assert_array_equal(out.time_s, times)
     nearest = np.argmin(np.abs(times[:, None] - t[None, :]), axis=1)
@@ -366,31 +366,31 @@ GOOD_X = _imu(GOOD_T)
 def test_signal_errors_name_the_argument(kwargs, match):
     args = {"x": GOOD_X, "time_s": GOOD_T, "fs_out": 50.0} | kwargs
     with pytest.raises(ValueError, match=match):
-        resample.resample_signal_timestamped(**args)
+        resample_timestamps.resample_signal_timestamped(**args)
 
 
 def test_quaternion_and_mask_errors_name_the_argument():
     quat = _constant_rate_rotation(GOOD_T)
     with pytest.raises(ValueError, match="time_s has 9 stamps but quat has 10 samples"):
-        resample.resample_quaternion_timestamped(quat, GOOD_T[:9], GOOD_T)
+        resample_timestamps.resample_quaternion_timestamped(quat, GOOD_T[:9], GOOD_T)
     with pytest.raises(ValueError, match="time_out_s contains NaN"):
-        resample.resample_quaternion_timestamped(quat, GOOD_T, np.r_[GOOD_T[:3], np.nan])
+        resample_timestamps.resample_quaternion_timestamped(quat, GOOD_T, np.r_[GOOD_T[:3], np.nan])
     with pytest.raises(ValueError, match="time_out_s must be 1-D"):
-        resample.resample_quaternion_timestamped(quat, GOOD_T, GOOD_T[None])
+        resample_timestamps.resample_quaternion_timestamped(quat, GOOD_T, GOOD_T[None])
     with pytest.raises(ValueError, match="quat must have shape"):
-        resample.resample_quaternion_timestamped(quat[0], GOOD_T[:1], GOOD_T)
+        resample_timestamps.resample_quaternion_timestamped(quat[0], GOOD_T[:1], GOOD_T)
     with pytest.raises(ValueError, match="time_s must not decrease"):
-        resample.resample_quaternion_timestamped(quat, GOOD_T[::-1], GOOD_T)
+        resample_timestamps.resample_quaternion_timestamped(quat, GOOD_T[::-1], GOOD_T)
     with pytest.raises(ValueError, match="max_gap_s"):
-        resample.resample_quaternion_timestamped(quat, GOOD_T, GOOD_T, max_gap_s=-1.0)
+        resample_timestamps.resample_quaternion_timestamped(quat, GOOD_T, GOOD_T, max_gap_s=-1.0)
     with pytest.raises(ValueError, match="quat needs at least 2 rows"):
-        resample.resample_quaternion_timestamped(np.tile(quat[:1], (10, 1)), GOOD_T, GOOD_T)
+        resample_timestamps.resample_quaternion_timestamped(np.tile(quat[:1], (10, 1)), GOOD_T, GOOD_T)
     with pytest.raises(ValueError, match="boolean"):
-        resample.resample_mask_timestamped(np.ones(10), GOOD_T, GOOD_T)
+        resample_timestamps.resample_mask_timestamped(np.ones(10), GOOD_T, GOOD_T)
     with pytest.raises(ValueError, match="time_s has 10 stamps but mask has 9 samples along its last axis"):
-        resample.resample_mask_timestamped(np.ones(9, bool), GOOD_T, GOOD_T)
+        resample_timestamps.resample_mask_timestamped(np.ones(9, bool), GOOD_T, GOOD_T)
     with pytest.raises(ValueError, match="mask needs at least 2 samples with distinct"):
-        resample.resample_mask_timestamped(np.ones(10, bool), np.full(10, T0), GOOD_T)
+        resample_timestamps.resample_mask_timestamped(np.ones(10, bool), np.full(10, T0), GOOD_T)
 
 
 # --------------------------------------------------------------------------------------------

@@ -17,8 +17,10 @@ the simulators import from here, not the other way round (``tests/test_layers.py
 * :mod:`wsnlib.io.vectors`: the one RSS vector type (:class:`~wsnlib.io.vectors.RssVectors`)
   and the one windowing function both RSS paths (``rss``, ``pabr``) build their vectors with;
 * :mod:`wsnlib.io.download`: the verified download both dataset loaders share;
-* :mod:`wsnlib.io.resample`: rate conversion of recordings (e.g. BROAD's 285.7 Hz to 50 Hz), and
-  resampling from time stamps (irregular, repeated, with gaps) to any rate;
+* :mod:`wsnlib.io.resample`: rate conversion of recordings whose rate ratio is a ratio of small
+  integers (e.g. BROAD's 285.7 Hz to 50 Hz);
+* :mod:`wsnlib.io.resample_timestamps`: resampling from time stamps (irregular, repeated, with gaps)
+  to any rate;
 * :mod:`wsnlib.io.alignment`: aligning an optical reference from another lab to an IMU (time lag,
   sensor-to-marker and lab-to-ENU rotations, from the sensors) and applying it;
 * :mod:`wsnlib.io.health`: the health check to run on a recording before any study
@@ -26,6 +28,19 @@ the simulators import from here, not the other way round (``tests/test_layers.py
   gyroscope, magnetic field, units).
 """
 
-from wsnlib.io import accel, alignment, broad, download, health, pabr, recording, resample, rss, vectors
+from wsnlib.io import (
+    accel,
+    alignment,
+    broad,
+    download,
+    health,
+    pabr,
+    recording,
+    resample,
+    resample_timestamps,
+    rss,
+    vectors,
+)
 
-__all__ = ["accel", "alignment", "broad", "download", "health", "pabr", "recording", "resample", "rss", "vectors"]
+__all__ = ["accel", "alignment", "broad", "download", "health", "pabr", "recording", "resample",
+           "resample_timestamps", "rss", "vectors"]

@@ -240,14 +240,14 @@ def _time_base(time_s, fs, row, findings) -> np.ndarray:
     if fs is not None and abs(effective / fs - 1.0) > RATE_TOLERANCE:
         findings.append(f"the time stamps run at {effective:.6g} Hz (median step), not the nominal {fs:.6g} Hz "
                         f"({effective / fs - 1.0:+.1%}): give the filters fs={effective:.6g}, or resample onto "
-                        f"the nominal grid (wsnlib.io.resample)")
+                        f"the nominal grid (wsnlib.io.resample_timestamps)")
     if jitter > JITTER_MAX:
         findings.append(f"the time step jitters by {jitter:.1%} of a step (robust s.d.): the filters assume a "
-                        f"constant step 1/fs; resample onto a uniform grid (wsnlib.io.resample)")
+                        f"constant step 1/fs; resample onto a uniform grid (wsnlib.io.resample_timestamps)")
     if gap_share > 0.0:
         findings.append(f"{gap_share:.2%} of the time steps are gaps (longer than {GAP_STEP_FACTOR:g} median steps, "
                         f"the longest {steps.max() / median_step:.3g} steps): rows are missing; put them back as "
-                        f"lost samples (a received mask on a uniform grid) or resample (wsnlib.io.resample)")
+                        f"lost samples (a received mask on a uniform grid) or resample (wsnlib.io.resample_timestamps)")
     if backward_share > 0.0:
         findings.append(f"{backward_share:.2%} of the time steps do not advance (duplicate or backward time "
                         f"stamps): sort the rows and drop duplicates before anything else")

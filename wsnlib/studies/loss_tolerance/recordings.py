@@ -131,7 +131,7 @@ def check_regular_time(time_s, fs: float, where: str) -> None:
         raise ValueError(f"{where}: time stamps are not regular at fs = {fs:g} Hz: the step after sample {k} is "
                          f"{steps[k] / fs:.6g} s, expected {1 / fs:.6g} s (± {100 * REGULAR_STEP_TOLERANCE:g} %); "
                          f"{int(off.sum())} step(s) are off. Resample the recording onto a regular grid first "
-                         f"(wsnlib.io.resample), then study it at that rate")
+                         f"(wsnlib.io.resample_timestamps), then study it at that rate")
 
 
 def from_recording(recording: Recording, name: str) -> dict[str, StudyRecording]:
