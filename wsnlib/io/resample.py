@@ -72,14 +72,16 @@ def resample_factors(fs_in, fs_out) -> tuple[int, int]:
     fs_out = check_positive(fs_out, "fs_out")
     if fs_out > fs_in:
         raise ValueError(f"fs_out = {fs_out:g} Hz exceeds fs_in = {fs_in:g} Hz; only downsampling is supported "
-                         f"here: to upsample, use resample_signal_timestamped(x, time_s, fs_out)")
+                         f"here: to upsample, use wsnlib.io.resample_timestamps.resample_signal_timestamped("
+                         f"x, time_s, fs_out)")
     ratio = fs_out / fs_in
     fraction = Fraction(ratio).limit_denominator(MAX_DENOMINATOR)
     if not math.isclose(float(fraction), ratio, rel_tol=_RATIO_RTOL):
         raise ValueError(f"fs_out / fs_in = {fs_out!r} / {fs_in!r} = {ratio!r} is not a ratio of integers up to "
                          f"{MAX_DENOMINATOR} (nearest {fraction}): resample from the time stamps instead, with "
-                         f"resample_signal_timestamped(x, time_s, fs_out) (any rates, irregular stamps); only if "
-                         f"fs_in was rounded from such a ratio, give it exactly (BROAD: 2000/7 Hz, not 285.714)")
+                         f"wsnlib.io.resample_timestamps.resample_signal_timestamped(x, time_s, fs_out) (any "
+                         f"rates, irregular stamps); only if fs_in was rounded from such a ratio, give it exactly "
+                         f"(BROAD: 2000/7 Hz, not 285.714)")
     return fraction.numerator, fraction.denominator
 
 
