@@ -283,8 +283,7 @@ def savefig(fig: mpl.figure.Figure, name: str, formats: tuple[str, ...] = ("png"
     if bad or not formats:  # checked before anything is written
         raise ValueError(f"formats may contain 'png' and 'pdf' (at least one), got {formats!r}")
     # One layout and one tight box for every format (matplotlib's savefig would redo both per file).
-    dpi = mpl.rcParams["savefig.dpi"]
-    with _drawn_at_dpi(fig, "figure" if dpi == "figure" else dpi) as (drawn, tight):
+    with _laid_out_once(fig, mpl.rcParams["savefig.dpi"]) as (drawn, tight):
         _check_legibility(fig, name, drawn, tight.width)  # before anything is written
         box = tight.padded(mpl.rcParams["savefig.pad_inches"]) if mpl.rcParams["savefig.bbox"] == "tight" else None
         written = []
@@ -297,11 +296,12 @@ def savefig(fig: mpl.figure.Figure, name: str, formats: tuple[str, ...] = ("png"
 
 
 @contextlib.contextmanager
-def _drawn_at_dpi(fig: mpl.figure.Figure, dpi):
-    """Lay ``fig`` out once at ``dpi`` (its layout engine runs), then yield ``(drawn, tight)``: the
-    texts that drawing drew and the figure's tight bounding box (inches, unpadded), with the layout
-    engine switched off meanwhile, so that each save inside draws the laid-out figure once.  The
-    figure gets its engine back afterwards (a notebook shows it laid out again, as before).
+def _laid_out_once(fig: mpl.figure.Figure, dpi):
+    """Lay ``fig`` out once at ``dpi`` (``"figure"``: its own; its layout engine runs), then yield
+    ``(drawn, tight)``: the texts that drawing drew and the figure's tight bounding box (inches,
+    unpadded), with the layout engine switched off meanwhile, so that each save inside draws the
+    laid-out figure once.  The figure gets its engine back afterwards (a notebook shows it laid out
+    again, as before).
 
     These are the steps of matplotlib's ``savefig`` (``bbox_inches="tight"``), taken once rather
     than once per file: its PNG file comes out the same bytes.
