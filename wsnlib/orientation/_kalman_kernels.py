@@ -773,7 +773,8 @@ def longest_lost_run(received, start):
 @njit(**COMPILE)
 def kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c, outputs):
     """The filter over one recording ``(T, 3)``; ``outputs`` (as :func:`run_kalman`'s) receive, per
-    sample, the estimate (``q``, ``bias``, ``velocity``, optionally ``P``), the gate decisions and,
+    sample, the estimate (``q``; ``bias``, ``velocity``, ``P`` where given T rows, else not written),
+    the gate decisions and,
     with ``c.record``, :func:`new_records`' arrays (before the start, where a smoother does not
     read them, P⁺ = the initial P and zero ``R``, ``a_e``, Q).
 
@@ -784,7 +785,8 @@ def kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c, outputs)
     out_q, out_bias, out_vel, out_P, acc_used, mag_used = outputs[:6]
     pred_q, pred_vel, post_P, pred_R, pred_a_e, pred_noise = outputs[6:]
     n_t = out_q.shape[0]
-    keep_P = out_P.shape[0] == n_t
+    # bias, velocity, P are written only where the caller gave a row per sample (else one dummy row)
+    keep_bias, keep_vel, keep_P = out_bias.shape[0] == n_t, out_vel.shape[0] == n_t, out_P.shape[0] == n_t
     # The records are views into these arrays, which must stay referenced while they are used.
     state_array, work_array, gap_array = np.zeros(1, STATE_DTYPE), np.zeros(1, WORK_DTYPE), np.zeros(1, gaps.GAP_DTYPE)
     st, work, gs = state_array[0], work_array[0], gap_array[0]
@@ -812,8 +814,10 @@ def kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c, outputs)
             acc_used[t], mag_used[t] = False, False
             _keep_prediction(st, work, c)
         out_q[t] = st.q
-        out_bias[t] = st.bias
-        out_vel[t] = st.velocity
+        if keep_bias:
+            out_bias[t] = st.bias
+        if keep_vel:
+            out_vel[t] = st.velocity
         if keep_P:
             out_P[t] = st.P
         if c.record:
@@ -830,17 +834,22 @@ def run_kalman(gyr, acc, mag, received, index, q_init, start, init_only, constan
 
     ``index`` (N, 4): for element ``n`` the rows of ``gyr``, ``acc``, ``mag`` (each ``(M, T, 3)``)
     and ``received`` ``(M', T)`` it reads (broadcasting without copies); ``outputs`` the first six
-    of :func:`kalman_stream`'s, with the batch first (``P`` may have a leading 1: not kept).  No
+    of :func:`kalman_stream`'s, with the batch first (``bias``, ``velocity``, ``P`` may have a leading 1:
+    not kept; they are written only when they have T rows).  No
     records (``constants.record`` off: the smoother runs :func:`kalman_stream` itself).
     """
     out_q, out_bias, out_vel, out_P, acc_used, mag_used = outputs
-    p_stride = 1 if out_P.shape[0] == out_q.shape[0] else 0  # P kept, or one dummy row
+    n_batch = out_q.shape[0]
+    # kept (a row per element), or one dummy row for every element
+    b_stride = 1 if out_bias.shape[0] == n_batch else 0
+    v_stride = 1 if out_vel.shape[0] == n_batch else 0
+    p_stride = 1 if out_P.shape[0] == n_batch else 0
     no_records = new_records(0)
-    for n in prange(out_q.shape[0]):
-        p = n * p_stride
+    for n in prange(n_batch):
         kalman_stream(gyr[index[n, 0]], acc[index[n, 1]], mag[index[n, 2]], received[index[n, 3]], q_init[n],
                       start[n], init_only, constants[0],
-                      (out_q[n], out_bias[n], out_vel[n], out_P[p], acc_used[n], mag_used[n]) + no_records)
+                      (out_q[n], out_bias[n * b_stride], out_vel[n * v_stride], out_P[n * p_stride], acc_used[n],
+                       mag_used[n]) + no_records)
 
 
 @njit(**COMPILE)

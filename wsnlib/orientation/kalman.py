@@ -452,11 +452,12 @@ def kalman_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
     inputs = prepare_inputs(gyr, acc, mag, received, q0, settings.gravity)
     hold_output = B.check_output_on_lost(output_on_lost)
     n_batch, n_t, batch = inputs.index.shape[0], inputs.n_t, inputs.batch
-    n_floats = 4 + 3 + 3 + (NX * NX if full_output else 0) + 3  # quaternion, bias, velocity, covariance, history
+    n_floats = 4 + (3 + NX * NX if full_output else 0) + 3  # quaternion, bias and covariance, history
     B.check_memory((8 * n_floats + 2) * n_t * n_batch, f"kalman_orientation's output for batch {batch}, T = {n_t}")
-    kept = n_batch if full_output else 1  # P only when asked (else one dummy row)
-    outputs = (np.empty((n_batch, n_t, 4)), np.empty((n_batch, n_t, 3)), np.empty((n_batch, n_t, 3)),
-               np.empty((kept, n_t if full_output else 1, NX, NX)), np.empty((n_batch, n_t), dtype=bool),
+    # Bias and P only when asked, the velocity never (else one dummy row: not written, no memory to touch)
+    kept, kept_t = (n_batch, n_t) if full_output else (1, 1)
+    outputs = (np.empty((n_batch, n_t, 4)), np.empty((kept, kept_t, 3)), np.empty((1, 1, 3)),
+               np.empty((kept, kept_t, NX, NX)), np.empty((n_batch, n_t), dtype=bool),
                np.empty((n_batch, n_t), dtype=bool))
     if n_batch == 1:  # one stream: the loop itself, without starting the thread pool
         i_gyr, i_acc, i_mag, i_rx = inputs.index[0]
