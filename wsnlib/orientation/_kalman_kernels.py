@@ -66,17 +66,22 @@ NP = NX * (NX + 1) // 2
 #: Most scalar updates one sensor makes at a sample (the accelerometer's two tilt and three
 #: velocity updates).
 MAX_UPDATES = 5
+#: Products of a sample's covariance update (:func:`subtract_products`): the accelerometer's
+#: :data:`MAX_UPDATES`, then the heading's (at index :data:`HEADING_PRODUCT`).
+N_PRODUCTS = MAX_UPDATES + 1
+HEADING_PRODUCT = MAX_UPDATES
 
 #: Scratch of one stream, and the prediction of the last sample (``q_pred``, ``bias_pred``,
 #: ``vel_pred``, ``P_pred``; ``R`` = R(q⁻) and ``a_e`` = a_E, which define the transition F; ``noise``
 #: Q's diagonal, attitude and velocity, :func:`add_process_noise`) kept for the smoother.  A sensor's
 #: scalar updates (:func:`scalar_updates`) read their measurements from ``index`` (i of ``H = e_iᵀ``),
 #: ``z`` and ``r`` (noise variance), and leave the covariance's change as products
-#: ``P ← P − Σ_u gains_u rows_uᵀ`` (:func:`subtract_products`).
+#: ``P ← P − Σ_u gains_u rows_uᵀ``, to which the heading update adds its own; the sample's
+#: :func:`subtract_products` applies them all.
 WORK_DTYPE = np.dtype([
     ("R", "f8", (3, 3)), ("a_e", "f8", (3,)), ("dx", "f8", (NX,)),
     ("index", "i8", (MAX_UPDATES,)), ("z", "f8", (MAX_UPDATES,)), ("r", "f8", (MAX_UPDATES,)),
-    ("gains", "f8", (MAX_UPDATES, NX)), ("rows", "f8", (MAX_UPDATES, NX)),
+    ("gains", "f8", (N_PRODUCTS, NX)), ("rows", "f8", (N_PRODUCTS, NX)),
     ("ar_A", "f8", (3, gaps.MAX_ORDER, gaps.MAX_ORDER + 1)), ("ar_r", "f8", (3, gaps.MAX_ORDER + 1)),
     ("q_pred", "f8", (4,)), ("bias_pred", "f8", (3,)), ("vel_pred", "f8", (3,)), ("P_pred", "f8", (NX, NX)),
     ("noise", "f8", (2,)),
@@ -322,32 +327,48 @@ def predict(st, work, c, omega, acc, received, lost_run):
 
 
 @njit(inline="always", **COMPILE)
-def subtract_products(P, gains, rows, n):
-    """``P ← P − Σ_{u<n} gains_u rows_uᵀ`` (n ≤ :data:`MAX_UPDATES`) for a sum that is symmetric
-    (as every covariance update below is): its upper triangle, mirrored, in one pass over P.
-    The unused products are zeroed, so each entry is one expression of five."""
-    for u in range(n, MAX_UPDATES):
+def zero_products(gains, rows, first, last):
+    """Products ``first … last − 1`` to zero (unused at this sample: they subtract exact zeros)."""
+    for u in range(first, last):
         for a in range(NX):
             gains[u, a] = 0.0
             rows[u, a] = 0.0
-    r0, r1, r2, r3, r4 = rows[0], rows[1], rows[2], rows[3], rows[4]
+
+
+@njit(inline="always", **COMPILE)
+def subtract_products(P, gains, rows):
+    """``P ← P − Σ_u gains_u rows_uᵀ`` over the sample's :data:`N_PRODUCTS` products (unused ones zero)
+    for a sum that is symmetric (as every covariance update below is): its upper triangle,
+    mirrored, in one pass over P.  Each entry is one expression, the products subtracted in
+    order: the accelerometer's (:func:`scalar_updates`), then the heading's (:func:`heading_update`),
+    the same numbers as a pass per sensor."""
+    r0, r1, r2, r3, r4, r5 = rows[0], rows[1], rows[2], rows[3], rows[4], rows[5]
     for a in range(NX):
-        g0, g1, g2, g3, g4 = gains[0, a], gains[1, a], gains[2, a], gains[3, a], gains[4, a]
+        g0, g1, g2, g3, g4, g5 = gains[0, a], gains[1, a], gains[2, a], gains[3, a], gains[4, a], gains[5, a]
         for b in range(a, NX):
-            v = P[a, b] - g0 * r0[b] - g1 * r1[b] - g2 * r2[b] - g3 * r3[b] - g4 * r4[b]
+            v = P[a, b] - g0 * r0[b] - g1 * r1[b] - g2 * r2[b] - g3 * r3[b] - g4 * r4[b] - g5 * r5[b]
             P[a, b] = v
             P[b, a] = v
 
 
 @njit(inline="always", **COMPILE)
+def after_acc(P, gains, rows, a, b):
+    """``P[a, b]`` (a ≤ b) after the accelerometer's updates, which :func:`subtract_products` applies
+    later: the same expression, so the same bits."""
+    return (P[a, b] - gains[0, a] * rows[0, b] - gains[1, a] * rows[1, b] - gains[2, a] * rows[2, b]
+            - gains[3, a] * rows[3, b] - gains[4, a] * rows[4, b])
+
+
+@njit(inline="always", **COMPILE)
 def scalar_updates(P, dx, work, n):
     """The scalar updates u = 0 … n − 1 (module docstring) with ``H = e_iᵀ``, ``i = work.index[u]``,
-    measurement ``work.z[u]``, noise variance ``work.r[u]``, in order, then P in one pass.
+    measurement ``work.z[u]``, noise variance ``work.r[u]``, in order, leaving P's change as products.
 
     With the optimal gain update u is ``P ← P − K_u P_i·`` (``K_u = P_·i/S_u``, ``S_u = P_ii + r_u``)
     and needs only row i of P after the earlier updates, ``row_u = P_i· − Σ_{w<u} K_w[i] row_w``;
     so the rows and gains come first (``δx += K_u (z_u − δx_i)``) and P takes
-    ``− Σ_u K_u row_uᵀ`` once (:func:`subtract_products`).
+    ``− Σ_u K_u row_uᵀ`` once, with the heading's product, at the sample's end
+    (:func:`subtract_products`; :func:`after_acc` reads an entry before).  Products n … 4 are zeroed.
     """
     gains, rows = work.gains, work.rows
     for u in range(n):
@@ -364,30 +385,31 @@ def scalar_updates(P, dx, work, n):
         for a in range(NX):
             gain[a] = row[a] * inv_S
             dx[a] += gain[a] * innovation
-    subtract_products(P, gains, rows, n)
+    zero_products(gains, rows, n, MAX_UPDATES)
 
 
 @njit(inline="always", **COMPILE)
-def heading_update(P, dx, innovation, r):
+def heading_update(P, work, innovation, r):
     """The heading's scalar update (``H = e_2ᵀ``) with the gain's tilt rows zeroed (the magnetometer
     must not tilt), so in Joseph form (valid for any gain): ``P − K P_2· − P_·2 Kᵀ + S K Kᵀ``.
     Since ``S K_b = P_2b`` wherever K is not zeroed, that is ``P − P_·2 Kᵀ − K tᵀ`` with ``t`` =
     P_2· on the tilt entries and 0 elsewhere.  With ``p = P_·2`` and ``k_b = p_b/S`` (b ≥ 2, else
     0), entry (a, b) of the upper triangle (a ≤ b) loses ``p_a k_b`` when b ≥ 2 and nothing in
-    the tilt block (a, b < 2): the rank-one product on columns 2 … 8 only, the same numbers as
-    the two dense products, whose other terms are exact zeros."""
-    inv_S = 1.0 / (P[2, 2] + r)
-    p0, p1, p2, p3, p4, p5, p6, p7, p8 = P[2, 0], P[2, 1], P[2, 2], P[2, 3], P[2, 4], P[2, 5], P[2, 6], P[2, 7], P[2, 8]
-    p = (p0, p1, p2, p3, p4, p5, p6, p7, p8)
-    k = (0.0, 0.0, p2 * inv_S, p3 * inv_S, p4 * inv_S, p5 * inv_S, p6 * inv_S, p7 * inv_S, p8 * inv_S)  # K
+    the tilt block (a, b < 2): one more product for :func:`subtract_products` (gains ``p``, rows
+    ``k``; ``p_a k_b`` with ``k_b = 0`` subtracts an exact zero), the same numbers as the two dense
+    products, whose other terms are exact zeros.  P is read after the accelerometer's updates
+    (:func:`after_acc`); ``work.dx`` takes ``K · innovation``."""
+    gains, rows, dx = work.gains, work.rows, work.dx
+    p = gains[HEADING_PRODUCT]
+    k = rows[HEADING_PRODUCT]
+    p[0], p[1] = after_acc(P, gains, rows, 0, 2), after_acc(P, gains, rows, 1, 2)
+    for b in range(2, NX):
+        p[b] = after_acc(P, gains, rows, 2, b)
+    inv_S = 1.0 / (p[2] + r)
+    k[0] = k[1] = 0.0
     for a in range(2, NX):
+        k[a] = p[a] * inv_S  # K
         dx[a] += k[a] * innovation  # δx += K (z − δθ_z)
-    for b in range(2, NX):  # P_ab −= p_a k_b, a ≤ b, mirrored
-        k_b = k[b]
-        for a in range(b + 1):
-            v = P[a, b] - p[a] * k_b
-            P[a, b] = v
-            P[b, a] = v
 
 
 @njit(inline="always", **COMPILE)
@@ -628,7 +650,8 @@ def correct_mag(st, work, c, mag, omega, lost):
     # The dip is seen through the estimated tilt: its tolerance widens by the tilt's std
     # (× mag_dip_tilt_sigmas), so a tilt that is merely uncertain (after a gap, in fast
     # motion) does not reject an undisturbed field.
-    dip_tolerance = c.mag_dip_gate + c.mag_dip_tilt_sigmas * math.sqrt(max(P[0, 0], P[1, 1]))
+    tilt_var = max(after_acc(P, work.gains, work.rows, 0, 0), after_acc(P, work.gains, work.rows, 1, 1))
+    dip_tolerance = c.mag_dip_gate + c.mag_dip_tilt_sigmas * math.sqrt(tilt_var)
     dip_consistent = abs(dip - st.mag_ref_dip) < dip_tolerance
     # The norm gate's follower stands still while nothing is received: after L lost samples a
     # norm drifting by a fraction ρ per second lags it by ρ(τ + LΔt) instead of ρτ, so the gate
@@ -674,14 +697,14 @@ def correct_mag(st, work, c, mag, omega, lost):
     # Heading seen through an uncertain tilt: a tilt error ε moves the measured heading by
     # up to tan(dip)·ε, so that variance is added (the gain's tilt rows stay zero).
     tan_dip = math.tan(min(abs(st.mag_ref_dip), 1.5))
-    r = c.mag_var + tan_dip * tan_dip * max(P[0, 0], P[1, 1])
+    r = c.mag_var + tan_dip * tan_dip * tilt_var
     use = undisturbed
     if not undisturbed and st.mag_reject_time > c.mag_max_reject:
         use = True
         r *= c.mag_reject_var_factor
     if use and horizontal > 0.0:
         psi = math.atan2(m_e[0], m_e[1])  # heading error δθ_z
-        heading_update(P, work.dx, psi - work.dx[2], r)
+        heading_update(P, work, psi - work.dx[2], r)
         inject(st, work.dx, c.bias_limit)
         return True
     return False
@@ -713,7 +736,9 @@ def kalman_step(st, gs, history, work, c, gyr, acc, mag, received, replayed):
     _keep_prediction(st, work, c)
     gaps.gap_received(gs, history, omega)
     acc_used = correct_acc(st, work, c, acc, omega)
+    zero_products(work.gains, work.rows, HEADING_PRODUCT, N_PRODUCTS)
     mag_used = correct_mag(st, work, c, mag, omega, lost) if c.has_mag else False
+    subtract_products(st.P, work.gains, work.rows)  # P⁺: both sensors' updates in one pass
     for a in range(4):
         st.q_last[a] = st.q[a]
     return acc_used, mag_used

@@ -153,7 +153,8 @@ constants the compiled step reads (``constants.gyro_var``) are in
 ``state.P``) is :mod:`._kalman_kernels` — one function per step above: :func:`~._kalman_kernels.predict`,
 :func:`~._kalman_kernels.correct_acc`, :func:`~._kalman_kernels.mag_lag`, :func:`~._kalman_kernels.hard_iron`,
 :func:`~._kalman_kernels.correct_mag`, :func:`~._kalman_kernels.scalar_updates`,
-:func:`~._kalman_kernels.heading_update`,
+:func:`~._kalman_kernels.heading_update` (both leave P's change as products, which
+:func:`~._kalman_kernels.subtract_products` applies once per sample),
 :func:`~._kalman_kernels.inject`, one sample :func:`~._kalman_kernels.kalman_step`, the loop
 :func:`~._kalman_kernels.kalman_stream` (also the forward pass of
 :func:`wsnlib.orientation.smooth_orientation`) and the parallel batch
