@@ -247,6 +247,22 @@ def test_hybrid_after_a_burst_is_closer_to_triad(burst, wrapper):
     assert err["feedback"] < 0.25 * err[None]
 
 
+def test_vqf_state_read_is_a_snapshot_the_replay_can_restore(arm):
+    """The VQF replay saves ``filt.state`` at a gap's start without copying it: each read must build
+    new objects, which later updates leave as they were, and writing it back restores the filter."""
+    _, gyr, acc, mag = arm
+    filt = vqf.VQF(1.0 / FS)
+    filt.updateBatch(gyr[0, 0, :100].copy(), acc[0, 0, :100].copy(), mag[0, 0, :100].copy())
+    saved = filt.state
+    frozen = repr(saved)
+    after = filt.updateBatch(gyr[0, 0, 100:150].copy(), acc[0, 0, 100:150].copy(), mag[0, 0, 100:150].copy())
+    assert repr(filt.state) != frozen  # the filter moved on ...
+    assert repr(saved) == frozen  # ... and the saved state did not
+    filt.state = saved
+    again = filt.updateBatch(gyr[0, 0, 100:150].copy(), acc[0, 0, 100:150].copy(), mag[0, 0, 100:150].copy())
+    np.testing.assert_array_equal(again["quat9D"], after["quat9D"])
+
+
 def test_vqf_state_write_sets_the_9d_output(arm):
     _, gyr, acc, mag = arm
     filt = vqf.VQF(1.0 / FS)

@@ -108,8 +108,9 @@ module gave (the prediction, not the replay).
   received sample is updated as usual.  Fusion: the replay rates are integrated from the
   output at the gap's start and ``set_quaternion`` sets the result (``imufusion.Ahrs`` cannot
   be copied: its start-up ramp and its rejection timers are not restored, they stay as they
-  were, which for a gap that made no calls is the same).  VQF: ``filt.state`` (a deep copy)
-  is saved at the gap's start, restored at its end and ``updateGyr`` runs the L replay rates.
+  were, which for a gap that made no calls is the same).  VQF: ``filt.state`` (a snapshot: each
+  read builds a new dict of new lists from the C++ state) is saved at the gap's start, restored at
+  its end and ``updateGyr`` runs the L replay rates.
   The replay is causal: the outputs on the lost samples are those without replay.
 
 A gap before the first received sample is held whatever ``gap`` (the filter has not
@@ -120,7 +121,6 @@ started); a gap at the end of the recording is predicted, never replayed.  With
 from __future__ import annotations
 
 import collections
-import copy
 import gc
 import hashlib
 
@@ -601,7 +601,7 @@ def _vqf_one(fs: float, params: dict, gap: _GapRates):
             received sample ``stop``) the replay, which leaves the state where ``stop``'s update starts."""
             predicted, replayed = gap.rates(used[first:prev + 1], stop - prev - 1, measured)
             used[prev + 1:stop] = predicted
-            saved = copy.deepcopy(filt.state) if gap.replay and measured is not None else None
+            saved = filt.state if gap.replay and measured is not None else None  # a snapshot (module docstring)
             if gap.gap == "ar":  # VQF's own strapdown integration (bias-corrected inside)
                 for k, rate in enumerate(predicted, start=prev + 1):
                     filt.updateGyr(rate)
