@@ -70,6 +70,8 @@ MAX_UPDATES = 5
 #: :data:`MAX_UPDATES`, then the heading's (at index :data:`HEADING_PRODUCT`).
 N_PRODUCTS = MAX_UPDATES + 1
 HEADING_PRODUCT = MAX_UPDATES
+# subtract_products and after_acc write their sums out term by term for these counts
+assert (MAX_UPDATES, N_PRODUCTS) == (5, 6), "rewrite subtract_products and after_acc for the new counts"
 
 #: Scratch of one stream, and the prediction of the last sample (``q_pred``, ``bias_pred``,
 #: ``vel_pred``, ``P_pred``; ``R`` = R(q⁻) and ``a_e`` = a_E, which define the transition F; ``noise``
