@@ -453,7 +453,8 @@ def kalman_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
     inputs = prepare_inputs(gyr, acc, mag, received, q0, settings.gravity)
     hold_output = B.check_output_on_lost(output_on_lost)
     n_batch, n_t, batch = inputs.index.shape[0], inputs.n_t, inputs.batch
-    n_floats = 4 + (3 + NX * NX if full_output else 0) + 3  # quaternion, bias and covariance, history
+    # quaternion, bias and covariance, and the rate history (a row per sample at most: a recording lost throughout)
+    n_floats = 4 + (3 + NX * NX if full_output else 0) + 3
     B.check_memory((8 * n_floats + 2) * n_t * n_batch, f"kalman_orientation's output for batch {batch}, T = {n_t}")
     # Bias and P only when asked, the velocity never (else one dummy row: not written, no memory to touch)
     kept, kept_t = (n_batch, n_t) if full_output else (1, 1)
