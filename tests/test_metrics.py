@@ -4,6 +4,7 @@ from scipy.spatial.transform import Rotation
 
 from wsnlib import metrics
 from wsnlib import quaternion as Q
+from wsnlib.metrics.smoothness import _rms_without_gap_ends, _squared_angular_jerk
 
 #: The keys of broad_errors_deg and broad_rmse_deg.
 _BROAD_KEYS = ("total", "heading", "inclination")
@@ -462,3 +463,64 @@ def test_extended_figures_of_merit():
     assert foms[metrics.JITTER] < foms[metrics.JERK] / 10
     assert foms[metrics.P95_ERROR] <= foms[metrics.MAX_ERROR]
     assert metrics.GAP_STEP_MAX not in metrics.loss_figures_of_merit(error, fs=fs, received=received)
+
+
+# --- The compiled metrics give numpy's bits (wsnlib.metrics._kernels) -----------------------------
+
+def _numpy_broad_errors_deg(est, ref):
+    """broad_errors_deg as numpy expressions (what the compiled steps replace), for a bit-for-bit check."""
+    est = est / np.linalg.norm(est, axis=-1)[..., None]
+    ref = ref / np.linalg.norm(ref, axis=-1, keepdims=True)
+    ref = ref * np.array([1.0, -1.0, -1.0, -1.0])
+    pw, px, py, pz = np.moveaxis(np.broadcast_to(est, np.broadcast_shapes(est.shape, ref.shape)), -1, 0)
+    qw, qx, qy, qz = np.moveaxis(ref, -1, 0)
+    w = pw * qw - px * qx - py * qy - pz * qz
+    x = pw * qx + px * qw + py * qz - pz * qy
+    y = pw * qy - px * qz + py * qw + pz * qx
+    z = pw * qz + px * qy - py * qx + pz * qw
+    errors = {"total": 2.0 * np.arctan2(np.sqrt(x * x + y * y + z * z), np.abs(w)),
+              "heading": 2.0 * np.arctan2(np.abs(z), np.abs(w)),
+              "inclination": 2.0 * np.arctan2(np.hypot(x, y), np.hypot(w, z))}
+    return {key: np.degrees(value) for key, value in errors.items()}
+
+
+def _numpy_squared_jerk(quat, fs):
+    """The squared angular jerk as numpy expressions (what the compiled steps replace)."""
+    delta = Q.canonical(Q.multiply(Q.conjugate(quat[..., :-1, :]), quat[..., 1:, :]))
+    sin_half = np.linalg.norm(delta[..., 1:], axis=-1, keepdims=True)
+    angle = 2.0 * np.arctan2(sin_half, delta[..., :1])
+    axis = np.divide(delta[..., 1:], sin_half, out=np.zeros_like(delta[..., 1:]), where=sin_half > 0)
+    return np.sum((np.diff(axis * angle * fs, n=2, axis=-2) * fs**2) ** 2, axis=-1)
+
+
+def _bitwise_equal(a, b):
+    return a.shape == b.shape and np.array_equal(a.view(np.uint64), b.view(np.uint64))
+
+
+def test_broad_errors_are_numpys_bits(rng):
+    """Unnormalised estimates over many magnitudes, a batch against one reference with NaN rows (BROAD's
+    lost markers), a reference row equal to an estimate's (error 0), a strided estimate."""
+    est = rng.normal(size=(3, 500, 4)) * 10.0 ** rng.uniform(-3, 3, size=(3, 500, 1))
+    ref = rng.normal(size=(500, 4))
+    ref[::37] = np.nan
+    ref[5] = est[0, 5]
+    for e, r in ((est, ref), (est[:, ::2], ref[::2]), (est[0], ref), (est[:, :7], est[:, :7])):
+        ours, expected = metrics.broad_errors_deg(e, r), _numpy_broad_errors_deg(np.asarray(e), np.asarray(r))
+        for key in _BROAD_KEYS:
+            assert np.array_equal(ours[key], expected[key], equal_nan=True), key
+            finite = np.isfinite(expected[key])
+            assert _bitwise_equal(ours[key][finite], expected[key][finite]), key
+    assert metrics.broad_errors_deg(est, ref)["total"][0, 5] < 1e-6
+
+
+def test_angular_jerk_is_numpys_bits(rng):
+    """A smooth rotation, noise, repeated samples (steps of no rotation) and sign flips (q and −q)."""
+    fs = 50.0
+    rotvec = np.cumsum(rng.normal(scale=0.05, size=(2, 400, 3)), axis=-2)
+    quat = Q.from_rotation_vector(rotvec)
+    quat[:, 100:110] = quat[:, 100:101]  # no rotation: the axis is 0
+    quat[:, ::7] *= -1.0
+    for q in (quat, quat[0], quat[:, ::3]):
+        expected = np.degrees(_rms_without_gap_ends(_numpy_squared_jerk(q, fs), None, q.shape[:-1]))
+        assert _bitwise_equal(np.atleast_1d(metrics.angular_jerk_rms_deg(q, fs)), np.atleast_1d(expected))
+    assert _bitwise_equal(_squared_angular_jerk(quat, fs), _numpy_squared_jerk(quat, fs))

@@ -230,3 +230,29 @@ def test_normalize_gives_unit(q):
 def test_errors_name_the_argument(call, name):
     with pytest.raises(ValueError, match=rf"\b{name}\b"):
         call()
+
+
+def test_multiply_and_normalize_are_numpys_bits(rng):
+    """The compiled Hamilton product and normalisation: numpy's expressions, bit for bit, broadcasting,
+    strided and read-only operands included."""
+    def numpy_multiply(p, q):
+        pw, px, py, pz = np.moveaxis(p, -1, 0)
+        qw, qx, qy, qz = np.moveaxis(q, -1, 0)
+        return np.stack([pw * qw - px * qx - py * qy - pz * qz, pw * qx + px * qw + py * qz - pz * qy,
+                         pw * qy - px * qz + py * qw + pz * qx, pw * qz + px * qy - py * qx + pz * qw], axis=-1)
+
+    p = rng.normal(size=(3, 200, 4)) * 10.0 ** rng.uniform(-5, 5, size=(3, 200, 4))
+    q = rng.normal(size=(200, 4))
+    ro = np.broadcast_to(q[0], (200, 4))
+    for a, b in ((p, q), (q, p), (p[:, ::2], q[::2]), (p[..., ::-1], p), (ro, q), (p[0, 0], q[0]), (p[:, :1], q[None])):
+        ours, expected = Q.multiply(a, b), numpy_multiply(np.asarray(a), np.asarray(b))
+        assert ours.shape == expected.shape and np.array_equal(ours.view(np.uint64), expected.view(np.uint64))
+    for a in (p, p[:, ::3], p[0, 0]):
+        expected = a / np.linalg.norm(a, axis=-1)[..., None]
+        assert np.array_equal(Q.normalize(a).view(np.uint64), expected.view(np.uint64))
+    zero = p.copy()
+    zero[2, 17] = 0.0
+    with pytest.raises(ValueError, match=r"quat_est has a zero-norm vector at index \(2, 17\)"):
+        Q.normalize(zero, "quat_est")
+    with pytest.raises(ValueError, match=r"q has a zero-norm vector at index \(\)"):
+        Q.normalize(np.zeros(4))

@@ -18,7 +18,8 @@ from __future__ import annotations
 import numpy as np
 
 from wsnlib import quaternion as quat_ops
-from wsnlib._validation import as_bool_mask, as_float_array, check_nonzero_norm
+from wsnlib._validation import as_bool_mask, as_float_array
+from wsnlib.metrics._kernels import error_angle_arguments
 
 #: Body-frame axis along the segment (pointing distally), shared with :mod:`wsnlib.sim.arm`.
 SEGMENT_AXIS = np.array([1.0, 0.0, 0.0])
@@ -91,20 +92,21 @@ def broad_errors_deg(quat_est, quat_ref) -> dict[str, np.ndarray]:
         ``"total"``, ``"heading"``, ``"inclination"``: degrees in ``[0, 180]``, shape
         ``(..., T)``; NaN exactly where the reference is NaN.
     """
-    est = as_float_array(quat_est, "quat_est", last_dim=4)
-    est = est / check_nonzero_norm(est, "quat_est", "a zero quaternion is not a rotation")[..., None]
+    est = quat_ops.normalize(quat_est, "quat_est")
     ref = quat_ops.as_quat_with_gaps(quat_ref, "quat_ref")
     ref = ref / np.linalg.norm(ref, axis=-1, keepdims=True)
     try:
         np.broadcast_shapes(est.shape, ref.shape)
     except ValueError as exc:
         raise ValueError(f"quat_est {est.shape} and quat_ref {ref.shape} do not broadcast") from exc
-    w, x, y, z = np.moveaxis(quat_ops.multiply(est, quat_ops.conjugate(ref)), -1, 0)
-    abs_w, abs_z = np.abs(w), np.abs(z)
+    error = quat_ops.multiply(est, quat_ops.conjugate(ref))
+    # ‖(x, y, z)‖, |w|, |z|, hypot(x, y), hypot(w, z), each (..., T)
+    args = np.empty((5,) + error.shape[:-1])
+    error_angle_arguments(error.reshape(-1, 4), args.reshape(5, -1))
     errors = {
-        "total": 2.0 * np.arctan2(np.sqrt(x * x + y * y + z * z), abs_w),
-        "heading": 2.0 * np.arctan2(abs_z, abs_w),
-        "inclination": 2.0 * np.arctan2(np.hypot(x, y), np.hypot(w, z)),
+        "total": 2.0 * np.arctan2(args[0], args[1]),
+        "heading": 2.0 * np.arctan2(args[2], args[1]),
+        "inclination": 2.0 * np.arctan2(args[3], args[4]),
     }
     return {key: np.degrees(value) for key, value in errors.items()}
 

@@ -16,6 +16,7 @@ import numpy as np
 
 from wsnlib import quaternion as quat_ops
 from wsnlib._validation import as_bool_mask, as_float_array, check_positive
+from wsnlib.metrics._kernels import rotation_steps, squared_jerk
 
 
 def angular_jerk_rms_deg(quat, fs, received=None) -> np.ndarray:
@@ -34,18 +35,22 @@ def angular_jerk_rms_deg(quat, fs, received=None) -> np.ndarray:
     fs = check_positive(fs, "fs")
     if quat.shape[-2] < 4:
         raise ValueError(f"quat needs at least 4 samples along time, got {quat.shape[-2]}")
-    return np.degrees(_rms_without_gap_ends(np.sum(_angular_jerk(quat, fs) ** 2, axis=-1), received,
-                                            quat.shape[:-1]))
+    return np.degrees(_rms_without_gap_ends(_squared_angular_jerk(quat, fs), received, quat.shape[:-1]))
 
 
-def _angular_jerk(quat: np.ndarray, fs: float) -> np.ndarray:
-    """Angular jerk vectors (rad/s³), ``(..., T, 4) → (..., T − 3, 3)``."""
-    delta = quat_ops.canonical(quat_ops.multiply(quat_ops.conjugate(quat[..., :-1, :]), quat[..., 1:, :]))
-    sin_half = np.linalg.norm(delta[..., 1:], axis=-1, keepdims=True)
-    angle = 2.0 * np.arctan2(sin_half, delta[..., :1])
-    axis = np.divide(delta[..., 1:], sin_half, out=np.zeros_like(delta[..., 1:]), where=sin_half > 0)
-    omega = axis * angle * fs
-    return np.diff(omega, n=2, axis=-2) * fs**2
+def _squared_angular_jerk(quat: np.ndarray, fs: float) -> np.ndarray:
+    """Squared norms of the angular jerk vectors (rad²/s⁶), ``(..., T, 4) → (..., T − 3)``: the rate
+    ``ω_t = rotvec(q_t* ⊗ q_{t+1})·fs`` (the step's angle ``2·atan2(sin, cos)`` of its half angle),
+    its second difference times ``fs²``."""
+    batch, n_t = quat.shape[:-2], quat.shape[-2]
+    rows = quat.reshape(-1, n_t, 4)
+    vector = np.empty((rows.shape[0], n_t - 1, 3))
+    sin_half, cos_half = np.empty((rows.shape[0], n_t - 1)), np.empty((rows.shape[0], n_t - 1))
+    rotation_steps(rows, vector, sin_half, cos_half)
+    angle = 2.0 * np.arctan2(sin_half, cos_half)
+    out = np.empty((rows.shape[0], n_t - 3))
+    squared_jerk(vector, sin_half, angle, fs, fs**2, out)
+    return out.reshape(batch + (n_t - 3,))
 
 
 def angle_jerk_rms_deg(angle_deg, fs, received=None) -> np.ndarray:
