@@ -106,6 +106,16 @@ def quat_exp(v):
 
 
 @njit(**COMPILE)
+def integrate_rates(q_start, rates, dt, out):
+    """Strapdown integration: ``out[k] = q_k = q_{k−1} ⊗ Exp(ω_k Δt)``, normalised, from ``q_{−1}`` =
+    ``q_start`` (4,), one step per row ω_k of ``rates`` (L, 3; rad/s), ``dt`` (s)."""
+    q = (q_start[0], q_start[1], q_start[2], q_start[3])
+    for k in range(rates.shape[0]):
+        q = quat_normalize(quat_multiply(q, quat_exp((rates[k, 0] * dt, rates[k, 1] * dt, rates[k, 2] * dt))))
+        out[k, 0], out[k, 1], out[k, 2], out[k, 3] = q
+
+
+@njit(**COMPILE)
 def quat_log(q):
     """Unit quaternion → rotation vector (rad) of the shorter rotation, angle in [0, π]."""
     w, x, y, z = q

@@ -136,6 +136,7 @@ from wsnlib.loss import last_received_index
 from wsnlib.orientation import _batch as B
 from wsnlib.orientation import _kernels as K
 from wsnlib.orientation import gaps
+from wsnlib.orientation._scalar_kernels import integrate_rates
 from wsnlib.orientation.hybrid_blend import blend_with_single_frame, check_single_frame_gate, trusted_unchecked
 from wsnlib.orientation.kalman_settings import gap_prediction_window
 from wsnlib.orientation.lost_run import check_weight_options, effective_lost_run, slerp_weight
@@ -172,11 +173,8 @@ def _predict_gap(q_last, omega, n_lost: int, dt: float, factor: float) -> np.nda
 
 def _integrate(q_start, rates, dt: float) -> np.ndarray:
     """``(L, 4)``: ``q_k = q_{k−1} ⊗ Exp(ω_k Δt)`` from ``q_0 = q_start``, one step per row of ``rates`` (L, 3)."""
-    q = _floats(q_start)
     out = np.empty((rates.shape[0], 4))
-    for k, (x, y, z) in enumerate(rates.tolist()):
-        q = K.quat_normalize(K.quat_multiply(q, K.quat_exp((x * dt, y * dt, z * dt))))
-        out[k] = q
+    integrate_rates(np.asarray(q_start, dtype=float), np.asarray(rates, dtype=float), dt, out)
     return out
 
 
@@ -224,7 +222,7 @@ def _slerp(q_s, q_d, mu: float, normalise_d: bool = False) -> np.ndarray:
 
 def _floats(q) -> tuple:
     """A 4-sequence as a tuple of Python floats, what the scalar kernels take one sample at a time."""
-    return tuple(float(v) for v in q)
+    return tuple(np.asarray(q, dtype=float).tolist())
 
 
 def _hold(out: np.ndarray, mask: np.ndarray) -> np.ndarray:
@@ -366,11 +364,12 @@ def _fusion_one(settings, dt, gap: _GapRates):
             out[t] /= fixed_order.norm(out[t])
             normalised[t] = True
 
-        if feedback is not None:
-            blend_at, q_s, mu = feedback
-        received = np.flatnonzero(mask).tolist()
-        used = np.empty((n_t, 3)) if gap.tracked else None  # the rate history (gaps module): raw gyroscope
-        first = received[0]
+        blend_at, q_s, mu = (None, None, None) if feedback is None else feedback
+        used = None
+        if gap.tracked:  # the rate history (gaps module): the raw gyroscope, and each gap's rates once filled
+            used = np.empty((n_t, 3))
+            used[mask] = gyr[mask]
+        first = int(np.argmax(mask))
 
         def fill_gap(prev, stop, measured):
             """Outputs on the lost samples ``prev + 1 … stop − 1`` and (``measured``: the rate of the
@@ -388,26 +387,31 @@ def _fusion_one(settings, dt, gap: _GapRates):
                 elif gap.gap == "ar":
                     ahrs.set_quaternion(out[stop - 1])
 
-        prev = -1
-        for t in received:
-            if prev >= 0 and t - prev > 1:
+        quaternion = ahrs.get_quaternion
+        prev = -1  # last received sample
+        # Runs of received samples (cut after each blended one), each a loop of bare updates.
+        for start, end in zip(*_pieces(mask, blend_at), strict=True):
+            if prev >= 0 and start - prev > 1:
                 if gap.tracked:
-                    fill_gap(prev, t, gyr[t])
+                    fill_gap(prev, start, gyr[start])
                 elif gap_factor is not None:  # dead reckoning over the gap
                     normalise(prev)
-                    out[prev + 1:t] = _predict_gap(out[prev], gyr[prev], t - prev - 1, dt, gap_factor)
-                    ahrs.set_quaternion(out[t - 1])
-            prev = t
-            if used is not None:
-                used[t] = gyr[t]
+                    out[prev + 1:start] = _predict_gap(out[prev], gyr[prev], start - prev - 1, dt, gap_factor)
+                    ahrs.set_quaternion(out[start - 1])
             if mag is None:
-                ahrs.update_no_magnetometer(gyr_deg[t], acc_g[t])
+                update = ahrs.update_no_magnetometer
+                for t in range(start, end):
+                    update(gyr_deg[t], acc_g[t])
+                    out[t] = quaternion()
             else:
-                ahrs.update(gyr_deg[t], acc_g[t], mag[t])
-            out[t] = ahrs.get_quaternion()
-            if feedback is not None and blend_at[t]:
-                out[t] = _slerp(q_s[t], out[t], mu[t], normalise_d=True)
-                ahrs.set_quaternion(out[t])
+                update = ahrs.update
+                for t in range(start, end):
+                    update(gyr_deg[t], acc_g[t], mag[t])
+                    out[t] = quaternion()
+            prev = end - 1
+            if feedback is not None and blend_at[prev]:
+                out[prev] = _slerp(q_s[prev], out[prev], mu[prev], normalise_d=True)
+                ahrs.set_quaternion(out[prev])
         if gap.tracked and gap_factor is not None and prev < n_t - 1:  # a gap at the end
             fill_gap(prev, n_t, None)
         elif gap_factor is not None and 0 <= prev < n_t - 1:
