@@ -1,6 +1,7 @@
 """The loss-tolerance study (issue 11): registry, loss profiles, leave-one-trial-out tuning, summaries."""
 
 import dataclasses
+import functools
 import types
 
 import numpy as np
@@ -763,3 +764,34 @@ def test_command_line_runs_on_two_broad_trials(tmp_path, capsys, monkeypatch):
     assert "Targets and diagnosis: not computed" in stdout and ": PASS" not in stdout
     status, _, stderr = run_here(capsys, "--quick", "--scheduler", "nowhere")
     assert status != 0 and "scheduler" in stderr
+
+
+#: The tuning and scoring runs of :func:`_counted_madgwick`: (setting, masks) per call.
+_COUNTED_RUNS = []
+
+
+def _counted_madgwick(rec, setting, received, *, gap):
+    _COUNTED_RUNS.append((setting["beta"], received.shape[0]))
+    return lt.default_methods()[gap].run(rec, setting, received)
+
+
+def test_a_run_two_methods_ask_for_is_tuned_once():
+    """Two methods that run the same function on the same settings (as "Kalman" and the first design of
+    "Kalman, design in fold") share each tuning job: one run per trial, the same tuning scores for both;
+    a method whose function differs in an argument runs its own."""
+    recordings = {f"trial{i}": _recording(i, n=300) for i in range(2)}
+    base = lt.default_methods()["hold_last"]
+    grid = ({"beta": 0.02}, {"beta": 0.1})
+    methods = {name: dataclasses.replace(base, name=name, grid=grid,
+                                         run=functools.partial(_counted_madgwick, gap=gap))
+               for name, gap in (("A", "hold_last"), ("A again", "hold_last"), ("B", "constant_rate"))}
+    _COUNTED_RUNS.clear()
+    profiles = [p for p in lt.PROFILES if p.name in ("lossless", lt.HEADLINE)]
+    result = lt.evaluate(recordings, rng=np.random.default_rng(2), methods=methods, profiles=profiles, n_jobs=1,
+                         progress=False)
+    tuning_runs = [masks for _, masks in _COUNTED_RUNS if masks == 1]  # one headline mask when tuning
+    assert len(tuning_runs) == 2 * 2 * 2  # 2 trials × 2 settings, for "A" (shared with "A again") and "B"
+    tuning = result.tuning.set_index(["method", "trial", "setting_index"])
+    pd.testing.assert_frame_equal(tuning.loc["A"], tuning.loc["A again"])
+    assert not tuning.loc["A"].equals(tuning.loc["B"])
+    assert result.seconds["A again"] < result.seconds["A"]  # it ran the scoring only

@@ -7,6 +7,7 @@ recording is run, masked, scored and traced at its own rate (``recording.fs``).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 import zlib
 from collections.abc import Mapping
@@ -254,8 +255,10 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
     a single recording there is nothing to tune on and every method runs with its default
     (:meth:`~wsnlib.studies.loss_tolerance.Method.untuned_setting`), which the result's
     ``setting_source`` says.  Every run of a method on a trial is a job of
-    :func:`wsnlib.parallel.run_jobs` (up to :data:`SETTINGS_PER_JOB` settings per tuning job);
-    the results do not depend on where the jobs ran.
+    :func:`wsnlib.parallel.run_jobs` (up to :data:`SETTINGS_PER_JOB` settings per tuning job; two
+    methods whose tuning job runs the same function on the same settings share it, e.g. ``"Kalman"``
+    and the first design of ``"Kalman, design in fold"``); the results do not depend on where the
+    jobs ran.
 
     Parameters
     ----------
@@ -435,15 +438,28 @@ def _tune(recordings, names, folds, methods, masks, rows, headline, tuning_draws
     where.sort(key=lambda job: (job[1], job[2]) != (0, 0))
     at_headline = {name: [k for k, (profile, draw) in enumerate(rows[name])
                           if profile.name == headline and draw < tuning_draws] for name in names}
+    # One job per distinct run: a method that runs the same function as another on the same settings
+    # (the first design of "Kalman, design in fold" is "Kalman") takes that job's scores.
+    job_of, unique = [], {}
+    for m, j, first in where:
+        key = (_run_key(methods[m].run), j, _settings_key(methods[m].grid[first:first + SETTINGS_PER_JOB]))
+        job_of.append(unique.setdefault((m, j, first) if key[0] is None or key[2] is None else key, len(unique)))
+    runs = {}  # job → its first (method, trial, first setting)
+    for (m, j, first), job in zip(where, job_of, strict=True):
+        runs.setdefault(job, (m, j, first))
     jobs = [(methods[m], recordings[names[j]], masks[names[j]][at_headline[names[j]]],
-             methods[m].grid[first:first + SETTINGS_PER_JOB]) for m, j, first in where]
+             methods[m].grid[first:first + SETTINGS_PER_JOB]) for m, j, first in runs.values()]
     scores = {m: np.empty((len(tuned[m].grid), len(names), 3)) for m in tuned}  # total, heading, inclination
-    warm_up = len(tuned) if scheduler is None else 0
+    warm_up = sum(1 for _, j, first in runs.values() if (j, first) == (0, 0)) if scheduler is None else 0
     done = parallel.run_jobs(_tuning_job, jobs, n_jobs=n_jobs, scheduler=scheduler, in_process_first=warm_up,
                              progress=progress, desc=f"tuning at {headline}")
-    for (m, j, first), (score, elapsed) in zip(where, done, strict=True):
+    counted = set()
+    for (m, j, first), job in zip(where, job_of, strict=True):
+        score, elapsed = done[job]
         scores[m][first:first + len(score), j] = score
-        seconds[m] += elapsed
+        if job not in counted:  # a shared job's seconds count once, for the method that asked first
+            seconds[m] += elapsed
+            counted.add(job)
     choice = {m: loto.leave_one_out_choice(scores[m][..., 0], groups=folds) if m in tuned
               else np.zeros(len(names), dtype=int) for m in methods}
     choice |= {m: choice[leader] for m, leader in following.items()}
@@ -459,6 +475,28 @@ def _tune(recordings, names, folds, methods, masks, rows, headline, tuning_draws
                             for m in methods for j, name in enumerate(names)])
     setting = {m: [methods[m].grid[i] for i in choice[m]] for m in methods}
     return setting, tuning, choices
+
+
+def _run_key(run):
+    """What ``run`` computes, comparable across methods: a :func:`functools.partial`'s function and
+    arguments (the registry's runs are partials of module-level functions), else ``run`` itself;
+    None when that cannot be compared (unhashable arguments)."""
+    key = (run.func, run.args, tuple(sorted(run.keywords.items()))) if isinstance(run, functools.partial) else run
+    try:
+        hash(key)
+    except TypeError:
+        return None
+    return key
+
+
+def _settings_key(settings):
+    """The settings of a job as a hashable tuple (each a dict's sorted items), or None when a value is unhashable."""
+    key = tuple(tuple(sorted(setting.items())) for setting in settings)
+    try:
+        hash(key)
+    except TypeError:
+        return None
+    return key
 
 
 def single_frame_trust(recordings: Mapping) -> pd.DataFrame:
