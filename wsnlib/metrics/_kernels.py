@@ -10,6 +10,10 @@ library's, as :func:`numpy.hypot` is.  The arc tangents stay with numpy (:func:`
 CPU-specific versions that differ from the C library's in the last bit), and so do the sums over
 time.  So the metrics give the same bits as the numpy expressions they replace
 (``tests/test_metrics.py`` compares them bit for bit).
+
+The Hamilton product is written out here rather than calling :mod:`wsnlib.quaternion`'s compiled one:
+numba caches a function with the machine code of what it calls, keyed on its own file only, so a
+kernel calling into another file would keep running that file's old code after it changed.
 """
 
 from __future__ import annotations
