@@ -71,7 +71,7 @@ def normalize(q, name: str = "q") -> np.ndarray:
 def _unit(q, name: str) -> np.ndarray:
     q = as_float_array(q, name, last_dim=4)
     out = np.empty(q.shape)
-    first_zero = _unit_rows(q.reshape(-1, 4), out.reshape(-1, 4))
+    first_zero = _unit_rows(_rows(q, q.shape), out.reshape(-1, 4))
     if first_zero >= 0:
         where = tuple(int(i) for i in np.unravel_index(first_zero, q.shape[:-1]))
         raise ValueError(f"{name} has a zero-norm vector at index {where} (a zero quaternion is not a rotation)")
@@ -105,10 +105,14 @@ def multiply(p, q) -> np.ndarray:
     q = _quat_array(q, "q")
     shape = p.shape if p.shape == q.shape else _broadcast("p and q", p.shape, q.shape)
     out = np.empty(shape)
-    # rows (N, 4) of each operand: a view, or a copy of one that is broadcast or not row-contiguous
-    _hamilton_rows(np.broadcast_to(p, shape).reshape(-1, 4), np.broadcast_to(q, shape).reshape(-1, 4),
-                   out.reshape(-1, 4))
+    _hamilton_rows(_rows(p, shape), _rows(q, shape), out.reshape(-1, 4))
     return out
+
+
+def _rows(q: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """``q`` broadcast to ``shape`` as contiguous rows ``(N, 4)``: a view, or a copy of an operand that is
+    broadcast or strided (one memory layout, so the kernels are compiled for one)."""
+    return np.ascontiguousarray((q if q.shape == shape else np.broadcast_to(q, shape)).reshape(-1, 4))
 
 
 @njit(cache=True, error_model="numpy")

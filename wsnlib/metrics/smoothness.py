@@ -43,7 +43,7 @@ def _squared_angular_jerk(quat: np.ndarray, fs: float) -> np.ndarray:
     ``ω_t = rotvec(q_t* ⊗ q_{t+1})·fs`` (the step's angle ``2·atan2(sin, cos)`` of its half angle),
     its second difference times ``fs²``."""
     batch, n_t = quat.shape[:-2], quat.shape[-2]
-    rows = quat.reshape(-1, n_t, 4)
+    rows = np.ascontiguousarray(quat.reshape(-1, n_t, 4))  # (one memory layout: the kernel is compiled once)
     vector = np.empty((rows.shape[0], n_t - 1, 3))
     sin_half, cos_half = np.empty((rows.shape[0], n_t - 1)), np.empty((rows.shape[0], n_t - 1))
     rotation_steps(rows, vector, sin_half, cos_half)
