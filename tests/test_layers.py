@@ -10,6 +10,7 @@ lazy import that runs upward is caught as well; a failure lists every offending 
 from __future__ import annotations
 
 import ast
+import gc
 import json
 import subprocess
 import sys
@@ -45,11 +46,25 @@ def _layer(module: str) -> str | None:
     return LAYER_OF.get(parts[1] if len(parts) > 1 else "__init__")
 
 
+def _parse(source: str) -> ast.Module:
+    """``ast.parse`` with the garbage collector paused.  A collection inside the parse can run a finalizer
+    that formats a traceback (asyncio logging a task of a notebook kernel an earlier test stopped), and
+    Python 3.11 parses source for the traceback's carets: the nested parse trips CPython's AST depth
+    check, "SystemError: AST constructor recursion depth mismatch" (python/cpython#106905)."""
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        return ast.parse(source)
+    finally:
+        if enabled:
+            gc.enable()
+
+
 def _imports(module: str, is_package: bool, source: str) -> list[tuple[int, str]]:
     """(line, module) of every wsnlib import in ``source``, relative imports resolved."""
     package = module if is_package else module.rsplit(".", 1)[0]
     found = []
-    for node in ast.walk(ast.parse(source)):
+    for node in ast.walk(_parse(source)):
         if isinstance(node, ast.Import):
             found += [(node.lineno, alias.name) for alias in node.names]
         elif isinstance(node, ast.ImportFrom):
