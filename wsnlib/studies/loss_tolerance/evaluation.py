@@ -481,17 +481,17 @@ def _run_key(run):
     """What ``run`` computes, comparable across methods: a :func:`functools.partial`'s function and
     arguments (the registry's runs are partials of module-level functions), else ``run`` itself;
     None when that cannot be compared (unhashable arguments)."""
-    key = (run.func, run.args, tuple(sorted(run.keywords.items()))) if isinstance(run, functools.partial) else run
-    try:
-        hash(key)
-    except TypeError:
-        return None
-    return key
+    return _hashable((run.func, run.args, tuple(sorted(run.keywords.items())))
+                     if isinstance(run, functools.partial) else run)
 
 
 def _settings_key(settings):
     """The settings of a job as a hashable tuple (each a dict's sorted items), or None when a value is unhashable."""
-    key = tuple(tuple(sorted(setting.items())) for setting in settings)
+    return _hashable(tuple(tuple(sorted(setting.items())) for setting in settings))
+
+
+def _hashable(key):
+    """``key``, or None when it cannot be hashed (it is then never shared)."""
     try:
         hash(key)
     except TypeError:
