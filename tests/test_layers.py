@@ -10,20 +10,20 @@ lazy import that runs upward is caught as well; a failure lists every offending 
 from __future__ import annotations
 
 import ast
-import gc
 import json
 import subprocess
 import sys
 from pathlib import Path
 
 import wsnlib
+from wsnlib._gc_pause import paused_collector
 
 ROOT = Path(wsnlib.__file__).parent
 
 #: The layers from the bottom up, and the top-level modules and packages of wsnlib in each.
 LAYERS = {
     "core":       "__init__ quaternion frames testbed arm_model loss metrics paths _files _validation _user_warnings "
-                  "_arguments paper_values cache fixed_order parallel plausibility",
+                  "_arguments _gc_pause paper_values cache fixed_order parallel plausibility",
     "io":         "io",
     "algorithms": "orientation radio posture optimize tuning loto stats stream",
     "sim":        "sim",
@@ -47,17 +47,10 @@ def _layer(module: str) -> str | None:
 
 
 def _parse(source: str) -> ast.Module:
-    """``ast.parse`` with the garbage collector paused.  A collection inside the parse can run a finalizer
-    that formats a traceback (asyncio logging a task of a notebook kernel an earlier test stopped), and
-    Python 3.11 parses source for the traceback's carets: the nested parse trips CPython's AST depth
-    check, "SystemError: AST constructor recursion depth mismatch" (python/cpython#106905)."""
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
+    """``ast.parse`` with the garbage collector paused (a finalizer that parses must not run inside it:
+    :mod:`wsnlib._gc_pause`; asyncio logging a task of a notebook kernel an earlier test stopped did)."""
+    with paused_collector():
         return ast.parse(source)
-    finally:
-        if enabled:
-            gc.enable()
 
 
 def _imports(module: str, is_package: bool, source: str) -> list[tuple[int, str]]:

@@ -1,5 +1,7 @@
 """The batch runner: parameter parsing, notebook discovery and failure reporting."""
 
+import ast
+import gc
 import json
 import os
 import signal
@@ -27,6 +29,39 @@ def _write_notebook(path, *sources):
                                              ("[1, 2]", [1, 2]), ("madgwick", "madgwick")])
 def test_parse_value(text, value):
     assert batch_selection.parse_value(text) == value
+
+
+class _ParsesWhenCollected:
+    """Cyclic garbage whose finalizer parses source (as formatting a traceback does in Python 3.11) and
+    leaves more of the same: every collection from now on runs one."""
+
+    def __init__(self):
+        self.cycle = self
+
+    def __del__(self):
+        ast.parse("x = [1, (2, 3)]\n" * 20)
+        _ParsesWhenCollected()
+
+
+def test_parameters_are_parsed_while_finalizers_that_parse_wait(tmp_path):
+    """A collection inside ``ast.parse`` would run such a finalizer, and a parse nested in another's
+    tree construction fails ("AST constructor recursion depth mismatch", python/cpython#106905): a
+    value or parameters cell large enough to start collections is parsed with the collector paused."""
+    values = "[" + ", ".join(f"('a{i}', {i}.5)" for i in range(300)) + "]"
+    cell = "\n".join(f"p{i} = [{i}, ({i}, 'x')]" for i in range(300))
+    notebook = tmp_path / "01_big.ipynb"
+    _write_notebook(notebook)
+    nb = nbformat.read(notebook, as_version=4)
+    nb.cells[0].source = cell
+    nbformat.write(nb, notebook)
+    _ParsesWhenCollected()
+    try:
+        for _ in range(20):
+            assert batch_selection.parse_value(values)[-1] == ("a299", 299.5)
+            assert batch_selection.notebook_parameters(notebook)[-1] == "p299"
+    finally:
+        _ParsesWhenCollected.__del__ = lambda self: None  # the chain ends
+        gc.collect()
 
 
 def test_notebooks_are_listed_in_order():

@@ -9,6 +9,7 @@ import fnmatch
 from pathlib import Path
 
 from wsnlib import paths
+from wsnlib._gc_pause import paused_collector
 
 #: Sub-folder of ``notebooks/`` with the solutions notebooks (run after the notebooks).
 SOLUTIONS = "solutions"
@@ -59,7 +60,8 @@ def notebook_parameters(notebook: Path) -> list[str]:
         if cell.cell_type != "code" or "parameters" not in cell.get("metadata", {}).get("tags", []):
             continue
         try:
-            tree = ast.parse(cell.source)
+            with paused_collector():  # no finalizer that parses runs inside this parse (wsnlib._gc_pause)
+                tree = ast.parse(cell.source)
         except SyntaxError as exc:
             raise ValueError(f"{notebook}: the parameters cell is not valid Python ({exc})") from exc
         for node in tree.body:
@@ -91,6 +93,7 @@ def check_parameters(notebooks: list[Path], parameters: dict) -> None:
 def parse_value(text: str):
     """Parse a ``-p NAME VALUE`` value: a Python literal if it is one, else the string."""
     try:
-        return ast.literal_eval(text)
+        with paused_collector():  # no finalizer that parses runs inside this parse (wsnlib._gc_pause)
+            return ast.literal_eval(text)
     except (ValueError, SyntaxError):
         return text
