@@ -1,14 +1,15 @@
-"""Pausing Python's cyclic garbage collector around work that must not run finalizers.
+"""Pausing Python's cyclic garbage collector around a block of work.
 
 A collection can start at any allocation and runs the finalizers of the garbage it finds.  Two
-places of the library cannot have that:
+kinds of work pause it:
 
-* :mod:`ast` parsing (:mod:`wsnlib.batch_selection`).  A finalizer that formats a traceback (asyncio
-  logging a task of a stopped notebook kernel, say) makes Python 3.11 parse source for the
-  traceback's carets; a parse nested in another one's tree construction fails with "SystemError:
-  AST constructor recursion depth mismatch" (python/cpython#106905).  In a long-lived process (a
-  Jupyter session, a test run) that garbage may be waiting.
-* building many small lists at once (:func:`wsnlib.orientation.peers` Fusion's input rows), which
+* :mod:`ast` parsing (:mod:`wsnlib.batch_selection`), which a finalizer must not interrupt.  One
+  that formats a traceback (asyncio logging a task of a stopped notebook kernel, say) makes
+  Python 3.11 parse source for the traceback's carets, and a parse nested in another one's tree
+  construction fails with "SystemError: AST constructor recursion depth mismatch"
+  (python/cpython#106905).  In a long-lived process (a Jupyter session, a test run) such garbage
+  may be waiting.
+* building many small lists at once (Fusion's input rows, :mod:`wsnlib.orientation.peers`), which
   would start the collector over and over for nothing (8× slower).
 """
 
