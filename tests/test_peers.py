@@ -7,6 +7,9 @@ truth, the libraries called directly (``imufusion.Ahrs``, ``vqf.VQF.updateBatch`
 :func:`estimate_orientation` for the blend.
 """
 
+import platform
+import sys
+
 import imufusion
 import numpy as np
 import pytest
@@ -16,6 +19,7 @@ from wsnlib import frames
 from wsnlib import quaternion as Q
 from wsnlib.loss import gilbert_elliott, packets_to_samples
 from wsnlib.orientation import (
+    _fusion_updates,
     estimate_orientation,
     fusion_orientation,
     madgwick,
@@ -190,6 +194,53 @@ def test_fusion_equals_the_library_on_the_received_samples(arm, masks, with_mag)
     ref /= np.linalg.norm(ref, axis=-1, keepdims=True)
     out = fusion_orientation(gyr, acc, mag if with_mag else None, fs=FS, received=mask)
     np.testing.assert_array_equal(out[mask], ref)
+
+
+NATIVE_HERE = platform.machine().lower() in ("x86_64", "amd64") and sys.platform != "win32"
+
+
+@pytest.mark.skipif(not NATIVE_HERE, reason="the compiled loop passes Fusion's vectors as x86-64 System V does")
+def test_fusion_runs_its_c_update_in_a_compiled_loop_here():
+    assert _fusion_updates._native_calls() is not None
+
+
+@pytest.mark.parametrize("with_mag", [True, False])
+def test_compiled_fusion_updates_give_the_bits_of_ahrs_update(arm, with_mag):
+    """Runs cut at arbitrary samples, the state set between them, rejection and the gyroscope range on."""
+    _, gyr, acc, mag = arm
+    gyr_deg, acc_g = np.degrees(gyr[0, 0]), acc[0, 0] / frames.STANDARD_GRAVITY
+    acc_g[100:110] = 0.0  # Fusion skips a zero accelerometer
+    settings = imufusion.AhrsSettings()
+    settings.sample_rate, settings.gain, settings.gyroscope_range = FS, 0.5, 100.0
+    settings.convention = imufusion.CONVENTION_ENU
+    settings.acceleration_rejection, settings.magnetic_rejection, settings.rejection_timeout = 3.0, 3.0, 1.0
+    cuts = [0, 1, 37, 200, 201, 350, 500]
+    outs = []
+    for compiled in (True, False):
+        ahrs = imufusion.Ahrs()
+        ahrs.set_settings(settings)
+        out = np.empty((500, 4))
+        updates = _fusion_updates.FusionUpdates(ahrs, gyr_deg, acc_g, mag[0, 0] if with_mag else None, out,
+                                                compiled=compiled)
+        for start, end in zip(cuts[:-1], cuts[1:], strict=True):
+            updates.run(start, end)
+            ahrs.set_quaternion(Q.normalize(out[end - 1] + [0.0, 0.1, 0.0, 0.0]))
+        outs.append(out)
+    np.testing.assert_array_equal(outs[0], outs[1])
+
+
+def test_a_c_update_that_does_not_reproduce_ahrs_update_is_not_used(arm, monkeypatch):
+    _, gyr, acc, mag = arm
+    args = (gyr[0, 0], acc[0, 0], mag[0, 0])
+    expected = fusion_orientation(*args, fs=FS)
+    monkeypatch.setattr(_fusion_updates, "_agrees", lambda native, with_mag: False)
+    _fusion_updates._native_calls.cache_clear()
+    try:
+        with pytest.warns(UserWarning, match="did not reproduce Ahrs.update: Fusion runs from Python"):
+            assert _fusion_updates._native_calls() is None
+        np.testing.assert_array_equal(fusion_orientation(*args, fs=FS), expected)
+    finally:
+        _fusion_updates._native_calls.cache_clear()
 
 
 def test_options_reach_the_libraries(arm, masks):

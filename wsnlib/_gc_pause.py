@@ -9,8 +9,9 @@ kinds of work pause it:
   construction fails with "SystemError: AST constructor recursion depth mismatch"
   (python/cpython#106905).  In a long-lived process (a Jupyter session, a test run) such garbage
   may be waiting.
-* building many small lists at once (Fusion's input rows, :mod:`wsnlib.orientation.peers`), which
-  would start the collector over and over for nothing (8× slower).
+* building many small lists at once (Fusion's input rows where its updates run from Python,
+  :mod:`wsnlib.orientation._fusion_updates`), which would start the collector over and over for
+  nothing (8× slower).
 """
 
 from __future__ import annotations

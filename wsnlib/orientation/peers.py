@@ -22,8 +22,8 @@ is the output at that sample, as :func:`wsnlib.orientation.madgwick` outputs its
 estimate there.  Gaps before the first received sample are no gaps of the filter (λ_eff = 0
 there, as for Madgwick with ``q0=None``).  Batches loop over elements in Python (each
 library runs one recording at a time); VQF processes each contiguous run of received
-samples in one compiled ``updateBatch`` call, Fusion needs one call per sample (its Python
-package has no batch call).
+samples in one compiled ``updateBatch`` call, Fusion in one compiled loop of its own C update
+(its Python package has no batch call; :mod:`wsnlib.orientation._fusion_updates`).
 
 Frames (established by static tests at several orientations, ``tests/test_peers.py``)
 -------------------------------------------------------------------------------------
@@ -120,22 +120,19 @@ started); a gap at the end of the recording is predicted, never replayed.  With
 
 from __future__ import annotations
 
-import collections
-import hashlib
-
 import imufusion
 import numpy as np
 import vqf
 
 from wsnlib import fixed_order
 from wsnlib import quaternion as Q
-from wsnlib._gc_pause import paused_collector
 from wsnlib._validation import check_flag, check_nonnegative, check_positive
 from wsnlib.frames import STANDARD_GRAVITY
 from wsnlib.loss import last_received_index
 from wsnlib.orientation import _batch as B
 from wsnlib.orientation import _kernels as K
 from wsnlib.orientation import gaps
+from wsnlib.orientation._fusion_updates import FusionUpdates
 from wsnlib.orientation._scalar_kernels import integrate_rates
 from wsnlib.orientation.hybrid_blend import blend_with_single_frame, check_single_frame_gate, trusted_unchecked
 from wsnlib.orientation.kalman_settings import gap_prediction_window
@@ -321,38 +318,15 @@ def _fusion_settings(fs: float, gain, settings) -> imufusion.AhrsSettings:
     return obj
 
 
-#: Signals as lists of rows (what imufusion reads fastest), by content: a sweep runs Fusion
-#: with many settings on the same recording.  The last few are kept.
-_ROWS_CACHE: collections.OrderedDict = collections.OrderedDict()
-_ROWS_CACHE_SIZE = 12
-
-
-def _rows(x: np.ndarray) -> list:
-    """``x.tolist()`` of a ``(T, 3)`` array, from :data:`_ROWS_CACHE` when the same bytes came before."""
-    x = np.ascontiguousarray(x)
-    key = hashlib.sha1(x).digest() + str(x.shape).encode()
-    if key in _ROWS_CACHE:
-        _ROWS_CACHE.move_to_end(key)
-        return _ROWS_CACHE[key]
-    with paused_collector():  # thousands of new lists would start the cyclic collector over and over (8x slower)
-        rows = x.tolist()
-    _ROWS_CACHE[key] = rows
-    if len(_ROWS_CACHE) > _ROWS_CACHE_SIZE:
-        _ROWS_CACHE.popitem(last=False)
-    return rows
-
-
 def _fusion_one(settings, dt, gap: _GapRates):
     gap_factor = gap.factor
 
     def one(gyr, acc, mag, mask, feedback):
         ahrs = imufusion.Ahrs()
         ahrs.set_settings(settings)
-        gyr_deg = _rows(np.degrees(gyr))
-        acc_g = _rows(acc / STANDARD_GRAVITY)  # Fusion takes the accelerometer in g
-        mag = None if mag is None else _rows(mag)
         n_t = mask.shape[-1]
         out = np.empty((n_t, 4))
+        updates = FusionUpdates(ahrs, np.degrees(gyr), acc / STANDARD_GRAVITY, mag, out)  # Fusion takes g
         normalised = np.zeros(n_t, dtype=bool)  # Fusion computes in float32: each output row normalised once
 
         def normalise(t):
@@ -382,7 +356,6 @@ def _fusion_one(settings, dt, gap: _GapRates):
                 elif gap.gap == "ar":
                     ahrs.set_quaternion(out[stop - 1])
 
-        quaternion = ahrs.get_quaternion
         prev = -1  # last received sample
         # Runs of received samples (cut after each blended one), each a loop of bare updates.
         for start, end in zip(*_pieces(mask, blend_at), strict=True):
@@ -393,16 +366,7 @@ def _fusion_one(settings, dt, gap: _GapRates):
                     normalise(prev)
                     out[prev + 1:start] = _predict_gap(out[prev], gyr[prev], start - prev - 1, dt, gap_factor)
                     ahrs.set_quaternion(out[start - 1])
-            if mag is None:
-                update = ahrs.update_no_magnetometer
-                for t in range(start, end):
-                    update(gyr_deg[t], acc_g[t])
-                    out[t] = quaternion()
-            else:
-                update = ahrs.update
-                for t in range(start, end):
-                    update(gyr_deg[t], acc_g[t], mag[t])
-                    out[t] = quaternion()
+            updates.run(start, end)
             prev = end - 1
             if feedback is not None and blend_at[prev]:
                 out[prev] = _slerp(q_s[prev], out[prev], mu[prev], normalise_d=True)
