@@ -229,14 +229,21 @@ def test_compiled_fusion_updates_give_the_bits_of_ahrs_update(arm, with_mag):
     np.testing.assert_array_equal(outs[0], outs[1])
 
 
-def test_a_c_update_that_does_not_reproduce_ahrs_update_is_not_used(arm, monkeypatch):
+@pytest.mark.skipif(not NATIVE_HERE, reason="elsewhere Fusion always runs from Python")
+@pytest.mark.parametrize("failure", ["disagrees", "other version"])
+def test_a_c_update_that_is_not_known_to_reproduce_ahrs_update_is_not_used(arm, monkeypatch, failure):
     _, gyr, acc, mag = arm
     args = (gyr[0, 0], acc[0, 0], mag[0, 0])
     expected = fusion_orientation(*args, fs=FS)
-    monkeypatch.setattr(_fusion_updates, "_agrees", lambda native, with_mag: False)
+    if failure == "disagrees":
+        monkeypatch.setattr(_fusion_updates, "_agrees", lambda native, with_mag: False)
+        message = "did not reproduce Ahrs.update: Fusion runs from Python"
+    else:
+        monkeypatch.setattr(_fusion_updates.importlib.metadata, "version", lambda name: "1.4.0")
+        message = r"imufusion 1.4.0: its C update is called only for versions 1.3.x .* runs from Python"
     _fusion_updates._native_calls.cache_clear()
     try:
-        with pytest.warns(UserWarning, match="did not reproduce Ahrs.update: Fusion runs from Python"):
+        with pytest.warns(UserWarning, match=message):
             assert _fusion_updates._native_calls() is None
         np.testing.assert_array_equal(fusion_orientation(*args, fs=FS), expected)
     finally:

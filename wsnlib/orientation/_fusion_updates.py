@@ -18,15 +18,17 @@ returns it from there; its offset is found, not assumed: :func:`_native_calls`).
 
 Checked, not trusted: before first use the compiled loop and ``Ahrs.update`` run the same short
 recording (rejection, start-up ramp, ``set_quaternion`` mid-way, zeros in the inputs) and must
-agree bit for bit; elsewhere than x86-64 System V, or if they do not agree (another imufusion
-layout), every update goes through ``Ahrs.update`` from Python (the same results, slower; the
-latter with a warning).  ``tests/test_peers.py`` checks both paths against each other.
+agree bit for bit.  Elsewhere than x86-64 System V every update goes through ``Ahrs.update`` from
+Python (the same results, slower), and so, with a warning, with an imufusion other than
+:data:`CHECKED_VERSIONS`, without the exported functions, or when the two do not agree.
+``tests/test_peers.py`` checks both paths against each other.
 """
 
 from __future__ import annotations
 
 import ctypes
 import functools
+import importlib.metadata
 import platform
 import sys
 
@@ -38,6 +40,8 @@ from wsnlib._gc_pause import paused_collector
 from wsnlib._user_warnings import warn_user
 from wsnlib.orientation._scalar_kernels import COMPILE
 
+#: imufusion versions whose C functions take the arguments described above (checked on each at first use).
+CHECKED_VERSIONS = ("1.3.",)
 #: Bytes of the Python object header (``PyObject_HEAD``) that the C struct ``FusionAhrs`` follows.
 _HEADER_BYTES = object.__basicsize__
 _STRUCT_BYTES = imufusion.Ahrs.__basicsize__ - _HEADER_BYTES
@@ -135,8 +139,17 @@ def _native_calls():
     struct, or None where the compiled loop does not apply or does not reproduce ``Ahrs.update``."""
     if platform.machine().lower() not in ("x86_64", "amd64") or sys.platform == "win32":
         return None
-    library = ctypes.CDLL(imufusion.__file__)
-    calls = (_UPDATE_9D(("FusionAhrsUpdate", library)), _UPDATE_6D(("FusionAhrsUpdateNoMagnetometer", library)))
+    version = importlib.metadata.version("imufusion")
+    if not version.startswith(CHECKED_VERSIONS):
+        warn_user(f"imufusion {version}: its C update is called only for versions {CHECKED_VERSIONS[0]}x (their "
+                  "argument layout is the one described here); Fusion runs from Python (slower)")
+        return None
+    try:
+        library = ctypes.CDLL(imufusion.__file__)
+        calls = (_UPDATE_9D(("FusionAhrsUpdate", library)), _UPDATE_6D(("FusionAhrsUpdateNoMagnetometer", library)))
+    except (OSError, AttributeError) as exc:  # not loadable again, or the symbols are not exported
+        warn_user(f"imufusion's C update is not reachable ({exc}): Fusion runs from Python (slower)")
+        return None
     probe = imufusion.Ahrs()
     marker = np.array([0.5, -0.1, 0.7, 0.5])
     probe.set_quaternion(marker / np.linalg.norm(marker))
