@@ -18,7 +18,7 @@ returns it from there; its offset is found, not assumed: :func:`_native_calls`).
 
 Checked, not trusted: before first use the compiled loop and ``Ahrs.update`` run the same short
 recording (rejection, start-up ramp, ``set_quaternion`` mid-way, zeros in the inputs) and must
-agree bit for bit.  Elsewhere than x86-64 System V every update goes through ``Ahrs.update`` from
+agree bit for bit.  Elsewhere than CPython on x86-64 System V every update goes through ``Ahrs.update`` from
 Python (the same results, slower), and so, with a warning, with an imufusion other than
 :data:`CHECKED_VERSIONS`, without the exported functions, or when the two do not agree.
 ``tests/test_peers.py`` checks both paths against each other.
@@ -90,20 +90,23 @@ def _struct_floats(ahrs: imufusion.Ahrs) -> np.ndarray:
     return np.frombuffer((ctypes.c_float * words).from_address(id(ahrs) + _HEADER_BYTES), dtype=np.float32)
 
 
+#: :class:`FusionUpdates`' default ``native``: the checked C functions where they apply (:func:`_native_calls`).
+CHECKED = "checked"
+
+
 class FusionUpdates:
     """Fusion's updates of one recording: :meth:`run` feeds ``ahrs`` the samples ``start … end − 1`` and
     writes its quaternion after each into ``out``.
 
     ``gyr_deg`` (°/s), ``acc_g`` (g) and ``mag`` (any unit, or None: ``update_no_magnetometer``) are
     ``(T, 3)``; ``out`` is ``(T, 4)`` float64, ``[w, x, y, z]`` as ``Ahrs.get_quaternion`` gives it.
-    ``compiled``: through the compiled loop where it applies (default; :func:`_native_calls`), else
-    ``Ahrs.update`` from Python.
+    ``native``: :data:`CHECKED` (default: the compiled loop where it applies), None (``Ahrs.update``
+    from Python) or the triple of :func:`_native_calls` to use.
     """
 
-    def __init__(self, ahrs: imufusion.Ahrs, gyr_deg, acc_g, mag, out: np.ndarray, compiled: bool = True,
-                 _native=None):
+    def __init__(self, ahrs: imufusion.Ahrs, gyr_deg, acc_g, mag, out: np.ndarray, native=CHECKED):
         self._ahrs, self._out, self._with_mag = ahrs, out, mag is not None
-        self._native = (_native_calls() if compiled else None) if _native is None else _native
+        self._native = _native_calls() if native is CHECKED else native
         signals = (gyr_deg, acc_g) + ((mag,) if self._with_mag else ())
         if self._native is not None:
             self._state = _struct_floats(ahrs)
@@ -137,7 +140,8 @@ class FusionUpdates:
 def _native_calls():
     """``(update_9d, update_6d, q_at)``: the C functions and the quaternion's float offset in the
     struct, or None where the compiled loop does not apply or does not reproduce ``Ahrs.update``."""
-    if platform.machine().lower() not in ("x86_64", "amd64") or sys.platform == "win32":
+    if (platform.machine().lower() not in ("x86_64", "amd64") or sys.platform == "win32"
+            or sys.implementation.name != "cpython"):  # CPython: id() is the object's address
         return None
     version = importlib.metadata.version("imufusion")
     if not version.startswith(CHECKED_VERSIONS):
@@ -184,7 +188,7 @@ def _agrees(native, with_mag: bool) -> bool:
         ahrs = imufusion.Ahrs()
         ahrs.set_settings(settings)
         out = np.empty((n_t, 4))
-        updates = FusionUpdates(ahrs, gyr, acc, mag if with_mag else None, out, compiled=False, _native=calls)
+        updates = FusionUpdates(ahrs, gyr, acc, mag if with_mag else None, out, native=calls)
         updates.run(0, n_t // 2)
         ahrs.set_quaternion(np.array([0.0, 0.6, 0.0, 0.8]))
         updates.run(n_t // 2, n_t)
