@@ -207,7 +207,8 @@ def test_fusion_runs_its_c_update_in_a_compiled_loop_here():
 
 @pytest.mark.parametrize("with_mag", [True, False])
 def test_compiled_fusion_updates_give_the_bits_of_ahrs_update(arm, with_mag):
-    """Runs cut at arbitrary samples, the state set between them, rejection and the gyroscope range on."""
+    """Runs cut at arbitrary samples, the state set between them, rejection and the gyroscope range on, and
+    the feedback hybrid's blends."""
     _, gyr, acc, mag = arm
     gyr_deg, acc_g = np.degrees(gyr[0, 0]), acc[0, 0] / frames.STANDARD_GRAVITY
     acc_g[100:110] = 0.0  # Fusion skips a zero accelerometer
@@ -216,13 +217,16 @@ def test_compiled_fusion_updates_give_the_bits_of_ahrs_update(arm, with_mag):
     settings.convention = imufusion.CONVENTION_ENU
     settings.acceleration_rejection, settings.magnetic_rejection, settings.rejection_timeout = 3.0, 3.0, 1.0
     cuts = [0, 1, 37, 200, 201, 350, 500]
+    blend_at = np.zeros(500, dtype=bool)
+    blend_at[[5, 36, 37, 120, 121, 122, 499]] = True
+    feedback = (blend_at, Q.normalize(acc[0, 0, :, [2, 0, 1, 0]].T + [2.0, 0.0, 0.0, 0.0]), np.linspace(0.0, 1.0, 500))
     outs = []
     for native in (_fusion_updates.CHECKED, None):  # the compiled loop here, Ahrs.update from Python
         ahrs = imufusion.Ahrs()
         ahrs.set_settings(settings)
         out = np.empty((500, 4))
         updates = _fusion_updates.FusionUpdates(ahrs, gyr_deg, acc_g, mag[0, 0] if with_mag else None, out,
-                                                native=native)
+                                                feedback, native=native)
         for start, end in zip(cuts[:-1], cuts[1:], strict=True):
             updates.run(start, end)
             ahrs.set_quaternion(Q.normalize(out[end - 1] + [0.0, 0.1, 0.0, 0.0]))

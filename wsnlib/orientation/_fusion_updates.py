@@ -38,7 +38,7 @@ from numba import njit
 
 from wsnlib._gc_pause import paused_collector
 from wsnlib._user_warnings import warn_user
-from wsnlib.orientation._scalar_kernels import COMPILE
+from wsnlib.orientation._scalar_kernels import COMPILE, quat_normalize, slerp
 
 #: imufusion versions whose C functions take the arguments described above (checked on each at first use).
 CHECKED_VERSIONS = ("1.3.",)
@@ -55,22 +55,38 @@ _UPDATE_6D = ctypes.CFUNCTYPE(None, ctypes.c_size_t, *_VECTOR * 2)
 
 
 @njit(**COMPILE)
-def _run_9d(update, ahrs, state, q_at, gyr, acc, mag, out, start, end):
+def _blend(state, q_at, out, t, q_s, mu):
+    """Paper 001's feedback hybrid on sample ``t``: ``out[t] ← SLERP(q_s, out[t] normalised, μ)`` (eq. (4),
+    :func:`~wsnlib.orientation._scalar_kernels.slerp`), and the filter continues from it (as
+    ``Ahrs.set_quaternion``: the struct's quaternion, in float)."""
+    q = slerp((q_s[0], q_s[1], q_s[2], q_s[3]), quat_normalize((out[t, 0], out[t, 1], out[t, 2], out[t, 3])), mu)
+    for i in range(4):
+        out[t, i] = q[i]
+        state[q_at + i] = np.float32(q[i])
+
+
+@njit(**COMPILE)
+def _run_9d(update, ahrs, state, q_at, gyr, acc, mag, out, start, end, blend_at, q_s, mu):
     """``update(ahrs, gyroscope, accelerometer, magnetometer)`` for samples ``start … end − 1`` (rows of
-    :func:`_lanes`), the quaternion ``state[q_at : q_at + 4]`` after each into ``out[t]``."""
+    :func:`_lanes`), the quaternion ``state[q_at : q_at + 4]`` after each into ``out[t]``; on samples
+    ``blend_at`` (``(T,)`` bool, or ``(0,)``: none) the feedback hybrid :func:`_blend` with ``q_s[t]``, ``mu[t]``."""
     for t in range(start, end):
         update(ahrs, gyr[t, 0], gyr[t, 1], acc[t, 0], acc[t, 1], mag[t, 0], mag[t, 1])
         for i in range(4):
             out[t, i] = state[q_at + i]
+        if blend_at.size and blend_at[t]:
+            _blend(state, q_at, out, t, q_s[t], mu[t])
 
 
 @njit(**COMPILE)
-def _run_6d(update, ahrs, state, q_at, gyr, acc, out, start, end):
+def _run_6d(update, ahrs, state, q_at, gyr, acc, out, start, end, blend_at, q_s, mu):
     """:func:`_run_9d` without magnetometer (``FusionAhrsUpdateNoMagnetometer``)."""
     for t in range(start, end):
         update(ahrs, gyr[t, 0], gyr[t, 1], acc[t, 0], acc[t, 1])
         for i in range(4):
             out[t, i] = state[q_at + i]
+        if blend_at.size and blend_at[t]:
+            _blend(state, q_at, out, t, q_s[t], mu[t])
 
 
 def _lanes(x: np.ndarray) -> np.ndarray:
@@ -100,13 +116,17 @@ class FusionUpdates:
 
     ``gyr_deg`` (°/s), ``acc_g`` (g) and ``mag`` (any unit, or None: ``update_no_magnetometer``) are
     ``(T, 3)``; ``out`` is ``(T, 4)`` float64, ``[w, x, y, z]`` as ``Ahrs.get_quaternion`` gives it.
-    ``native``: :data:`CHECKED` (default: the compiled loop where it applies), None (``Ahrs.update``
-    from Python) or the triple of :func:`_native_calls` to use.
+    ``feedback``: None, or paper 001's feedback hybrid as ``(blend_at, q_s, mu)`` ``(T,)``, ``(T, 4)``,
+    ``(T,)``: after the update of a sample ``blend_at``, :func:`_blend`.  ``native``: :data:`CHECKED`
+    (default: the compiled loop where it applies), None (``Ahrs.update`` from Python) or the triple of
+    :func:`_native_calls` to use.
     """
 
-    def __init__(self, ahrs: imufusion.Ahrs, gyr_deg, acc_g, mag, out: np.ndarray, native=CHECKED):
+    def __init__(self, ahrs: imufusion.Ahrs, gyr_deg, acc_g, mag, out: np.ndarray, feedback=None, native=CHECKED):
         self._ahrs, self._out, self._with_mag = ahrs, out, mag is not None
         self._native = _native_calls() if native is CHECKED else native
+        self._feedback = ((np.zeros(0, dtype=bool), np.zeros((0, 4)), np.zeros(0)) if feedback is None
+                          else tuple(np.ascontiguousarray(x) for x in feedback))
         signals = (gyr_deg, acc_g) + ((mag,) if self._with_mag else ())
         if self._native is not None:
             self._state = _struct_floats(ahrs)
@@ -123,17 +143,24 @@ class FusionUpdates:
             return
         update_9d, update_6d, q_at = self._native
         if self._with_mag:
-            _run_9d(update_9d, self._address, self._state, q_at, *self._signals, self._out, start, end)
+            _run_9d(update_9d, self._address, self._state, q_at, *self._signals, self._out, start, end,
+                    *self._feedback)
         else:
-            _run_6d(update_6d, self._address, self._state, q_at, *self._signals, self._out, start, end)
+            _run_6d(update_6d, self._address, self._state, q_at, *self._signals, self._out, start, end,
+                    *self._feedback)
 
     def _run_in_python(self, start: int, end: int) -> None:
         out, quaternion = self._out, self._ahrs.get_quaternion
         update = self._ahrs.update if self._with_mag else self._ahrs.update_no_magnetometer
         rows = self._signals
+        blend_at, q_s, mu = self._feedback
+        scratch = np.empty(4, dtype=np.float32)  # _blend's write to the struct, which set_quaternion makes here
         for t in range(start, end):
             update(*(row[t] for row in rows))
             out[t] = quaternion()
+            if blend_at.size and blend_at[t]:
+                _blend(scratch, 0, out, t, q_s[t], mu[t])
+                self._ahrs.set_quaternion(out[t])
 
 
 @functools.cache
@@ -171,7 +198,7 @@ def _native_calls():
 
 def _agrees(native, with_mag: bool) -> bool:
     """The compiled loop and ``Ahrs.update`` give the same bits on a short recording that starts the
-    ramp, rejects, recovers, has zero components and vectors, and is set mid-way."""
+    ramp, rejects, recovers, has zero components and vectors, is set mid-way and blended (feedback)."""
     n_t = 400
     t = np.arange(n_t)[:, None] * np.array([0.031, 0.017, 0.023])
     gyr = 90.0 * np.sin(t * [1.0, 2.0, 3.0])
@@ -183,12 +210,16 @@ def _agrees(native, with_mag: bool) -> bool:
     settings = imufusion.AhrsSettings()
     settings.sample_rate, settings.gain, settings.gyroscope_range = 50.0, 0.5, 250.0
     settings.acceleration_rejection, settings.magnetic_rejection, settings.rejection_timeout = 5.0, 5.0, 0.5
+    blend_at = np.zeros(n_t, dtype=bool)
+    blend_at[250::7] = True
+    q_s = np.tile([0.5, 0.5, -0.5, 0.5], (n_t, 1))
+    feedback = (blend_at, q_s, np.linspace(0.0, 1.0, n_t))
     outs = []
     for calls in (None, native):
         ahrs = imufusion.Ahrs()
         ahrs.set_settings(settings)
         out = np.empty((n_t, 4))
-        updates = FusionUpdates(ahrs, gyr, acc, mag if with_mag else None, out, native=calls)
+        updates = FusionUpdates(ahrs, gyr, acc, mag if with_mag else None, out, feedback, native=calls)
         updates.run(0, n_t // 2)
         ahrs.set_quaternion(np.array([0.0, 0.6, 0.0, 0.8]))
         updates.run(n_t // 2, n_t)

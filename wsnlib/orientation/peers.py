@@ -67,7 +67,8 @@ update, so that the state itself is pulled towards TRIAD.  Both libraries allow 
   into ``accQuat`` is undone by the next update, while one written into ``gyrQuat`` is
   consistent with the filtered vector and persists.
 
-Feedback calls the library once per blended sample (Fusion: always once per sample).
+Feedback writes VQF's state once per blended sample, from Python; Fusion blends inside its compiled
+loop (:mod:`wsnlib.orientation._fusion_updates`).
 ``single_frame_gate`` makes either hybrid the *gated hybrid*: no blend on received samples
 whose TRIAD looks untrustworthy (:class:`wsnlib.orientation.SingleFrameGate`).
 
@@ -210,11 +211,9 @@ def _feedback_inputs(signals, mask, rho, tau, schedule, window, gate=None, fs=No
     return blend_at, q_s, slerp_weight(lam, rho, tau)
 
 
-def _slerp(q_s, q_d, mu: float, normalise_d: bool = False) -> np.ndarray:
-    """Eq. (4) for one sample (4-sequences), in ``q_d``'s hemisphere (:func:`wsnlib.orientation._kernels.slerp`);
-    ``normalise_d``: ``q_d`` scaled to unit norm first."""
-    q_d = _floats(q_d)
-    return np.array(K.slerp(_floats(q_s), K.quat_normalize(q_d) if normalise_d else q_d, float(mu)))
+def _slerp(q_s, q_d, mu: float) -> np.ndarray:
+    """Eq. (4) for one sample (4-sequences), in ``q_d``'s hemisphere (:func:`wsnlib.orientation._kernels.slerp`)."""
+    return np.array(K.slerp(_floats(q_s), _floats(q_d), float(mu)))
 
 
 def _floats(q) -> tuple:
@@ -326,14 +325,13 @@ def _fusion_one(settings, dt, gap: _GapRates):
         ahrs.set_settings(settings)
         n_t = mask.shape[-1]
         out = np.empty((n_t, 4))
-        updates = FusionUpdates(ahrs, np.degrees(gyr), acc / STANDARD_GRAVITY, mag, out)  # Fusion takes g
+        updates = FusionUpdates(ahrs, np.degrees(gyr), acc / STANDARD_GRAVITY, mag, out, feedback)  # Fusion takes g
         normalised = np.zeros(n_t, dtype=bool)  # Fusion computes in float32: each output row normalised once
 
         def normalise(t):
             out[t] /= fixed_order.norm(out[t])
             normalised[t] = True
 
-        blend_at, q_s, mu = (None, None, None) if feedback is None else feedback
         used = None
         if gap.tracked:  # the rate history (gaps module): the raw gyroscope, and each gap's rates once filled
             used = np.empty((n_t, 3))
@@ -357,8 +355,8 @@ def _fusion_one(settings, dt, gap: _GapRates):
                     ahrs.set_quaternion(out[stop - 1])
 
         prev = -1  # last received sample
-        # Runs of received samples (cut after each blended one), each a loop of bare updates.
-        for start, end in zip(*_pieces(mask, blend_at), strict=True):
+        # Runs of received samples, each a loop of updates (and the feedback hybrid's blends).
+        for start, end in zip(*_pieces(mask, None), strict=True):
             if prev >= 0 and start - prev > 1:
                 if gap.tracked:
                     fill_gap(prev, start, gyr[start])
@@ -368,9 +366,6 @@ def _fusion_one(settings, dt, gap: _GapRates):
                     ahrs.set_quaternion(out[start - 1])
             updates.run(start, end)
             prev = end - 1
-            if feedback is not None and blend_at[prev]:
-                out[prev] = _slerp(q_s[prev], out[prev], mu[prev], normalise_d=True)
-                ahrs.set_quaternion(out[prev])
         if gap.tracked and gap_factor is not None and prev < n_t - 1:  # a gap at the end
             fill_gap(prev, n_t, None)
         elif gap_factor is not None and 0 <= prev < n_t - 1:
