@@ -219,7 +219,8 @@ def test_compiled_fusion_updates_give_the_bits_of_ahrs_update(arm, with_mag):
     cuts = [0, 1, 37, 200, 201, 350, 500]
     blend_at = np.zeros(500, dtype=bool)
     blend_at[[5, 36, 37, 120, 121, 122, 499]] = True
-    feedback = (blend_at, Q.normalize(acc[0, 0, :, [2, 0, 1, 0]].T + [2.0, 0.0, 0.0, 0.0]), np.linspace(0.0, 1.0, 500))
+    q_s = Q.normalize(np.column_stack((2.0 + acc_g[:, 2], acc_g)))  # unit quaternions that move with the data
+    feedback = (blend_at, q_s, np.linspace(0.0, 1.0, 500))
     outs = []
     for native in (_fusion_updates.CHECKED, None):  # the compiled loop here, Ahrs.update from Python
         ahrs = imufusion.Ahrs()

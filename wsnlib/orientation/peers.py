@@ -57,7 +57,8 @@ Hybrid
 ``blend="feedback"``: ``q_f`` also replaces the filter's orientation after each such
 update, so that the state itself is pulled towards TRIAD.  Both libraries allow it:
 
-* Fusion: ``Ahrs.set_quaternion(q_f)``; nothing else of its state is orientation.
+* Fusion: its quaternion becomes ``q_f`` (what ``Ahrs.set_quaternion`` does; the compiled loop of
+  :mod:`wsnlib.orientation._fusion_updates` writes it in place); nothing else of its state is orientation.
 * VQF: the ``state`` property is writable (a dict).  ``gyrQuat`` (body → the
   almost-inertial frame I_i of the strapdown integration) is set to
   ``accQuat* ⊗ q_z(−δ) ⊗ q_f``, so that the 9D output ``q_z(δ) ⊗ accQuat ⊗ gyrQuat``
