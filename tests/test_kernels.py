@@ -147,6 +147,63 @@ def test_read_only_and_writable_inputs_share_one_machine_code(data):
     assert (len(_kernels.filter_stream.signatures), len(_kalman_kernels.kalman_stream.signatures)) == compiled
 
 
+#: Modules whose kernels call other jitted functions, and those allowed literal arguments: the packet
+#: codec's helpers are a few lines each, and their literal byte offsets spell out the packet's layout.
+LITERALS_ALLOWED = {"wsnlib.stream._kernels"}
+
+
+def literal_arguments(module):
+    """``(function, line, call)`` of each call inside a jitted function of ``module`` to another jitted
+    function compiled on its own (not ``inline="always"``) with a Python ``bool`` or ``int`` as an
+    argument, written out or a module constant."""
+    import ast
+    import inspect
+
+    from numba.core.registry import CPUDispatcher
+
+    def resolve(node):
+        if isinstance(node, ast.Name):
+            return getattr(module, node.id, None)
+        if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name):
+            return getattr(getattr(module, node.value.id, None), node.attr, None)
+        return None
+
+    found = []
+    for function in ast.parse(inspect.getsource(module)).body:
+        if not (isinstance(function, ast.FunctionDef) and isinstance(getattr(module, function.name), CPUDispatcher)):
+            continue
+        for call in ast.walk(function):
+            callee = resolve(call.func) if isinstance(call, ast.Call) else None
+            if not isinstance(callee, CPUDispatcher) or callee.targetoptions.get("inline") == "always":
+                continue
+            for arg in call.args:
+                value = arg.operand if isinstance(arg, ast.UnaryOp) and isinstance(arg.op, ast.USub) else arg
+                if ((isinstance(value, ast.Constant) and type(value.value) in (bool, int))
+                        or (isinstance(value, ast.Name) and type(getattr(module, value.id, None)) in (bool, int))):
+                    found.append((function.name, call.lineno, ast.unparse(call)))
+    return found
+
+
+def test_jitted_calls_pass_no_literal_that_would_compile_the_callee_again():
+    """numba compiles a jitted callee once per *literal* argument value (``Literal[bool](True)``,
+    ``Literal[int](0)``), each copy with everything it calls: the receiver's literal flags and node index
+    made six copies of its step into the Kalman filter, three of the filter's step and five of its
+    prediction: a third of notebook 11's first run (246 → 166 s in quick mode).  Kernels pass
+    ``PLAIN_TRUE``, ``PLAIN_FALSE``, ``PLAIN_ZERO`` (numpy scalars) or variables instead."""
+    import importlib
+
+    import wsnlib
+
+    modules = sorted({
+        ".".join(path.relative_to(Path(wsnlib.__file__).parent.parent).with_suffix("").parts).removesuffix(".__init__")
+        for path in Path(wsnlib.__file__).parent.rglob("*.py") if "@njit" in path.read_text(encoding="utf-8")})
+    assert "wsnlib.stream._receiver_kernels" in modules and "wsnlib.orientation._kalman_kernels" in modules
+    found = {name: literal_arguments(importlib.import_module(name)) for name in modules if name not in LITERALS_ALLOWED}
+    assert not {name: calls for name, calls in found.items() if calls}
+    # the check sees literals where they are: the packet codec passes its byte offsets
+    assert literal_arguments(importlib.import_module("wsnlib.stream._kernels"))
+
+
 def test_compiled_code_is_cached_on_disk(tmp_path):
     """A fresh process writes the kernels' machine code to NUMBA_CACHE_DIR, so the next one loads it."""
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}

@@ -22,6 +22,9 @@ from numba import njit, prange
 from wsnlib.orientation import gaps
 from wsnlib.orientation._scalar_kernels import (
     COMPILE,
+    PLAIN_FALSE,
+    PLAIN_TRUE,
+    PLAIN_ZERO,
     quat_exp,
     quat_multiply,
     quat_normalize,
@@ -727,14 +730,14 @@ def kalman_step(st, gs, history, work, c, gyr, acc, mag, received, replayed):
     if not received:
         st.hi_prev_ok = False  # the hard-iron estimate differentiates consecutive received fields
         omega = gaps.gap_lost(gs, history, work.ar_A, work.ar_r)
-        predict(st, work, c, omega, acc, False, gs.lost)
+        predict(st, work, c, omega, acc, PLAIN_FALSE, gs.lost)
         _keep_prediction(st, work, c)
         return False, False
     omega = (gyr[0] - st.bias[0], gyr[1] - st.bias[1], gyr[2] - st.bias[2])
     lost = gs.lost
     if c.replay and lost > 0 and gs.n > lost:
         _replay(st, gs, history, omega, c.dt, replayed)
-    predict(st, work, c, omega, acc, True, 0)
+    predict(st, work, c, omega, acc, PLAIN_TRUE, PLAIN_ZERO)
     _keep_prediction(st, work, c)
     gaps.gap_received(gs, history, omega)
     acc_used = correct_acc(st, work, c, acc, omega)
@@ -871,7 +874,7 @@ def run_kalman(gyr, acc, mag, received, index, q_init, start, init_only, constan
     b_stride = 1 if out_bias.shape[0] == n_batch else 0
     v_stride = 1 if out_vel.shape[0] == n_batch else 0
     p_stride = 1 if out_P.shape[0] == n_batch else 0
-    no_records = new_records(0)
+    no_records = new_records(PLAIN_ZERO)
     for n in prange(n_batch):
         kalman_stream(gyr[index[n, 0]], acc[index[n, 1]], mag[index[n, 2]], received[index[n, 3]], q_init[n],
                       start[n], init_only, constants[0],

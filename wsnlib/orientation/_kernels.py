@@ -37,6 +37,7 @@ from wsnlib.orientation import gaps
 from wsnlib.orientation._scalar_kernels import (  # noqa: F401
     COMPILE,
     PARALLEL_SIN_TOL,
+    PLAIN_FALSE,
     cross3,
     is_finite4,
     madgwick_update,
@@ -235,7 +236,7 @@ def filter_stream(gyr, acc, mag, use_mag, received, q0, has_q0, method, replay, 
                 if last >= 0:
                     g_gap = gaps.gap_lost(gs, history, scratch_A, scratch_r)
                     if turns_in_gap:  # dead reckoning on the gap module's rate
-                        q = madgwick_update(q, g_gap, g_gap, g_gap, False, dt, 0.0)
+                        q = madgwick_update(q, g_gap, g_gap, g_gap, PLAIN_FALSE, dt, 0.0)
                         shown = q
             _store(out, t, shown)
             continue

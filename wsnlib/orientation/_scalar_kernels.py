@@ -27,6 +27,11 @@ from wsnlib import fixed_order, frames
 #: numba options of every kernel: machine code cached on disk; float division by zero gives
 #: inf/NaN as in numpy (no exception check on every division), caught by the callers' status.
 COMPILE = {"cache": True, "error_model": "numpy"}
+#: ``True``, ``False`` and ``0`` as numpy scalars, for a kernel to pass to a large jitted callee (the
+#: Kalman step, the receiver's calls into it): numba compiles a callee once per *literal* argument value
+#: (``Literal[bool](True)``, ``Literal[int](0)``), and these are plain ``bool``/``int64``, so the callee is
+#: compiled once.  Same values, same machine arithmetic: only compile time changes.
+PLAIN_TRUE, PLAIN_FALSE, PLAIN_ZERO = np.bool_(True), np.bool_(False), np.int64(0)
 
 _C45 = math.sqrt(0.5)  # cos 45° = sin 45°
 # SLERP's angle Ω is raised to at least this (rad), so that sin(kΩ)/sin Ω is k, not 0/0, when

@@ -24,7 +24,7 @@ from numba import njit
 
 from wsnlib.orientation import gaps
 from wsnlib.orientation._kalman_kernels import _keep_prediction, _replay, predict
-from wsnlib.orientation._scalar_kernels import COMPILE
+from wsnlib.orientation._scalar_kernels import COMPILE, PLAIN_FALSE
 
 
 @njit(**COMPILE)
@@ -44,6 +44,6 @@ def bridge_step(st, gs, history, work, c, bridge_c, rate, rate_sigma, run, repla
     bridge_c.gap_relative_noise = 0.0
     st.gap_sigma = rate_sigma
     st.hi_prev_ok = False  # the hard-iron estimate differentiates consecutive received fields
-    predict(st, work, bridge_c, omega, omega, False, run)
+    predict(st, work, bridge_c, omega, omega, PLAIN_FALSE, run)
     _keep_prediction(st, work, c)
     gaps.gap_received(gs, history, omega)

@@ -75,6 +75,7 @@ from wsnlib.orientation._kernels import (
     quat_multiply,
     quat_normalize,
 )
+from wsnlib.orientation._scalar_kernels import PLAIN_FALSE, PLAIN_TRUE, PLAIN_ZERO
 from wsnlib.orientation.kalman import check_finite_output, constants, prepare_inputs
 from wsnlib.orientation.kalman_settings import KalmanSettings
 
@@ -157,8 +158,8 @@ def _predicted_gap(out_q, rates, s0, s1, q0, q1, order, window, dt):
     buf = np.empty((window + n, 3))
     fwd = np.empty((n, 3))
     bwd = np.empty((n, 3))
-    _predicted_rates(rates, s0 - window + 1, order, window, n, False, coef, A, r, buf, fwd)
-    _predicted_rates(rates, s1, order, window, n, True, coef, A, r, buf, bwd)
+    _predicted_rates(rates, s0 - window + 1, order, window, n, PLAIN_FALSE, coef, A, r, buf, fwd)
+    _predicted_rates(rates, s1, order, window, n, PLAIN_TRUE, coef, A, r, buf, bwd)
     blend = np.empty((n + 1, 3))  # rate at sample s0 + 1 + k; the last row is the measured one at s1
     for k in range(n):
         u = (k + 1.0) / (n + 1.0)
@@ -240,7 +241,7 @@ def new_scratch(n_slots: int, n_t: int) -> tuple:
     numba's allocator does not, and the 4 KB pages' faults on ~90 MB of records per 100,000
     samples cost about twice the writes themselves."""
     rows = (np.empty((n_t, 3)), np.empty((n_t, 3)), np.empty(n_t, dtype=bool), np.empty(n_t, dtype=bool),
-            np.empty((n_t, 3))) + new_records(0)
+            np.empty((n_t, 3))) + new_records(PLAIN_ZERO)
     return tuple(np.empty((n_slots, n_t) + row.shape[1:], dtype=row.dtype) for row in rows)
 
 
@@ -312,7 +313,7 @@ def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, 
         for k in range(max(prev, first) + 1, n_t):  # after the last received: hold
             for a in range(3):
                 rates[k, a] = rates[prev, a] if prev >= 0 else 0.0
-    last_received = -1
+    last_received = np.int64(-1)  # (not the literal -1, for which numba would compile the gap functions too)
     for t in range(first, n_t):
         if not (received[t] or t == first):
             continue

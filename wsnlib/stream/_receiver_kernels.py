@@ -25,6 +25,9 @@ from wsnlib.orientation import gaps
 from wsnlib.orientation._scalar_kernels import (
     COMPILE,
     PARALLEL_SIN_TOL,
+    PLAIN_FALSE,
+    PLAIN_TRUE,
+    PLAIN_ZERO,
     cross3,
     quat_conjugate,
     quat_exp,
@@ -55,8 +58,9 @@ NODE_DTYPE = np.dtype([
 COUNTERS = ("received", "lost", "duplicate", "reordered", "corrupt", "late")
 N_RECEIVED, N_LOST, N_DUPLICATE, N_REORDERED, N_CORRUPT, N_LATE = range(6)
 RECENT_BITS = 62
-#: State of a packet's rotation in a node's ring of recent rotations.
-ROT_UNKNOWN, ROT_RECEIVED, ROT_BRIDGED = 0, 1, 2
+#: State of a packet's rotation in a node's ring of recent rotations (numpy scalars, not literals: one
+#: compiled :func:`_remember_rotation`, see ``PLAIN_ZERO``).
+ROT_UNKNOWN, ROT_RECEIVED, ROT_BRIDGED = np.int64(0), np.int64(1), np.int64(2)
 #: Configuration (``cfg``, int64): reorder window (packets), latency (samples), bridge (0/1), whether
 #: the ring is used, longest gap (samples) a summary may bridge.
 CFG_REORDER, CFG_LATENCY, CFG_BRIDGE, CFG_RING, CFG_LONGEST_BRIDGE = range(5)
@@ -167,12 +171,11 @@ def _step(i, nodes, cfg, c, bc, sample, received, values, rate, rate_sigma, run)
     n_lost = gs.lost
     replaying = cfg[CFG_RING] != 0 and c.replay and n_lost > 0 and gs.n > n_lost and (received or rate_sigma >= 0.0)
     path = np.empty((n_lost if replaying else 0, 4))
-    if received:
-        KK.kalman_step(st, gs, history, work, c, values[0:3], values[3:6], values[6:9], True, path)
-    elif rate_sigma >= 0.0:
-        bridge_step(st, gs, history, work, c, bc, rate, rate_sigma, run, path)
+    if received or rate_sigma < 0.0:  # (the readings as tuples, as kalman_stream passes them: one compiled step)
+        KK.kalman_step(st, gs, history, work, c, (values[0], values[1], values[2]), (values[3], values[4], values[5]),
+                       (values[6], values[7], values[8]), received, path)
     else:
-        KK.kalman_step(st, gs, history, work, c, values[0:3], values[3:6], values[6:9], False, path)
+        bridge_step(st, gs, history, work, c, bc, rate, rate_sigma, run, path)
     if replaying:
         overwrite_path(ring, sample - n_lost, path, n_lost)
 
@@ -219,8 +222,8 @@ def release_lost(i, nodes, cfg, consts, bconsts, out, dense, lags, scratch):
     nothing = np.zeros(9)
     for s in range(book.spp):
         sample = book.next_sample + s
-        _step(i, nodes, cfg, c, bc, sample, False, nothing, (0.0, 0.0, 0.0), -1.0, 0)
-        _output(i, nodes, cfg, c, sample, False, out, dense, lags, scratch, True)
+        _step(i, nodes, cfg, c, bc, sample, PLAIN_FALSE, nothing, (0.0, 0.0, 0.0), -1.0, PLAIN_ZERO)
+        _output(i, nodes, cfg, c, sample, PLAIN_FALSE, out, dense, lags, scratch, PLAIN_TRUE)
     _remember_rotation(nodes, i, book.next_seq, ROT_UNKNOWN, (1.0, 0.0, 0.0, 0.0))
     book.counts[N_LOST] += 1
     book.gap_packets += 1
@@ -352,9 +355,9 @@ def _bridge(i, nodes, b, cfg, c, bc, out, dense, lags, scratch):
         for s in range(spp):
             k = p * spp + s
             run += 1
-            _step(i, nodes, cfg, c, bc, first + k, False, nothing, (rates[k, 0], rates[k, 1], rates[k, 2]),
+            _step(i, nodes, cfg, c, bc, first + k, PLAIN_FALSE, nothing, (rates[k, 0], rates[k, 1], rates[k, 2]),
                   rate_sigma, run)
-            _output(i, nodes, cfg, c, first + k, False, out, dense, lags, scratch, False)
+            _output(i, nodes, cfg, c, first + k, PLAIN_FALSE, out, dense, lags, scratch, PLAIN_FALSE)
         if seg_sigma[p] >= 0.0:
             _remember_rotation(nodes, i, book.next_seq - n_gap + p, ROT_BRIDGED,
                                PK.integrated_rotation(rates, p * spp, (p + 1) * spp, c.dt))
@@ -373,9 +376,9 @@ def release_received(i, nodes, b, cfg, consts, bconsts, out, dense, lags, scratc
     values = nodes[10][i, b]
     for s in range(n):
         sample = book.next_sample + s
-        _step(i, nodes, cfg, c, bc, sample, True, values[s], (0.0, 0.0, 0.0), -1.0, 0)
-        _output(i, nodes, cfg, c, sample, True, out, dense, lags, scratch, True)
-    _remember_rotation(nodes, i, book.next_seq, ROT_RECEIVED, PK.integrated_rotation(values, 0, n, c.dt))
+        _step(i, nodes, cfg, c, bc, sample, PLAIN_TRUE, values[s], (0.0, 0.0, 0.0), -1.0, PLAIN_ZERO)
+        _output(i, nodes, cfg, c, sample, PLAIN_TRUE, out, dense, lags, scratch, PLAIN_TRUE)
+    _remember_rotation(nodes, i, book.next_seq, ROT_RECEIVED, PK.integrated_rotation(values, PLAIN_ZERO, n, c.dt))
     nodes[8][i, b] = False
     book.counts[N_RECEIVED] += 1
     book.gap_packets = 0
@@ -418,10 +421,10 @@ def run_node(nodes, cfg, consts, bconsts, values, packet_received, summaries, k,
             for j in range(k[p]):
                 for a in range(3):
                     nodes[14][0, 0, j, a] = summaries[p, j, a]
-            release_received(0, nodes, 0, cfg, consts, bconsts, out, dense, lags, scratch)
+            release_received(PLAIN_ZERO, nodes, PLAIN_ZERO, cfg, consts, bconsts, out, dense, lags, scratch)
         else:  # (also after the last received packet: the receiver's clock declares those)
-            release_lost(0, nodes, cfg, consts, bconsts, out, dense, lags, scratch)
-    flush_output(0, nodes, cfg, out, dense, lags, scratch)
+            release_lost(PLAIN_ZERO, nodes, cfg, consts, bconsts, out, dense, lags, scratch)
+    flush_output(PLAIN_ZERO, nodes, cfg, out, dense, lags, scratch)
 
 
 # ------------------------------------------------------------------------------------------
