@@ -12,9 +12,9 @@ sources *as this process imported them* (:data:`SOURCES_DIGEST`, read once, when
 imported): ``__pycache__/numba-<digest[:16]>/`` beside the sources, or
 ``$NUMBA_CACHE_DIR/wsnlib-orientation/numba-<digest[:16]>/`` when that variable is set.  A process
 running old code reads and writes only the old version's folder; the first process of new
-sources compiles once (about 10–20 s per kernel family) into the new one.  At import, the cache
-files of the other versions are deleted (their folders stay, so that a process still running old
-code can keep saving into its own without an error).
+sources compiles once into the new one (seconds for a small kernel, about 40 s for the Kalman
+filter's family).  At import, the cache files of the other versions are deleted (their folders
+stay, so that a process still running old code can keep saving into its own without an error).
 """
 
 from __future__ import annotations
