@@ -147,8 +147,8 @@ def test_read_only_and_writable_inputs_share_one_machine_code(data):
     assert (len(_kernels.filter_stream.signatures), len(_kalman_kernels.kalman_stream.signatures)) == compiled
 
 
-#: Modules whose kernels call other jitted functions, and those allowed literal arguments: the packet
-#: codec's helpers are a few lines each, and their literal byte offsets spell out the packet's layout.
+#: Kernel modules whose calls may pass literals: the packet codec's helpers are a few lines each, and
+#: their literal byte offsets spell out the packet's layout.
 LITERALS_ALLOWED = {"wsnlib.stream._kernels"}
 
 
@@ -188,7 +188,7 @@ def test_jitted_calls_pass_no_literal_that_would_compile_the_callee_again():
     """numba compiles a jitted callee once per *literal* argument value (``Literal[bool](True)``,
     ``Literal[int](0)``), each copy with everything it calls: the receiver's literal flags and node index
     made six copies of its step into the Kalman filter, three of the filter's step and five of its
-    prediction: a third of notebook 11's first run (246 → 166 s in quick mode).  Kernels pass
+    prediction (what that cost notebook 11's first run: CHANGELOG, stop 50).  Kernels pass
     ``PLAIN_TRUE``, ``PLAIN_FALSE``, ``PLAIN_ZERO`` (numpy scalars) or variables instead."""
     import importlib
 
