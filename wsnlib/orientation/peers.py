@@ -122,9 +122,12 @@ started); a gap at the end of the recording is predicted, never replayed.  With
 
 from __future__ import annotations
 
+import math
+
 import imufusion
 import numpy as np
 import vqf
+from numba import njit
 
 from wsnlib import fixed_order
 from wsnlib import quaternion as Q
@@ -132,10 +135,17 @@ from wsnlib._validation import check_flag, check_nonnegative, check_positive
 from wsnlib.frames import STANDARD_GRAVITY
 from wsnlib.loss import last_received_index
 from wsnlib.orientation import _batch as B
-from wsnlib.orientation import _kernels as K
 from wsnlib.orientation import gaps
 from wsnlib.orientation._fusion_updates import FusionUpdates
-from wsnlib.orientation._scalar_kernels import integrate_rates
+from wsnlib.orientation._scalar_kernels import (
+    COMPILE,
+    PLAIN_TRUE,
+    integrate_rates,
+    quat_conjugate,
+    quat_multiply,
+    quat_normalize,
+    slerp,
+)
 from wsnlib.orientation.hybrid_blend import blend_with_single_frame, check_single_frame_gate, trusted_unchecked
 from wsnlib.orientation.kalman_settings import gap_prediction_window
 from wsnlib.orientation.lost_run import check_weight_options, effective_lost_run, slerp_weight
@@ -210,11 +220,6 @@ def _feedback_inputs(signals, mask, rho, tau, schedule, window, gate=None, fs=No
     if blend_at.any():
         q_s[blend_at] = triad(signals["acc"][blend_at], signals["mag"][blend_at])
     return blend_at, q_s, slerp_weight(lam, rho, tau)
-
-
-def _slerp(q_s, q_d, mu: float) -> np.ndarray:
-    """Eq. (4) for one sample (4-sequences), in ``q_d``'s hemisphere (:func:`wsnlib.orientation._kernels.slerp`)."""
-    return np.array(K.slerp(_floats(q_s), _floats(q_d), float(mu)))
 
 
 def _floats(q) -> tuple:
@@ -531,12 +536,26 @@ def _vqf_set_quat9d(filt, q_f: np.ndarray, use_mag: bool = True) -> None:
     Why ``gyrQuat`` and not ``accQuat``: :mod:`wsnlib.orientation.peers`.
     """
     state = filt.state
-    half = -0.5 * state["delta"] if use_mag else 0.0
-    undo_delta = (float(np.cos(half)), 0.0, 0.0, float(np.sin(half)))
-    acc_inverse = K.quat_conjugate(_floats(state["accQuat"]))
-    q_i = K.quat_multiply(acc_inverse, K.quat_multiply(undo_delta, _floats(q_f)))
-    state["gyrQuat"] = np.array(K.quat_normalize(q_i))
+    state["gyrQuat"] = _vqf_gyr_quat(_floats(q_f), tuple(state["accQuat"]), state["delta"], use_mag)
     filt.state = state
+
+
+@njit(**COMPILE)
+def _vqf_gyr_quat(q_f, acc_quat, delta, use_mag):
+    """``gyrQuat = accQuat* ⊗ q_z(−δ) ⊗ q_f`` (normalised; 4-tuples): VQF's 9D output ``q_z(δ) ⊗ accQuat ⊗
+    gyrQuat`` is then ``q_f`` (its 6D output without ``use_mag``: δ taken as 0)."""
+    half = -0.5 * delta if use_mag else 0.0
+    undo_delta = (math.cos(half), 0.0, 0.0, math.sin(half))
+    return quat_normalize(quat_multiply(quat_conjugate(acc_quat), quat_multiply(undo_delta, q_f)))
+
+
+@njit(**COMPILE)
+def _vqf_blend(q_s, q_d, mu, acc_quat, delta):
+    """The feedback hybrid at one blended sample of VQF (4-tuples): eq. (4)'s blend of TRIAD ``q_s``
+    and VQF's 9D output ``q_d``, and the ``gyrQuat`` that makes the blend VQF's 9D output
+    (:func:`_vqf_gyr_quat`).  One compiled call per blended sample, where most of the hybrid's time goes."""
+    blended = slerp(q_s, q_d, mu)
+    return blended, _vqf_gyr_quat(blended, acc_quat, delta, PLAIN_TRUE)
 
 
 def _vqf_one(fs: float, params: dict, gap: _GapRates):
@@ -581,14 +600,20 @@ def _vqf_one(fs: float, params: dict, gap: _GapRates):
                     out[prev + 1:start] = _predict_gap(out[prev], gyr[prev], start - prev - 1, 1.0 / fs, gap_factor)
                     _vqf_set_quat9d(filt, out[start - 1], mag is not None)
             prev = end - 1
-            piece = filt.updateBatch(gyr[start:end], acc[start:end], None if mag is None else mag[start:end])
-            out[start:end] = piece[key]
+            if end - start == 1:  # (the feedback's pieces after a gap) the same update, without a batch's arrays
+                filt.update(gyr[start], acc[start], None if mag is None else mag[start])
+                out[start] = quat()
+            else:
+                piece = filt.updateBatch(gyr[start:end], acc[start:end], None if mag is None else mag[start:end])
+                out[start:end] = piece[key]
             if used is not None:
                 used[start:end] = gyr[start:end]
             last = end - 1
             if feedback is not None and blend_at[last]:
-                out[last] = _slerp(q_s[last], out[last], mu[last])
-                _vqf_set_quat9d(filt, out[last])
+                state = filt.state
+                out[last], state["gyrQuat"] = _vqf_blend(_floats(q_s[last]), _floats(out[last]), float(mu[last]),
+                                                         tuple(state["accQuat"]), state["delta"])
+                filt.state = state
         if gap.tracked and gap_factor is not None and prev < n_t - 1:  # a gap at the end
             fill_gap(prev, n_t, None)
         elif gap_factor is not None and 0 <= prev < n_t - 1:
