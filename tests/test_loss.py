@@ -133,6 +133,20 @@ def test_gilbert_elliott_determinism_and_edges():
     assert p_bg == 0.25 and p_gb / (p_gb + p_bg) == pytest.approx(0.2)
 
 
+@pytest.mark.parametrize("loss_rate, mean_burst", [(0.1, 3.0), (0.0, 2.0), (0.5, 1.0), (0.6, 4.0), (0.3, 1.2)])
+def test_gilbert_elliott_is_the_markov_chain_step_by_step(loss_rate, mean_burst):
+    # The vectorised chain against the chain written packet by packet on the same uniform draws
+    # (p_GB > p_BG in (0.6, 4.0): draws between them set Bad, not Good).
+    mask = loss.gilbert_elliott(3000, loss_rate, mean_burst, rng=np.random.default_rng(5), shape=(4, 3))
+    p_gb, p_bg = loss.gilbert_elliott_probabilities(loss_rate, mean_burst)
+    u = np.random.default_rng(5).random((4, 3, 3000))
+    lost = np.empty(u.shape, dtype=bool)
+    lost[..., 0] = u[..., 0] < p_gb / (p_gb + p_bg)
+    for k in range(1, u.shape[-1]):
+        lost[..., k] = np.where(lost[..., k - 1], u[..., k] >= p_bg, u[..., k] < p_gb)
+    assert np.array_equal(mask, ~lost)
+
+
 @pytest.mark.parametrize(
     "loss_rate, mean_burst, match",
     [

@@ -199,10 +199,17 @@ def gilbert_elliott(n_packets: int, loss_rate: float, mean_burst: float, *, rng:
     if n_packets == 0:
         return ~lost
     stationary_bad = p_gb / (p_gb + p_bg)
-    state = u[..., 0] < stationary_bad
-    lost[..., 0] = state
-    for k in range(1, n_packets):
-        # Bad stays Bad with 1 - p_BG; Good turns Bad with p_GB.
-        state = np.where(state, u[..., k] >= p_bg, u[..., k] < p_gb)
-        lost[..., k] = state
+    # The chain, lost_k = (u_k >= p_BG) if lost_{k-1} else (u_k < p_GB) (Bad stays Bad with 1 - p_BG;
+    # Good turns Bad with p_GB), without a loop over packets: each u_k either sets the state (both
+    # branches agree) or keeps it or flips it.  So lost_k is the state set last, at or before k (the
+    # first packet's from the stationary distribution), flipped once per flip since then.
+    if_bad, if_good = u >= p_bg, u < p_gb
+    sets = if_bad == if_good
+    sets[..., 0] = True
+    if_bad[..., 0] = u[..., 0] < stationary_bad
+    flips = np.cumsum(~if_bad & if_good, axis=-1)
+    last_set = np.maximum.accumulate(np.where(sets, np.arange(n_packets), 0), axis=-1)
+    set_value = np.take_along_axis(if_bad, last_set, axis=-1)
+    flips_since = flips - np.take_along_axis(flips, last_set, axis=-1)
+    lost[...] = set_value ^ (flips_since % 2 == 1)
     return ~lost
