@@ -348,9 +348,11 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
         masks[name], rows[name] = _masks(profiles, recordings[name], fs[name], trial_rng, draws)
     seconds = dict.fromkeys(methods, 0.0)
     if tuned:
-        setting, tuning, choices = _tune(recordings, names, folds, methods, masks, rows, headline, tuning_draws,
-                                         seconds, n_jobs=n_jobs, scheduler=scheduler, progress=progress)
+        setting, tuning, choices, ran_here = _tune(recordings, names, folds, methods, masks, rows, headline,
+                                                   tuning_draws, seconds, n_jobs=n_jobs, scheduler=scheduler,
+                                                   progress=progress)
     else:
+        ran_here = set()
         untuned = {m: method.untuned_setting() for m, method in methods.items()}
         setting = {m: [untuned[m]] * len(names) for m in methods}
         tuning = pd.DataFrame(columns=["method", "setting_index", "setting", "trial", "rmse_total", "rmse_heading",
@@ -362,8 +364,15 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
     bursts = {name: _traced_burst(recordings[name], masks[name], rows[name]) for name in names}
     jobs = [(name, method, recordings[name], masks[name], rows[name], setting[m][j], bursts[name])
             for j, name in enumerate(names) for m, method in methods.items()]
-    done = iter(parallel.run_jobs(_scoring_job, jobs, n_jobs=n_jobs, scheduler=scheduler, progress=progress,
-                                  desc="scoring every profile"))
+    # As in the tuning: without a cluster, the first trial's job of each method the tuning did not run
+    # in this process (a single setting, or another method's choice: the smoother) runs here first, so
+    # that its kernels are compiled once, into numba's on-disk cache, not by every worker at once.
+    first_here = [] if scheduler is not None else [k for k, m in enumerate(methods) if m not in ran_here]
+    order = first_here + [k for k in range(len(jobs)) if k not in set(first_here)]
+    scored = parallel.run_jobs(_scoring_job, [jobs[k] for k in order], n_jobs=n_jobs, scheduler=scheduler,
+                               in_process_first=len(first_here), progress=progress, desc="scoring every profile")
+    by_job = dict(zip(order, scored, strict=True))
+    done = (by_job[k] for k in range(len(jobs)))
     results, traces = [], {}
     for name in names:
         trace = {"fs": fs[name], "time_s": np.arange(recordings[name].n_samples) / fs[name], "error": {},
@@ -420,7 +429,8 @@ def _tune(recordings, names, folds, methods, masks, rows, headline, tuning_draws
     """Leave-one-group-out tuning at ``headline``'s first ``tuning_draws`` masks (``folds``: each trial's
     group): each trial's setting
     per method (``setting[m][j]``), the tuning table and the choices table (see
-    :class:`LossToleranceResult`); adds the run time to ``seconds``."""
+    :class:`LossToleranceResult`), and the methods whose first job ran in this process (none on a
+    cluster); adds the run time to ``seconds``."""
     # Tuning jobs, one per method, trial and SETTINGS_PER_JOB settings.  Without a cluster, each
     # method's first job runs in this process first: each kernel is compiled once, into numba's
     # on-disk cache, which the local workers then read.  A method with a single setting has
@@ -474,7 +484,7 @@ def _tune(recordings, names, folds, methods, masks, rows, headline, tuning_draws
                              "setting": str(methods[m].grid[choice[m][j]])}
                             for m in methods for j, name in enumerate(names)])
     setting = {m: [methods[m].grid[i] for i in choice[m]] for m in methods}
-    return setting, tuning, choices
+    return setting, tuning, choices, set(tuned) if warm_up else set()
 
 
 def _run_key(run):
