@@ -22,6 +22,7 @@ from wsnlib.orientation import (
     _fusion_updates,
     estimate_orientation,
     fusion_orientation,
+    gaps,
     madgwick,
     triad,
     vqf_orientation,
@@ -325,6 +326,15 @@ def test_vqf_state_read_is_a_snapshot_the_replay_can_restore(arm):
     filt.state = saved
     again = filt.updateBatch(gyr[0, 0, 100:150].copy(), acc[0, 0, 100:150].copy(), mag[0, 0, 100:150].copy())
     np.testing.assert_array_equal(again["quat9D"], after["quat9D"])
+
+
+def test_a_read_only_recording_compiles_the_gap_rates_once(arm, masks):
+    # A broadcast recording's rows are read-only; numba would compile gap_rates again for them.
+    _, gyr, acc, mag = arm
+    signals = [np.broadcast_to(x[0, 0], masks.shape + (3,)) for x in (gyr, acc, mag)]
+    for run in (vqf_orientation, fusion_orientation):
+        run(*signals, fs=FS, received=masks, gap="ar", replay=True)
+    assert all(signature[2].mutable for signature in gaps.gap_rates.signatures)
 
 
 def test_vqf_state_write_sets_the_9d_output(arm):

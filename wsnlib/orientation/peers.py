@@ -204,7 +204,8 @@ class _GapRates:
     def rates(self, history, n_lost: int, measured) -> tuple[np.ndarray, np.ndarray]:
         """``(predicted, replayed)`` ``(n_lost, 3)`` rad/s of a gap after the rate ``history`` (n, 3)
         that ends at the rate ``measured`` (None: at the recording's end)."""
-        measured = np.zeros(3) if measured is None else np.ascontiguousarray(measured, dtype=float)
+        # A copy: a read-only row (a broadcast recording's) would make numba compile gap_rates a second time.
+        measured = np.zeros(3) if measured is None else np.array(measured, dtype=float)
         return gaps.gap_rates(np.ascontiguousarray(history), n_lost, measured, *self._settings)
 
 
