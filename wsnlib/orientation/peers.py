@@ -68,8 +68,9 @@ update, so that the state itself is pulled towards TRIAD.  Both libraries allow 
   into ``accQuat`` is undone by the next update, while one written into ``gyrQuat`` is
   consistent with the filtered vector and persists.
 
-Feedback writes VQF's state once per blended sample, from Python; Fusion blends inside its compiled
-loop (:mod:`wsnlib.orientation._fusion_updates`).
+Feedback writes VQF's state once per blended sample, from Python (the blend and the new ``gyrQuat`` in
+one compiled call, :func:`_vqf_blend`); Fusion blends inside its compiled loop
+(:mod:`wsnlib.orientation._fusion_updates`).
 ``single_frame_gate`` makes either hybrid the *gated hybrid*: no blend on received samples
 whose TRIAD looks untrustworthy (:class:`wsnlib.orientation.SingleFrameGate`).
 
