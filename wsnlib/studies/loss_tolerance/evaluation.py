@@ -368,7 +368,7 @@ def evaluate(recordings: Mapping, *, rng: np.random.Generator, methods: Mapping[
     # in this process (a single setting, or another method's choice: the smoother) runs here first, so
     # that its kernels are compiled once, into numba's on-disk cache, not by every worker at once.
     first_here = [] if scheduler is not None else [k for k, m in enumerate(methods) if m not in ran_here]
-    order = first_here + [k for k in range(len(jobs)) if k not in set(first_here)]
+    order = first_here + sorted(set(range(len(jobs))) - set(first_here))
     scored = parallel.run_jobs(_scoring_job, [jobs[k] for k in order], n_jobs=n_jobs, scheduler=scheduler,
                                in_process_first=len(first_here), progress=progress, desc="scoring every profile")
     by_job = dict(zip(order, scored, strict=True))
