@@ -155,6 +155,23 @@ def unpack_upper(packed, P):
             k += 1
 
 
+# Copies written as loops: an array assignment (``a[:] = b``) compiles numba's shape check and its
+# error message, seconds of compile time for each kernel that calls these.
+@njit(inline="always", **COMPILE)
+def copy_vector(src, dst):
+    """``dst[i] = src[i]`` for every ``i`` of ``src`` (1-D)."""
+    for i in range(src.shape[0]):
+        dst[i] = src[i]
+
+
+@njit(inline="always", **COMPILE)
+def copy_matrix(src, dst):
+    """``dst[i, j] = src[i, j]`` for every entry of ``src`` (2-D)."""
+    for i in range(src.shape[0]):
+        for j in range(src.shape[1]):
+            dst[i, j] = src[i, j]
+
+
 @njit(**COMPILE)
 def transition_matrix(R, a_e, decay, dt, F):
     """``F = [[I, −R Δt, 0], [0, I, 0], [−[a_E]× Δt, [a_E]× R Δt², c I]]`` into ``F`` (9 × 9), from
@@ -774,8 +791,10 @@ def _replay(st, gs, history, omega, dt, replayed):
 @njit(**COMPILE)
 def _keep_prediction(st, work, c):
     if c.record:
-        work.q_pred[:], work.bias_pred[:], work.vel_pred[:] = st.q, st.bias, st.velocity
-        work.P_pred[:, :] = st.P
+        copy_vector(st.q, work.q_pred)
+        copy_vector(st.bias, work.bias_pred)
+        copy_vector(st.velocity, work.vel_pred)
+        copy_matrix(st.P, work.P_pred)
 
 
 @njit(**COMPILE)
@@ -838,22 +857,26 @@ def kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c, outputs)
             acc_used[t], mag_used[t] = kalman_step(st, gs, history, work, c, (gyr[t, 0], gyr[t, 1], gyr[t, 2]),
                                                    (acc[t, 0], acc[t, 1], acc[t, 2]),
                                                    (mag[m, 0], mag[m, 1], mag[m, 2]), received[t], path)
-            if path.shape[0] > 0:
-                out_q[t - n_lost:t] = path
+            for k in range(path.shape[0]):
+                copy_vector(path[k], out_q[t - n_lost + k])
         else:
             acc_used[t], mag_used[t] = False, False
             _keep_prediction(st, work, c)
-        out_q[t] = st.q
+        # (the copies are inlined: their row views need no reference count)
+        copy_vector(st.q, out_q[t])
         if keep_bias:
-            out_bias[t] = st.bias
+            copy_vector(st.bias, out_bias[t])
         if keep_vel:
-            out_vel[t] = st.velocity
+            copy_vector(st.velocity, out_vel[t])
         if keep_P:
-            out_P[t] = st.P
+            copy_matrix(st.P, out_P[t])
         if c.record:
-            pred_q[t], pred_vel[t] = work.q_pred, work.vel_pred
-            pred_R[t], pred_a_e[t], pred_noise[t] = work.R, work.a_e, work.noise
-            pack_upper(st.P, post_P[t])  # (inlined: the row view needs no reference count)
+            copy_vector(work.q_pred, pred_q[t])
+            copy_vector(work.vel_pred, pred_vel[t])
+            copy_matrix(work.R, pred_R[t])
+            copy_vector(work.a_e, pred_a_e[t])
+            copy_vector(work.noise, pred_noise[t])
+            pack_upper(st.P, post_P[t])
     # Keep the record arrays alive to here (the loop reads them through st, work, gs).
     state_array[0], work_array[0], gap_array[0] = st, work, gs
 
