@@ -131,7 +131,6 @@ import vqf
 from numba import njit
 
 from wsnlib import fixed_order
-from wsnlib import quaternion as Q
 from wsnlib._validation import check_flag, check_nonnegative, check_positive
 from wsnlib.frames import STANDARD_GRAVITY
 from wsnlib.loss import last_received_index
@@ -173,12 +172,29 @@ def _prepare(gyr, acc, mag, fs, received):
     return fs, signals, mask, batch
 
 
-def _predict_gap(q_last, omega, n_lost: int, dt: float, factor: float) -> np.ndarray:
-    """``(n_lost, 4)``: ``q_last ⊗ Exp(ω Δt Σ_{j≤k} f^j)``, k = 1 … n_lost (:mod:`wsnlib.orientation.peers`)."""
-    k = np.arange(1, n_lost + 1)
-    weight = k.astype(float) if factor == 1.0 else factor * (1.0 - factor**k) / (1.0 - factor)
-    turns = np.asarray(omega, dtype=float) * dt * weight[:, None]
-    return Q.multiply(np.asarray(q_last, dtype=float), Q.from_rotation_vector(turns))
+@njit(**COMPILE)
+def _predict_gap(q_last, omega, n_lost, dt, factor):
+    """``(n_lost, 4)``: ``q_last ⊗ Exp(ω Δt Σ_{j≤k} f^j)``, k = 1 … n_lost (:mod:`wsnlib.orientation.peers`);
+    ``q_last`` (4,), ``omega`` (3,) rad/s, ``dt`` s, ``factor`` f (1: a constant rate).
+
+    Compiled (a peer's gap cost ~60 µs in numpy's small-array calls, ~2 µs here), with the operations of
+    :func:`wsnlib.quaternion.from_rotation_vector` and :func:`wsnlib.quaternion.multiply` in their order:
+    ``‖t‖ = √((t_x² + t_y²) + t_z²)`` (numpy's sum of three), ``sin(θ/2)/θ`` as ``np.sinc`` forms it
+    (``y = π · ((θ/2)/π)``, ``½ sin(y)/y``, 1e-20 for 0), ``f^k`` by ``pow``: the same bits."""
+    out = np.empty((n_lost, 4))
+    q = (q_last[0], q_last[1], q_last[2], q_last[3])
+    step = (omega[0] * dt, omega[1] * dt, omega[2] * dt)
+    for i in range(n_lost):
+        k = i + 1.0
+        weight = k if factor == 1.0 else factor * (1.0 - math.pow(factor, k)) / (1.0 - factor)
+        turn = (step[0] * weight, step[1] * weight, step[2] * weight)
+        half = 0.5 * math.sqrt((turn[0] * turn[0] + turn[1] * turn[1]) + turn[2] * turn[2])
+        x = half / math.pi
+        y = math.pi * (x if x != 0.0 else 1.0e-20)
+        scale = 0.5 * (math.sin(y) / y)
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3] = quat_multiply(
+            q, (math.cos(half), scale * turn[0], scale * turn[1], scale * turn[2]))
+    return out
 
 
 def _integrate(q_start, rates, dt: float) -> np.ndarray:
