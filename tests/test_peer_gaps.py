@@ -122,3 +122,20 @@ def test_gap_rates_predict_an_oscillation_with_the_ar_fit():
     predicted, replayed = gaps.gap_rates(rates[:350], 20, rates[370], gaps.AR, 1.0, 10, 300)
     assert np.abs(predicted - rates[350:370]).max() < 0.05  # a held rate would be off by ~1 rad/s
     assert np.abs(replayed - rates[350:370]).max() < 0.05
+
+
+def test_the_compiled_dead_reckoning_is_the_quaternion_formula_bit_for_bit():
+    """``peers._predict_gap`` (compiled) gives the bits of ``q_last ⊗ Exp(ω Δt Σ_{j≤k} f^j)`` written with
+    :func:`wsnlib.quaternion.from_rotation_vector` and :func:`~wsnlib.quaternion.multiply` in numpy."""
+    from wsnlib.orientation.peers import _predict_gap
+
+    rng = np.random.default_rng(11)
+    for case in range(200):
+        q_last = Q.normalize(rng.normal(size=4))
+        omega = rng.normal(size=3) * 10 ** rng.uniform(-4, 1.5) * (case % 7 != 0)  # some exactly still
+        n_lost, dt = int(rng.integers(1, 60)), 1.0 / rng.choice([40.0, 50.0, 1500.0])
+        factor = 1.0 if case % 3 == 0 else float(np.exp(-dt / rng.uniform(0.05, 2.0)))
+        k = np.arange(1, n_lost + 1)
+        weight = k.astype(float) if factor == 1.0 else factor * (1.0 - factor**k) / (1.0 - factor)
+        expected = Q.multiply(q_last, Q.from_rotation_vector(omega * dt * weight[:, None]))
+        assert _predict_gap(q_last, omega, n_lost, dt, factor).tobytes() == expected.tobytes(), case
