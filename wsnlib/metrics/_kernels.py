@@ -26,17 +26,28 @@ COMPILE = {"cache": True, "error_model": "numpy"}
 
 
 @njit(**COMPILE)
-def error_angle_arguments(error, out):
-    """For error quaternions ``error`` (N, 4) ``[w, x, y, z]``, the arguments of BROAD's three
-    ``atan2`` forms into ``out`` (5, N): ``‖(x, y, z)‖``, ``|w|``, ``|z|``, ``hypot(x, y)``,
-    ``hypot(w, z)`` (:func:`wsnlib.metrics.broad_errors_deg`)."""
-    for n in range(error.shape[0]):
-        w, x, y, z = error[n, 0], error[n, 1], error[n, 2], error[n, 3]
-        out[0, n] = math.sqrt(x * x + y * y + z * z)
-        out[1, n] = abs(w)
-        out[2, n] = abs(z)
-        out[3, n] = math.hypot(x, y)
-        out[4, n] = math.hypot(w, z)
+def error_angle_arguments(est, ref, out):
+    """For estimates ``est`` (M, T, 4) and references ``ref`` (R, T, 4), R = 1 (one reference for every
+    row of ``est``) or M, the error quaternions ``e = est ⊗ ref*`` ``[w, x, y, z]`` and the arguments of
+    BROAD's three ``atan2`` forms into ``out`` (5, M, T): ``‖(x, y, z)‖``, ``|w|``, ``|z|``,
+    ``hypot(x, y)``, ``hypot(w, z)`` (:func:`wsnlib.metrics.broad_errors_deg`).  ``ref*`` is
+    ``ref · [1, −1, −1, −1]``, as :func:`wsnlib.quaternion.conjugate` forms it; the error quaternions
+    are not stored, and one reference is not copied per row of ``est``."""
+    one_ref = ref.shape[0] == 1
+    for m in range(est.shape[0]):
+        r = ref[0 if one_ref else m]
+        for t in range(est.shape[1]):
+            pw, px, py, pz = est[m, t, 0], est[m, t, 1], est[m, t, 2], est[m, t, 3]
+            qw, qx, qy, qz = r[t, 0] * 1.0, r[t, 1] * -1.0, r[t, 2] * -1.0, r[t, 3] * -1.0
+            w = pw * qw - px * qx - py * qy - pz * qz
+            x = pw * qx + px * qw + py * qz - pz * qy
+            y = pw * qy - px * qz + py * qw + pz * qx
+            z = pw * qz + px * qy - py * qx + pz * qw
+            out[0, m, t] = math.sqrt(x * x + y * y + z * z)
+            out[1, m, t] = abs(w)
+            out[2, m, t] = abs(z)
+            out[3, m, t] = math.hypot(x, y)
+            out[4, m, t] = math.hypot(w, z)
 
 
 @njit(**COMPILE)

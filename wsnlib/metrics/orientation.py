@@ -15,6 +15,8 @@ Every function returns degrees and broadcasts over leading batch dimensions ``(.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from wsnlib import quaternion as quat_ops
@@ -96,13 +98,17 @@ def broad_errors_deg(quat_est, quat_ref) -> dict[str, np.ndarray]:
     ref = quat_ops.as_quat_with_gaps(quat_ref, "quat_ref")
     ref = ref / np.linalg.norm(ref, axis=-1, keepdims=True)
     try:
-        np.broadcast_shapes(est.shape, ref.shape)
+        shape = np.broadcast_shapes(est.shape, ref.shape)
     except ValueError as exc:
         raise ValueError(f"quat_est {est.shape} and quat_ref {ref.shape} do not broadcast") from exc
-    error = quat_ops.multiply(est, quat_ops.conjugate(ref))
-    # ‖(x, y, z)‖, |w|, |z|, hypot(x, y), hypot(w, z), each (..., T)
-    args = np.empty((5,) + error.shape[:-1])
-    error_angle_arguments(error.reshape(-1, 4), args.reshape(5, -1))
+    # Rows (M, T, 4): the estimates, and one reference for all of them unless it has its own batch.
+    n_t, n_rows = (shape[-2], math.prod(shape[:-2])) if len(shape) > 1 else (1, 1)
+    est_rows = np.ascontiguousarray(np.broadcast_to(est, shape)).reshape(n_rows, n_t, 4)
+    ref_rows = ref.reshape(1, n_t, 4) if ref.size == 4 * n_t else (
+        np.ascontiguousarray(np.broadcast_to(ref, shape)).reshape(n_rows, n_t, 4))
+    # ‖(x, y, z)‖, |w|, |z|, hypot(x, y), hypot(w, z) of q_est ⊗ q_ref*, each (..., T)
+    args = np.empty((5,) + shape[:-1])
+    error_angle_arguments(est_rows, ref_rows, args.reshape(5, n_rows, n_t))
     errors = {
         "total": 2.0 * np.arctan2(args[0], args[1]),
         "heading": 2.0 * np.arctan2(args[2], args[1]),
