@@ -264,15 +264,16 @@ def ar_fit(rates, end, window, order, coef, A, r):
     lo = end - window
     size = rates.shape[0]
     xs = np.empty((3, window))  # the window in time order, per axis (the history is a ring)
-    largest = 0.0
+    largest_squared = 0.0
     row = lo % size
     for k in range(window):
         x0, x1, x2 = rates[row, 0], rates[row, 1], rates[row, 2]
         xs[0, k], xs[1, k], xs[2, k] = x0, x1, x2
-        largest = max(largest, math.sqrt(x0 * x0 + x1 * x1 + x2 * x2))
+        largest_squared = max(largest_squared, x0 * x0 + x1 * x1 + x2 * x2)
         row += 1
         if row == size:
             row = 0
+    largest = math.sqrt(largest_squared)  # = the largest of the norms: √ is monotonic (and correctly rounded)
     p = order
     n = window - p  # equations: k = 0 … n − 1 predict x[k + p] from x[k … k + p − 1]
     generator = np.empty((4, p + 1))
