@@ -256,3 +256,22 @@ def test_multiply_and_normalize_are_numpys_bits(rng):
         Q.normalize(zero, "quat_est")
     with pytest.raises(ValueError, match=r"q has a zero-norm vector at index \(\)"):
         Q.normalize(np.zeros(4))
+
+
+def test_quaternions_with_gaps_are_numpys_bits_and_refuse_inf_and_zero(rng):
+    """``as_quat_with_gaps``: gap rows all NaN, the others as given or (``unit``) divided by numpy's norm,
+    bit for bit, whatever the input's memory layout (broadcast, strided, Fortran order, a list)."""
+    q = rng.normal(size=(300, 4)) * 10.0 ** rng.uniform(-100, 100, size=(300, 1))
+    q[rng.random(300) < 0.1, 2] = np.nan
+    for value in (q, np.broadcast_to(q, (2, 300, 4)), q[::3], np.asfortranarray(q), q.tolist()):
+        expected = np.array(value, dtype=float)
+        expected[np.isnan(expected).any(axis=-1)] = np.nan
+        assert np.array_equal(Q.as_quat_with_gaps(value, "q").view(np.uint64),
+                              np.ascontiguousarray(expected).view(np.uint64))
+        unit = expected / np.linalg.norm(expected, axis=-1, keepdims=True)
+        assert np.array_equal(Q.as_quat_with_gaps(value, "q", unit=True).view(np.uint64), unit.view(np.uint64))
+    for bad, message in (([[np.nan, np.inf, 0, 0]], "contains inf"), ([[0, 0, 0, 0], [1, 0, 0, 0]], "zero quaternion")):
+        for unit in (False, True):
+            with pytest.raises(ValueError, match=f"quat_ref {message}" if message == "contains inf" else message):
+                Q.as_quat_with_gaps(np.array(bad, dtype=float), "quat_ref", unit=unit)
+    assert np.isnan(Q.as_quat_with_gaps([[0.0, 0.0, 0.0, np.nan]], "q", unit=True)).all()  # a gap, not a zero

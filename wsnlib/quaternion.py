@@ -254,7 +254,7 @@ def from_scipy(rotation: Rotation) -> np.ndarray:
     return rotation.as_quat()[..., [3, 0, 1, 2]]
 
 
-def as_quat_with_gaps(value, name: str) -> np.ndarray:
+def as_quat_with_gaps(value, name: str, unit: bool = False) -> np.ndarray:
     """Quaternions ``(..., 4)`` in which a row holding NaN marks a missing sample, as a float copy.
 
     Parameters
@@ -264,11 +264,16 @@ def as_quat_with_gaps(value, name: str) -> np.ndarray:
         an optical reference whose markers were lost).
     name : str
         Argument name used in error messages.
+    unit : bool
+        Also divide each row outside the gaps by its norm (the bits of ``q / np.linalg.norm(q, axis=-1,
+        keepdims=True)``), in the same compiled pass as the checks: a metric does this for the same
+        reference on every call.
 
     Returns
     -------
     numpy.ndarray, shape (..., 4)
-        A new float array; gap rows are entirely NaN, the others unchanged (not normalised).
+        A new float array; gap rows are entirely NaN, the others unchanged (not normalised) or, with
+        ``unit``, unit quaternions.
 
     Raises
     ------
@@ -276,15 +281,35 @@ def as_quat_with_gaps(value, name: str) -> np.ndarray:
         Not numeric, last axis not 4, any inf, or a zero quaternion outside the gaps.
     """
     try:
-        arr = np.array(value, dtype=float)
+        arr = np.array(value, dtype=float, order="C")  # (C order: its rows below are a view, changed in place)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{name} must be a numeric array, got {type(value).__name__}") from exc
     if arr.ndim < 1 or arr.shape[-1] != 4:
         raise ValueError(f"{name} must have shape (..., 4), got shape {arr.shape}")
-    if np.any(np.isinf(arr)):
+    has_inf, has_zero = _gap_rows(arr.reshape(-1, 4), unit)
+    if has_inf:
         raise ValueError(f"{name} contains inf")
-    gap = np.isnan(arr).any(axis=-1)
-    arr[gap] = np.nan
-    if np.any(np.linalg.norm(arr[~gap], axis=-1) == 0.0):
+    if has_zero:
         raise ValueError(f"{name} has a zero quaternion, which is not a rotation")
     return arr
+
+
+@njit(cache=True, error_model="numpy")
+def _gap_rows(q, unit):
+    """In place on rows ``(N, 4)``: a row holding NaN becomes all NaN, and with ``unit`` every other row is
+    divided by its norm (summed as :func:`_unit_rows` sums it: numpy's bits); returns whether some entry is
+    inf and whether some row outside the gaps has norm 0 (:func:`as_quat_with_gaps`)."""
+    has_inf = has_zero = False
+    for n in range(q.shape[0]):
+        w, x, y, z = q[n, 0], q[n, 1], q[n, 2], q[n, 3]
+        if math.isinf(w) or math.isinf(x) or math.isinf(y) or math.isinf(z):
+            has_inf = True
+        if math.isnan(w) or math.isnan(x) or math.isnan(y) or math.isnan(z):
+            q[n, 0] = q[n, 1] = q[n, 2] = q[n, 3] = math.nan
+            continue
+        norm = math.sqrt(w * w + x * x + y * y + z * z)
+        if norm == 0.0:
+            has_zero = True
+        elif unit:
+            q[n, 0], q[n, 1], q[n, 2], q[n, 3] = w / norm, x / norm, y / norm, z / norm
+    return has_inf, has_zero

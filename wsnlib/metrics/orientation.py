@@ -95,8 +95,7 @@ def broad_errors_deg(quat_est, quat_ref) -> dict[str, np.ndarray]:
         ``(..., T)``; NaN exactly where the reference is NaN.
     """
     est = quat_ops.normalize(quat_est, "quat_est")
-    ref = quat_ops.as_quat_with_gaps(quat_ref, "quat_ref")
-    ref = ref / np.linalg.norm(ref, axis=-1, keepdims=True)
+    ref = quat_ops.as_quat_with_gaps(quat_ref, "quat_ref", unit=True)
     try:
         shape = np.broadcast_shapes(est.shape, ref.shape)
     except ValueError as exc:
