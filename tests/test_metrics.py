@@ -499,7 +499,9 @@ def test_broad_errors_are_numpys_bits(rng):
     ref = rng.normal(size=(500, 4))
     ref[::37] = np.nan
     ref[5] = est[0, 5]
-    for e, r in ((est, ref), (est[:, ::2], ref[::2]), (est[0], ref), (est[:, :7], est[:, :7])):
+    # (the last: one reference per sample of a recording of 4, as many values as one recording's reference)
+    for e, r in ((est, ref), (est[:, ::2], ref[::2]), (est[0], ref), (est[:, :7], est[:, :7]),
+                 (est[:1, :4], est[0, :4, None])):
         ours, expected = metrics.broad_errors_deg(e, r), _numpy_broad_errors_deg(np.asarray(e), np.asarray(r))
         for key in _BROAD_KEYS:
             assert np.array_equal(ours[key], expected[key], equal_nan=True), key

@@ -100,10 +100,12 @@ def broad_errors_deg(quat_est, quat_ref) -> dict[str, np.ndarray]:
         shape = np.broadcast_shapes(est.shape, ref.shape)
     except ValueError as exc:
         raise ValueError(f"quat_est {est.shape} and quat_ref {ref.shape} do not broadcast") from exc
-    # Rows (M, T, 4): the estimates, and one reference for all of them unless it has its own batch.
+    # Rows (M, T, 4): the estimates, and one reference for all of them (a single recording's, (T, 4) or
+    # (1, …, T, 4)) unless it has a batch of its own.
     n_t, n_rows = (shape[-2], math.prod(shape[:-2])) if len(shape) > 1 else (1, 1)
     est_rows = np.ascontiguousarray(np.broadcast_to(est, shape)).reshape(n_rows, n_t, 4)
-    ref_rows = ref.reshape(1, n_t, 4) if ref.size == 4 * n_t else (
+    one_recording = ref.ndim > 1 and ref.shape[-2] == n_t and ref.size == 4 * n_t
+    ref_rows = ref.reshape(1, n_t, 4) if one_recording else (
         np.ascontiguousarray(np.broadcast_to(ref, shape)).reshape(n_rows, n_t, 4))
     # ‖(x, y, z)‖, |w|, |z|, hypot(x, y), hypot(w, z) of q_est ⊗ q_ref*, each (..., T)
     args = np.empty((5,) + shape[:-1])

@@ -177,7 +177,7 @@ def _predict_gap(q_last, omega, n_lost, dt, factor):
     """``(n_lost, 4)``: ``q_last ⊗ Exp(ω Δt Σ_{j≤k} f^j)``, k = 1 … n_lost (:mod:`wsnlib.orientation.peers`);
     ``q_last`` (4,), ``omega`` (3,) rad/s, ``dt`` s, ``factor`` f (1: a constant rate).
 
-    Compiled (a peer's gap cost ~60 µs in numpy's small-array calls, ~2 µs here), with the operations of
+    Compiled (a peer's gap cost ~60 µs in numpy's small-array calls, ~3 µs here), with the operations of
     :func:`wsnlib.quaternion.from_rotation_vector` and :func:`wsnlib.quaternion.multiply` in their order:
     ``‖t‖ = √((t_x² + t_y²) + t_z²)`` (numpy's sum of three), ``sin(θ/2)/θ`` as ``np.sinc`` forms it
     (``y = π · ((θ/2)/π)``, ``½ sin(y)/y``, 1e-20 for 0), ``f^k`` by ``pow``: the same bits."""
