@@ -20,6 +20,7 @@ from wsnlib import quaternion as Q
 from wsnlib.loss import gilbert_elliott, packets_to_samples
 from wsnlib.orientation import (
     _fusion_updates,
+    _vqf_updates,
     estimate_orientation,
     fusion_orientation,
     gaps,
@@ -28,7 +29,6 @@ from wsnlib.orientation import (
     vqf_orientation,
 )
 from wsnlib.orientation.hybrid_blend import blend_with_single_frame
-from wsnlib.orientation.peers import _vqf_set_quat9d
 from wsnlib.sim import arm_extension, arm_kinematics, simulate_imu
 
 FS = 50.0
@@ -337,13 +337,75 @@ def test_a_read_only_recording_compiles_the_gap_rates_once(arm, masks):
     assert all(signature[2].mutable for signature in gaps.gap_rates.signatures)
 
 
-def test_vqf_state_write_sets_the_9d_output(arm):
+@pytest.mark.parametrize("native", [_vqf_updates.CHECKED, None])
+@pytest.mark.parametrize("with_mag", [True, False])
+def test_vqf_output_set_through_gyr_quat(arm, native, with_mag):
     _, gyr, acc, mag = arm
     filt = vqf.VQF(1.0 / FS)
-    filt.updateBatch(gyr[0, 0, :100].copy(), acc[0, 0, :100].copy(), mag[0, 0, :100].copy())
+    out = np.empty((500, 4))
+    updates = _vqf_updates.VQFUpdates(filt, gyr[0, 0], acc[0, 0], mag[0, 0] if with_mag else None, out, native=native)
+    updates.run(0, 100)
     q_f = Q.normalize([0.3, 0.2, -0.5, 0.7])
-    _vqf_set_quat9d(filt, q_f)
-    assert angle_deg(filt.getQuat9D(), q_f) < 1e-6
+    updates.set_output(q_f)
+    assert angle_deg(filt.getQuat9D() if with_mag else filt.getQuat6D(), q_f) < 1e-6
+
+
+@pytest.mark.skipif(not NATIVE_HERE, reason="the compiled loops call VQF's C++ functions as x86-64 System V does")
+def test_vqf_runs_its_cpp_update_in_a_compiled_loop_here():
+    assert _vqf_updates._native_calls() is not None
+
+
+@pytest.mark.parametrize("with_mag", [True, False])
+def test_compiled_vqf_updates_give_the_bits_of_its_python_methods(arm, with_mag):
+    """Runs cut at arbitrary samples, rates turned by ``updateGyr`` (with and without outputs), the output
+    set between runs, and the feedback hybrid's blends: outputs and the whole state bit for bit."""
+    _, gyr, acc, mag = arm
+    cuts = [0, 1, 37, 200, 201, 350, 500]
+    blend_at = np.zeros(500, dtype=bool)
+    blend_at[[5, 36, 37, 120, 121, 122, 499]] = True
+    q_s = Q.normalize(np.column_stack((20.0 + acc[0, 0, :, 2], acc[0, 0])))  # unit quaternions that move with the data
+    feedback = (blend_at, q_s, np.linspace(0.0, 1.0, 500)) if with_mag else None
+    outs, states = [], []
+    for native in (_vqf_updates.CHECKED, None):  # the compiled loops here, vqf's Python methods
+        filt = vqf.VQF(1.0 / FS)
+        out = np.empty((500, 4))
+        turned = np.empty((10, 4))
+        updates = _vqf_updates.VQFUpdates(filt, gyr[0, 0], acc[0, 0], mag[0, 0] if with_mag else None, out,
+                                          feedback, native=native)
+        for start, end in zip(cuts[:-1], cuts[1:], strict=True):
+            updates.run(start, end)
+            updates.turn(gyr[0, 0, start:start + 10] * 1.5, turned)
+            updates.turn(gyr[0, 0, start:start + 3])
+            updates.set_output(Q.normalize(out[end - 1] + [0.0, 0.1, 0.0, 0.0]))
+        outs.append(np.concatenate((out, turned)))
+        states.append(repr(filt.state))
+    np.testing.assert_array_equal(outs[0], outs[1])
+    assert states[0] == states[1]
+
+
+@pytest.mark.skipif(not NATIVE_HERE, reason="elsewhere VQF always runs from Python")
+@pytest.mark.parametrize("failure", ["disagrees", "other version", "state elsewhere"])
+def test_a_cpp_update_that_is_not_known_to_reproduce_vqf_is_not_used(arm, masks, monkeypatch, failure):
+    _, gyr, acc, mag = arm
+    args = (gyr[0, 0], acc[0, 0], mag[0, 0])
+    options = {"fs": FS, "received": masks[0, 0], "gap": "ar", "replay": True, "blend": "feedback"}
+    expected = vqf_orientation(*args, **options)
+    if failure == "disagrees":
+        monkeypatch.setattr(_vqf_updates, "_agrees", lambda native, with_mag: False)
+        message = "did not reproduce its Python methods: VQF runs from Python"
+    elif failure == "state elsewhere":  # an address that is not the state's (here: the parameters')
+        monkeypatch.setitem(_vqf_updates._SYMBOLS, "state", ("_ZNK3VQF9getParamsEv", _vqf_updates._SYMBOLS["state"][1]))
+        message = "did not reproduce its Python methods: VQF runs from Python"
+    else:
+        monkeypatch.setattr(_vqf_updates.importlib.metadata, "version", lambda name: "2.2.0")
+        message = r"vqf 2.2.0: its C\+\+ functions are called only for versions 2.1.x .* runs from Python"
+    _vqf_updates._native_calls.cache_clear()
+    try:
+        with pytest.warns(UserWarning, match=message):
+            assert _vqf_updates._native_calls() is None
+        np.testing.assert_array_equal(vqf_orientation(*args, **options), expected)
+    finally:
+        _vqf_updates._native_calls.cache_clear()
 
 
 # --------------------------------------------------------------------------------------------

@@ -21,9 +21,10 @@ initialisation) at a batch element's first received sample; before that sample t
 is the output at that sample, as :func:`wsnlib.orientation.madgwick` outputs its initial
 estimate there.  Gaps before the first received sample are no gaps of the filter (λ_eff = 0
 there, as for Madgwick with ``q0=None``).  Batches loop over elements in Python (each
-library runs one recording at a time); VQF processes each contiguous run of received
-samples in one compiled ``updateBatch`` call, Fusion in one compiled loop of its own C update
-(its Python package has no batch call; :mod:`wsnlib.orientation._fusion_updates`).
+library runs one recording at a time); each runs a contiguous run of received samples in one
+compiled loop of its own C or C++ update, which gives the bits of its Python calls
+(:mod:`wsnlib.orientation._fusion_updates`, :mod:`wsnlib.orientation._vqf_updates`: Fusion's Python
+package has no batch call, and VQF's ``updateBatch`` from Python costs ~15 µs a call).
 
 Frames (established by static tests at several orientations, ``tests/test_peers.py``)
 -------------------------------------------------------------------------------------
@@ -68,9 +69,8 @@ update, so that the state itself is pulled towards TRIAD.  Both libraries allow 
   into ``accQuat`` is undone by the next update, while one written into ``gyrQuat`` is
   consistent with the filtered vector and persists.
 
-Feedback writes VQF's state once per blended sample, from Python (the blend and the new ``gyrQuat`` in
-one compiled call, :func:`_vqf_blend`); Fusion blends inside its compiled loop
-(:mod:`wsnlib.orientation._fusion_updates`).
+Both blend inside their compiled loops (:mod:`wsnlib.orientation._fusion_updates`,
+:mod:`wsnlib.orientation._vqf_updates`, which writes VQF's ``gyrQuat`` in place).
 ``single_frame_gate`` makes either hybrid the *gated hybrid*: no blend on received samples
 whose TRIAD looks untrustworthy (:class:`wsnlib.orientation.SingleFrameGate`).
 
@@ -139,13 +139,10 @@ from wsnlib.orientation import gaps
 from wsnlib.orientation._fusion_updates import FusionUpdates
 from wsnlib.orientation._scalar_kernels import (
     COMPILE,
-    PLAIN_TRUE,
     integrate_rates,
-    quat_conjugate,
     quat_multiply,
-    quat_normalize,
-    slerp,
 )
+from wsnlib.orientation._vqf_updates import VQFUpdates
 from wsnlib.orientation.hybrid_blend import blend_with_single_frame, check_single_frame_gate, trusted_unchecked
 from wsnlib.orientation.kalman_settings import gap_prediction_window
 from wsnlib.orientation.lost_run import check_weight_options, effective_lost_run, slerp_weight
@@ -238,11 +235,6 @@ def _feedback_inputs(signals, mask, rho, tau, schedule, window, gate=None, fs=No
     if blend_at.any():
         q_s[blend_at] = triad(signals["acc"][blend_at], signals["mag"][blend_at])
     return blend_at, q_s, slerp_weight(lam, rho, tau)
-
-
-def _floats(q) -> tuple:
-    """A 4-sequence as a tuple of Python floats, what the scalar kernels take one sample at a time."""
-    return tuple(np.asarray(q, dtype=float).tolist())
 
 
 def _hold(out: np.ndarray, mask: np.ndarray) -> np.ndarray:
@@ -380,7 +372,7 @@ def _fusion_one(settings, dt, gap: _GapRates):
 
         prev = -1  # last received sample
         # Runs of received samples, each a loop of updates (and the feedback hybrid's blends).
-        for start, end in zip(*_pieces(mask, None), strict=True):
+        for start, end in zip(*_pieces(mask), strict=True):
             if prev >= 0 and start - prev > 1:
                 if gap.tracked:
                     fill_gap(prev, start, gyr[start])
@@ -537,43 +529,11 @@ def _vqf_params(params) -> dict:
     return dict(params)
 
 
-def _pieces(mask: np.ndarray, blend_at) -> tuple[np.ndarray, np.ndarray]:
-    """Starts and ends of the runs of received samples, also cut after every blended sample."""
+def _pieces(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Starts and ends of the runs of received samples."""
     prev = np.concatenate(([False], mask[:-1]))
     nxt = np.concatenate((mask[1:], [False]))
-    cut = np.zeros_like(mask) if blend_at is None else blend_at
-    prev_cut = np.concatenate(([False], cut[:-1]))
-    starts = np.flatnonzero(mask & (~prev | prev_cut))
-    ends = np.flatnonzero(mask & (~nxt | cut)) + 1
-    return starts, ends
-
-
-def _vqf_set_quat9d(filt, q_f: np.ndarray, use_mag: bool = True) -> None:
-    """Make ``filt``'s 9D output (6D without ``use_mag``) ``q_f`` by replacing ``gyrQuat``.
-
-    Why ``gyrQuat`` and not ``accQuat``: :mod:`wsnlib.orientation.peers`.
-    """
-    state = filt.state
-    state["gyrQuat"] = _vqf_gyr_quat(_floats(q_f), tuple(state["accQuat"]), state["delta"], use_mag)
-    filt.state = state
-
-
-@njit(**COMPILE)
-def _vqf_gyr_quat(q_f, acc_quat, delta, use_mag):
-    """``gyrQuat = accQuat* ⊗ q_z(−δ) ⊗ q_f`` (normalised; 4-tuples): VQF's 9D output ``q_z(δ) ⊗ accQuat ⊗
-    gyrQuat`` is then ``q_f`` (its 6D output without ``use_mag``: δ taken as 0)."""
-    half = -0.5 * delta if use_mag else 0.0
-    undo_delta = (math.cos(half), 0.0, 0.0, math.sin(half))
-    return quat_normalize(quat_multiply(quat_conjugate(acc_quat), quat_multiply(undo_delta, q_f)))
-
-
-@njit(**COMPILE)
-def _vqf_blend(q_s, q_d, mu, acc_quat, delta):
-    """The feedback hybrid at one blended sample of VQF (4-tuples): eq. (4)'s blend of TRIAD ``q_s``
-    and VQF's 9D output ``q_d``, and the ``gyrQuat`` that makes the blend VQF's 9D output
-    (:func:`_vqf_gyr_quat`).  One compiled call per blended sample, where most of the hybrid's time goes."""
-    blended = slerp(q_s, q_d, mu)
-    return blended, _vqf_gyr_quat(blended, acc_quat, delta, PLAIN_TRUE)
+    return np.flatnonzero(mask & ~prev), np.flatnonzero(mask & ~nxt) + 1
 
 
 def _vqf_one(fs: float, params: dict, gap: _GapRates):
@@ -584,11 +544,9 @@ def _vqf_one(fs: float, params: dict, gap: _GapRates):
             filt = vqf.VQF(1.0 / fs, **params)
         except (TypeError, ValueError) as exc:
             raise ValueError(f"params rejected by vqf.VQF: {exc}") from exc
-        key = "quat6D" if mag is None else "quat9D"
-        quat = filt.getQuat6D if mag is None else filt.getQuat9D
         n_t = mask.shape[-1]
         out = np.empty((n_t, 4))
-        blend_at, q_s, mu = (None, None, None) if feedback is None else feedback
+        updates = VQFUpdates(filt, gyr, acc, mag, out, feedback)
         used = np.empty((n_t, 3)) if gap.tracked else None  # the rate history (gaps module): raw gyroscope
         first = int(np.argmax(mask))
 
@@ -599,39 +557,25 @@ def _vqf_one(fs: float, params: dict, gap: _GapRates):
             used[prev + 1:stop] = predicted
             saved = filt.state if gap.replay and measured is not None else None  # a snapshot (module docstring)
             if gap.gap == "ar":  # VQF's own strapdown integration (bias-corrected inside)
-                for k, rate in enumerate(predicted, start=prev + 1):
-                    filt.updateGyr(rate)
-                    out[k] = quat()
+                updates.turn(predicted, out[prev + 1:stop])
             elif gap_factor is not None:  # the same outputs as without replay
                 out[prev + 1:stop] = _predict_gap(out[prev], gyr[prev], stop - prev - 1, 1.0 / fs, gap_factor)
             if saved is not None:
                 filt.state = saved
-                for rate in replayed:
-                    filt.updateGyr(rate)
+                updates.turn(replayed)
 
         prev = -1  # last received sample
-        for start, end in zip(*_pieces(mask, blend_at), strict=True):
+        for start, end in zip(*_pieces(mask), strict=True):
             if prev >= 0 and start - prev > 1:
                 if gap.tracked:
                     fill_gap(prev, start, gyr[start])
                 elif gap_factor is not None:  # dead reckoning over the gap
                     out[prev + 1:start] = _predict_gap(out[prev], gyr[prev], start - prev - 1, 1.0 / fs, gap_factor)
-                    _vqf_set_quat9d(filt, out[start - 1], mag is not None)
-            prev = end - 1
-            if end - start == 1:  # (the feedback's pieces after a gap) the same update, without a batch's arrays
-                filt.update(gyr[start], acc[start], None if mag is None else mag[start])
-                out[start] = quat()
-            else:
-                piece = filt.updateBatch(gyr[start:end], acc[start:end], None if mag is None else mag[start:end])
-                out[start:end] = piece[key]
+                    updates.set_output(out[start - 1])
+            updates.run(start, end)  # (and the feedback hybrid's blends)
             if used is not None:
                 used[start:end] = gyr[start:end]
-            last = end - 1
-            if feedback is not None and blend_at[last]:
-                state = filt.state
-                out[last], state["gyrQuat"] = _vqf_blend(_floats(q_s[last]), _floats(out[last]), float(mu[last]),
-                                                         tuple(state["accQuat"]), state["delta"])
-                filt.state = state
+            prev = end - 1
         if gap.tracked and gap_factor is not None and prev < n_t - 1:  # a gap at the end
             fill_gap(prev, n_t, None)
         elif gap_factor is not None and 0 <= prev < n_t - 1:
@@ -647,11 +591,11 @@ def vqf_orientation(gyr, acc, mag=None, *, fs: float, received=None, params: dic
                     rho=None, tau=None, schedule=None, hold_window=None, single_frame_gate=None) -> np.ndarray:
     """VQF (Laidig & Seel 2023, ``vqf.VQF``) over whole recordings, with packet loss, batched.
 
-    Each batch element gets a fresh ``vqf.VQF(1/fs, **params)``; every contiguous run of
-    received samples goes through one ``updateBatch`` call, the state carrying over between
-    calls, which is exactly "lost samples are skipped, the next received one uses the
-    nominal Ts".  The output is ``quat9D`` with ``mag``, ``quat6D`` without.  This is the
-    causal (online) filter; ``vqf.offlineVQF`` (acausal) is not used.
+    Each batch element gets a fresh ``vqf.VQF(1/fs, **params)``; its received samples go through
+    ``update`` (the bits of one ``updateBatch`` over them; :mod:`wsnlib.orientation._vqf_updates`),
+    which is exactly "lost samples are skipped, the next received one uses the nominal Ts".  The output
+    is ``quat9D`` with ``mag``, ``quat6D`` without.  This is the causal (online) filter; ``vqf.offlineVQF``
+    (acausal) is not used.
 
     Parameters
     ----------
