@@ -10,8 +10,10 @@ broadcast copies of the signals), after checking that the output fits in memory,
 from __future__ import annotations
 
 import os
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
+from numba import get_num_threads
 
 from wsnlib._user_warnings import warn_user
 from wsnlib._validation import as_float_array, check_choice, real_array
@@ -302,6 +304,37 @@ def check_memory(n_bytes: int, what: str) -> None:
             f"{what} needs {n_bytes / 2**30:.1f} GiB but only {available / 2**30:.1f} GiB of memory is "
             "available: split the batch (e.g. loop over its first dimension)"
         )
+
+
+def thread_slots(n_items: int) -> int:
+    """How many threads :func:`in_threads` runs ``n_items`` on: numba's (``NUMBA_NUM_THREADS``, or what
+    ``numba.set_num_threads`` or a joblib worker set), at most one per item."""
+    return max(1, min(get_num_threads(), n_items))
+
+
+def in_threads(run_one, n_items: int) -> None:
+    """``run_one(item, slot)`` for every ``item`` in ``range(n_items)``, on :func:`thread_slots` threads:
+    thread ``slot`` runs a contiguous block of the items, in order (``slot`` picks its scratch).
+
+    For a batch of streams whose compiled loop releases the GIL (``nogil=True``): the threads run it
+    side by side, as a ``prange`` driver would, without a compiled driver of their own (numba compiles
+    a ``prange`` loop around a large kernel as a second copy of it: seconds of compile time, once per
+    cache).  One item, or one thread: in this thread.
+    """
+    n_slots = thread_slots(n_items)
+    if n_slots == 1:
+        for item in range(n_items):
+            run_one(item, 0)
+        return
+    bounds = np.linspace(0, n_items, n_slots + 1).round().astype(int)
+
+    def run_block(slot):
+        for item in range(bounds[slot], bounds[slot + 1]):
+            run_one(item, slot)
+
+    with ThreadPoolExecutor(max_workers=n_slots) as pool:
+        for done in [pool.submit(run_block, slot) for slot in range(n_slots)]:
+            done.result()  # (re-raises a thread's exception here)
 
 
 def new_output(batch: tuple[int, ...], n_t: int, n_components: int = 4) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""The gap-aware Kalman filter's compiled step, its loop over time and the parallel batch driver.
+"""The gap-aware Kalman filter's compiled step and its loop over time.
 
 The equations are in :mod:`wsnlib.orientation.kalman`'s docstring (names below follow it); the
 same equations in plain numpy, matrix by matrix, are :class:`wsnlib.orientation.kalman.KalmanReference`.
@@ -8,8 +8,9 @@ estimate), a gap record and rate history of :mod:`wsnlib.orientation.gaps`, and 
 (:data:`WORK_DTYPE`, which also keeps the last prediction for the smoother); the constants of a
 run are one record of :data:`wsnlib.orientation.kalman_settings.CONSTANTS_DTYPE` (``c.gyro_var``).
 :func:`kalman_step` is one sample; :func:`kalman_stream` loops it over a recording (also the
-forward pass of :func:`wsnlib.orientation.smooth_orientation`); :func:`run_kalman` runs the
-streams of a batch in parallel.  Quaternion helpers are those of :mod:`._scalar_kernels`.
+forward pass of :func:`wsnlib.orientation.smooth_orientation`), without the GIL: a batch's streams
+run on threads side by side (:func:`wsnlib.orientation._batch.in_threads`).  Quaternion helpers are
+those of :mod:`._scalar_kernels`.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from wsnlib.orientation import gaps
 from wsnlib.orientation._scalar_kernels import (
@@ -819,13 +820,12 @@ def longest_lost_run(received, start):
     return longest
 
 
-@njit(**COMPILE)
+@njit(nogil=True, **COMPILE)
 def kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c, outputs):
-    """The filter over one recording ``(T, 3)``; ``outputs`` (as :func:`run_kalman`'s) receive, per
-    sample, the estimate (``q``; ``bias``, ``velocity``, ``P`` where given T rows, else not written),
-    the gate decisions and,
-    with ``c.record``, :func:`new_records`' arrays (before the start, where a smoother does not
-    read them, P⁺ = the initial P and zero ``R``, ``a_e``, Q).
+    """The filter over one recording ``(T, 3)``; ``outputs`` receive, per sample, the estimate (``q``;
+    ``bias``, ``velocity``, ``P`` where given T rows, else not written), the gate decisions and, with
+    ``c.record``, :func:`new_records`' arrays (before the start, where a smoother does not read them,
+    P⁺ = the initial P and zero ``R``, ``a_e``, Q).
 
     ``start``: first sample the filter sees; ``init_only``: that sample only initialises
     (``q0=None``), else it is filtered from ``q_init`` like any other.  Samples before the
@@ -879,30 +879,6 @@ def kalman_stream(gyr, acc, mag, received, q_init, start, init_only, c, outputs)
             pack_upper(st.P, post_P[t])
     # Keep the record arrays alive to here (the loop reads them through st, work, gs).
     state_array[0], work_array[0], gap_array[0] = st, work, gs
-
-
-@njit(parallel=True, **COMPILE)
-def run_kalman(gyr, acc, mag, received, index, q_init, start, init_only, constants, outputs):
-    """:func:`kalman_stream` on every element ``n`` of a flattened batch, in parallel.
-
-    ``index`` (N, 4): for element ``n`` the rows of ``gyr``, ``acc``, ``mag`` (each ``(M, T, 3)``)
-    and ``received`` ``(M', T)`` it reads (broadcasting without copies); ``outputs`` the first six
-    of :func:`kalman_stream`'s, with the batch first (``bias``, ``velocity``, ``P`` may have a leading 1:
-    not kept; they are written only when they have T rows).  No
-    records (``constants.record`` off: the smoother runs :func:`kalman_stream` itself).
-    """
-    out_q, out_bias, out_vel, out_P, acc_used, mag_used = outputs
-    n_batch = out_q.shape[0]
-    # kept (a row per element), or one dummy row for every element
-    b_stride = 1 if out_bias.shape[0] == n_batch else 0
-    v_stride = 1 if out_vel.shape[0] == n_batch else 0
-    p_stride = 1 if out_P.shape[0] == n_batch else 0
-    no_records = new_records(PLAIN_ZERO)
-    for n in prange(n_batch):
-        kalman_stream(gyr[index[n, 0]], acc[index[n, 1]], mag[index[n, 2]], received[index[n, 3]], q_init[n],
-                      start[n], init_only, constants[0],
-                      (out_q[n], out_bias[n * b_stride], out_vel[n * v_stride], out_P[n * p_stride], acc_used[n],
-                       mag_used[n]) + no_records)
 
 
 @njit(**COMPILE)

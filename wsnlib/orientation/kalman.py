@@ -157,8 +157,8 @@ constants the compiled step reads (``constants.gyro_var``) are in
 :func:`~._kalman_kernels.subtract_products` applies once per sample),
 :func:`~._kalman_kernels.inject`, one sample :func:`~._kalman_kernels.kalman_step`, the loop
 :func:`~._kalman_kernels.kalman_stream` (also the forward pass of
-:func:`wsnlib.orientation.smooth_orientation`) and the parallel batch
-:func:`~._kalman_kernels.run_kalman` (speed by structure: ``predict`` propagates only the
+:func:`wsnlib.orientation.smooth_orientation`; a batch runs it on numba's threads side by side,
+:func:`wsnlib.orientation._batch.in_threads`) (speed by structure: ``predict`` propagates only the
 non-zero blocks of F, written as two shears ``F = F_v F_θ``, and every measurement update is a
 sequence of scalar ones, those of one sensor in one pass over P, with one injection); this module
 holds the public functions
@@ -180,7 +180,7 @@ from wsnlib._validation import check_flag
 from wsnlib.orientation import _batch as B
 from wsnlib.orientation import _kalman_kernels as K
 from wsnlib.orientation import gaps
-from wsnlib.orientation._kalman_kernels import NX, run_kalman
+from wsnlib.orientation._kalman_kernels import NX
 from wsnlib.orientation.kalman_settings import MAG_LAG_RIDGE, KalmanSettings, gap_prediction_order, kalman_constants
 from wsnlib.orientation.triad import tilt_quaternion, triad
 from wsnlib.plausibility import magnetometer_problem
@@ -461,14 +461,16 @@ def kalman_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
     outputs = (np.empty((n_batch, n_t, 4)), np.empty((kept, kept_t, 3)), np.empty((1, 1, 3)),
                np.empty((kept, kept_t, NX, NX)), np.empty((n_batch, n_t), dtype=bool),
                np.empty((n_batch, n_t), dtype=bool))
-    if n_batch == 1:  # one stream: the loop itself, without starting the thread pool
-        i_gyr, i_acc, i_mag, i_rx = inputs.index[0]
+    no_records = K.new_records(0)
+    kept_row = {id(out): out.shape[0] == n_batch for out in outputs}  # else one dummy row for every element
+
+    def run_one(n, _slot):
+        i_gyr, i_acc, i_mag, i_rx = inputs.index[n]
         K.kalman_stream(inputs.gyr[i_gyr], inputs.acc[i_acc], inputs.mag[i_mag], inputs.received[i_rx],
-                        inputs.q_init[0], inputs.start[0], inputs.init_only, c[0],
-                        tuple(out[0] for out in outputs) + K.new_records(0))
-    else:
-        run_kalman(inputs.gyr, inputs.acc, inputs.mag, inputs.received, inputs.index, inputs.q_init, inputs.start,
-                   inputs.init_only, c, outputs)
+                        inputs.q_init[n], inputs.start[n], inputs.init_only, c[0],
+                        tuple(out[n if kept_row[id(out)] else 0] for out in outputs) + no_records)
+
+    B.in_threads(run_one, n_batch)  # the streams side by side
     out_q, out_bias, _, out_P, acc_used, mag_used = outputs
     long_rejections = np.zeros(n_batch, dtype=np.int64)
     if inputs.has_mag:

@@ -51,7 +51,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import get_num_threads, get_thread_id, njit, prange
+from numba import njit
 
 from wsnlib.orientation import _batch as B
 from wsnlib.orientation import gaps
@@ -245,7 +245,7 @@ def new_scratch(n_slots: int, n_t: int) -> tuple:
     return tuple(np.empty((n_slots, n_t) + row.shape[1:], dtype=row.dtype) for row in rows)
 
 
-@njit(**COMPILE)
+@njit(nogil=True, **COMPILE)
 def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, interpolate_gaps, scratch):
     """Forward filter, RTS pass and (``interpolate_gaps``) curves across gaps for one recording;
     ``scratch``: one slot of :func:`new_scratch`."""
@@ -332,18 +332,6 @@ def _smooth_stream(gyr, acc, mag, received, q_init, start, init_only, c, out_q, 
         last_received = t
 
 
-@njit(parallel=True, **COMPILE)
-def _smooth_batch(gyr, acc, mag, received, index, q_init, start, init_only, constants, out_q, interpolate_gaps,
-                  scratch):
-    for n in prange(out_q.shape[0]):
-        slot = get_thread_id()  # each thread its slot of scratch (new_scratch(get_num_threads(), T))
-        _smooth_stream(gyr[index[n, 0]], acc[index[n, 1]], mag[index[n, 2]], received[index[n, 3]], q_init[n],
-                       start[n], init_only, constants[0], out_q[n], interpolate_gaps,
-                       (scratch[0][slot], scratch[1][slot], scratch[2][slot], scratch[3][slot], scratch[4][slot],
-                        scratch[5][slot], scratch[6][slot], scratch[7][slot], scratch[8][slot], scratch[9][slot],
-                        scratch[10][slot]))
-
-
 def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None, settings=None, gap: str = "ar",
                        replay: bool = True, gap_time_constant=None, interpolate_gaps: bool = True) -> np.ndarray:
     """Offline orientation: forward Kalman filter, backward RTS pass, curves across gaps.
@@ -383,19 +371,19 @@ def smooth_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
     if not isinstance(interpolate_gaps, bool):
         raise ValueError(f"interpolate_gaps must be True or False, got {interpolate_gaps!r}")
     n_batch = inputs.index.shape[0]
-    n_slots = 1 if n_batch == 1 else get_num_threads()
+    n_slots = B.thread_slots(n_batch)
     # Output, plus each thread's scratch: b, v, the records (q⁻, v⁻, packed P⁺, R, a_E, Q's diagonal),
     # rates per sample.
     B.check_memory(8 * inputs.n_t * (4 * n_batch + n_slots * (6 + 7 + NP + 12 + 2 + 3)),
                    f"smooth_orientation's output for batch {inputs.batch}, T = {inputs.n_t}")
     out_q = np.empty((n_batch, inputs.n_t, 4))
     scratch = new_scratch(n_slots, inputs.n_t)
-    if n_batch == 1:  # one stream: the loop itself, without starting the thread pool
-        i_gyr, i_acc, i_mag, i_rx = inputs.index[0]
-        _smooth_stream(inputs.gyr[i_gyr], inputs.acc[i_acc], inputs.mag[i_mag], inputs.received[i_rx], inputs.q_init[0],
-                       inputs.start[0], inputs.init_only, c[0], out_q[0], interpolate_gaps,
-                       tuple(part[0] for part in scratch))
-    else:
-        _smooth_batch(inputs.gyr, inputs.acc, inputs.mag, inputs.received, inputs.index, inputs.q_init,
-                      inputs.start, inputs.init_only, c, out_q, interpolate_gaps, scratch)
+
+    def run_one(n, slot):
+        i_gyr, i_acc, i_mag, i_rx = inputs.index[n]
+        _smooth_stream(inputs.gyr[i_gyr], inputs.acc[i_acc], inputs.mag[i_mag], inputs.received[i_rx], inputs.q_init[n],
+                       inputs.start[n], inputs.init_only, c[0], out_q[n], interpolate_gaps,
+                       tuple(part[slot] for part in scratch))
+
+    B.in_threads(run_one, n_batch)  # the streams side by side, each thread its slot of scratch
     return check_finite_output(out_q.reshape(inputs.batch + (inputs.n_t, 4)))
