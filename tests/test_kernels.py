@@ -332,3 +332,61 @@ def test_each_version_of_the_sources_caches_apart(tmp_path):
     fresh = cache_of("none")  # imports the edited sources: its own folder, the old one's files dropped
     assert fresh != old and fresh.parent.parent == old.parent.parent
     assert list(fresh.glob("_scalar_kernels.squared_norm3-*.nbi")) and not list(old.rglob("*.nb[ic]"))
+
+
+@pytest.mark.parametrize("n_threads, n_items", [(1, 5), (2, 1), (2, 2), (2, 7), (2, 0)])
+def test_batch_items_run_once_each_on_their_threads_slot(n_threads, n_items):
+    """``_batch.in_threads`` (the Kalman filter's and the smoother's batches): every item exactly once, each
+    thread a contiguous block in order with its own slot, numba's thread count respected, and one thread
+    in this one (no pool) for a single thread or item."""
+    import threading
+
+    import numba
+
+    from wsnlib.orientation import _batch
+
+    seen = []
+    lock = threading.Lock()
+
+    def run_one(item, slot):
+        with lock:
+            seen.append((item, slot, threading.get_ident()))
+
+    if n_threads > numba.config.NUMBA_NUM_THREADS:
+        pytest.skip(f"numba has {numba.config.NUMBA_NUM_THREADS} thread(s) here")
+    previous = numba.get_num_threads()
+    numba.set_num_threads(n_threads)
+    try:
+        _batch.in_threads(run_one, n_items)
+        slots = _batch.thread_slots(n_items)
+    finally:
+        numba.set_num_threads(previous)
+    assert sorted(item for item, _, _ in seen) == list(range(n_items))
+    assert slots == max(1, min(n_threads, n_items))
+    by_slot = {}
+    for item, slot, ident in seen:
+        by_slot.setdefault(slot, []).append((item, ident))
+    assert set(by_slot) <= set(range(slots))
+    for items in by_slot.values():
+        assert [item for item, _ in items] == list(range(items[0][0], items[0][0] + len(items)))  # a block, in order
+        assert len({ident for _, ident in items}) == 1  # one thread per slot
+    if slots == 1:
+        assert {ident for _, _, ident in seen} <= {threading.get_ident()}
+
+
+def test_a_threads_exception_reaches_the_caller():
+    import numba
+
+    from wsnlib.orientation import _batch
+
+    def run_one(item, slot):
+        if item == 3:
+            raise RuntimeError("item 3 failed")
+
+    previous = numba.get_num_threads()
+    numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+    try:
+        with pytest.raises(RuntimeError, match="item 3 failed"):
+            _batch.in_threads(run_one, 6)
+    finally:
+        numba.set_num_threads(previous)
