@@ -340,6 +340,7 @@ def test_batch_items_run_once_each_on_their_threads_slot(n_threads, n_items):
     thread a contiguous block in order with its own slot, numba's thread count respected, and one thread
     in this one (no pool) for a single thread or item."""
     import threading
+    import time
 
     import numba
 
@@ -351,6 +352,7 @@ def test_batch_items_run_once_each_on_their_threads_slot(n_threads, n_items):
     def run_one(item, slot):
         with lock:
             seen.append((item, slot, threading.get_ident()))
+        time.sleep(0.01)  # (the threads overlap: a slot shared by two would interleave its items)
 
     if n_threads > numba.config.NUMBA_NUM_THREADS:
         pytest.skip(f"numba has {numba.config.NUMBA_NUM_THREADS} thread(s) here")
