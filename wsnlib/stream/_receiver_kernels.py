@@ -305,7 +305,7 @@ def _fit_segment(rates, first, stop, q, dt):
         previous = target
 
 
-@njit(**COMPILE)
+@njit(inline="always", **COMPILE)  # one caller: no library of its own to compile
 def _bridge(i, nodes, b, cfg, c, bc, out, dense, lags, scratch):
     """Re-run the current gap from the checkpoint with the rotations packet ``b`` summarises (the
     outputs already given stay; the ring's records of the gap are replaced).
@@ -601,7 +601,7 @@ def flush(nodes, n_used, cfg, consts, bconsts, out, scratch):
         flush_output(slot, nodes, cfg, out, dense, lags, scratch)
 
 
-@njit(**COMPILE)
+@njit(inline="always", **COMPILE)  # one caller: no library of its own to compile
 def expire(start, nodes, n_used, cfg, consts, bconsts, out, scratch, fs, now, silence_s):
     """Declare lost every packet whose deadline has passed at the receiver's clock ``now`` (s), from node
     slot ``start`` on; returns ``(slot, status)`` as :func:`receive`.
