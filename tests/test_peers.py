@@ -236,27 +236,6 @@ def test_compiled_fusion_updates_give_the_bits_of_ahrs_update(arm, with_mag):
     np.testing.assert_array_equal(outs[0], outs[1])
 
 
-@pytest.mark.skipif(not NATIVE_HERE, reason="elsewhere Fusion always runs from Python")
-@pytest.mark.parametrize("failure", ["disagrees", "other version"])
-def test_a_c_update_that_is_not_known_to_reproduce_ahrs_update_is_not_used(arm, monkeypatch, failure):
-    _, gyr, acc, mag = arm
-    args = (gyr[0, 0], acc[0, 0], mag[0, 0])
-    expected = fusion_orientation(*args, fs=FS)
-    if failure == "disagrees":
-        monkeypatch.setattr(_fusion_updates, "_agrees", lambda native, with_mag: False)
-        message = "did not reproduce Ahrs.update: Fusion runs from Python"
-    else:
-        monkeypatch.setattr(_fusion_updates.importlib.metadata, "version", lambda name: "1.4.0")
-        message = r"imufusion 1.4.0: its C update is called only for versions 1.3.x .* runs from Python"
-    _fusion_updates._native_calls.cache_clear()
-    try:
-        with pytest.warns(UserWarning, match=message):
-            assert _fusion_updates._native_calls() is None
-        np.testing.assert_array_equal(fusion_orientation(*args, fs=FS), expected)
-    finally:
-        _fusion_updates._native_calls.cache_clear()
-
-
 def test_options_reach_the_libraries(arm, masks):
     _, gyr, acc, mag = arm
     args = (gyr[0, 0], acc[0, 0], mag[0, 0])
@@ -383,29 +362,44 @@ def test_compiled_vqf_updates_give_the_bits_of_its_python_methods(arm, with_mag)
     assert states[0] == states[1]
 
 
-@pytest.mark.skipif(not NATIVE_HERE, reason="elsewhere VQF always runs from Python")
-@pytest.mark.parametrize("failure", ["disagrees", "other version", "state elsewhere"])
-def test_a_cpp_update_that_is_not_known_to_reproduce_vqf_is_not_used(arm, masks, monkeypatch, failure):
+#: A compiled path that must fall back to the library's Python calls, with a warning: the library, what the
+#: case changes (the self-check's verdict, the version the package reports, or the symbol that gives VQF's
+#: state) and the warning.
+NATIVE_FALLBACKS = {
+    "Fusion disagrees": ("fusion", "_agrees", "did not reproduce Ahrs.update: Fusion runs from Python"),
+    "Fusion other version": ("fusion", "1.4.0",
+                             r"imufusion 1.4.0: its C update is called only for versions 1.3.x .* runs from Python"),
+    "VQF disagrees": ("vqf", "_agrees", "did not reproduce its Python methods: VQF runs from Python"),
+    "VQF other version": ("vqf", "2.2.0",
+                          r"vqf 2.2.0: its C\+\+ functions are called only for versions 2.1.x .* runs from Python"),
+    # an address that is not the state's (here: the parameters')
+    "VQF state elsewhere": ("vqf", "_ZNK3VQF9getParamsEv",
+                            "did not reproduce its Python methods: VQF runs from Python"),
+}
+
+
+@pytest.mark.skipif(not NATIVE_HERE, reason="elsewhere the peers always run from Python")
+@pytest.mark.parametrize("case", NATIVE_FALLBACKS)
+def test_a_native_update_not_known_to_reproduce_the_library_is_not_used(arm, masks, monkeypatch, case):
+    library, change, message = NATIVE_FALLBACKS[case]
+    module, run = (_fusion_updates, fusion_orientation) if library == "fusion" else (_vqf_updates, vqf_orientation)
     _, gyr, acc, mag = arm
     args = (gyr[0, 0], acc[0, 0], mag[0, 0])
     options = {"fs": FS, "received": masks[0, 0], "gap": "ar", "replay": True, "blend": "feedback"}
-    expected = vqf_orientation(*args, **options)
-    if failure == "disagrees":
-        monkeypatch.setattr(_vqf_updates, "_agrees", lambda native, with_mag: False)
-        message = "did not reproduce its Python methods: VQF runs from Python"
-    elif failure == "state elsewhere":  # an address that is not the state's (here: the parameters')
-        monkeypatch.setitem(_vqf_updates._SYMBOLS, "state", ("_ZNK3VQF9getParamsEv", _vqf_updates._SYMBOLS["state"][1]))
-        message = "did not reproduce its Python methods: VQF runs from Python"
+    expected = run(*args, **options)
+    if change == "_agrees":
+        monkeypatch.setattr(module, "_agrees", lambda native, with_mag: False)
+    elif change.startswith("_Z"):
+        monkeypatch.setitem(module._SYMBOLS, "state", (change, module._SYMBOLS["state"][1]))
     else:
-        monkeypatch.setattr(_vqf_updates.importlib.metadata, "version", lambda name: "2.2.0")
-        message = r"vqf 2.2.0: its C\+\+ functions are called only for versions 2.1.x .* runs from Python"
-    _vqf_updates._native_calls.cache_clear()
+        monkeypatch.setattr(module.importlib.metadata, "version", lambda name: change)
+    module._native_calls.cache_clear()
     try:
         with pytest.warns(UserWarning, match=message):
-            assert _vqf_updates._native_calls() is None
-        np.testing.assert_array_equal(vqf_orientation(*args, **options), expected)
+            assert module._native_calls() is None
+        np.testing.assert_array_equal(run(*args, **options), expected)
     finally:
-        _vqf_updates._native_calls.cache_clear()
+        module._native_calls.cache_clear()
 
 
 # --------------------------------------------------------------------------------------------
