@@ -462,13 +462,14 @@ def kalman_orientation(gyr, acc, mag=None, *, fs: float, received=None, q0=None,
                np.empty((kept, kept_t, NX, NX)), np.empty((n_batch, n_t), dtype=bool),
                np.empty((n_batch, n_t), dtype=bool))
     no_records = K.new_records(0)
-    kept_row = {id(out): out.shape[0] == n_batch for out in outputs}  # else one dummy row for every element
+    per_element = [out.shape[0] == n_batch for out in outputs]  # else one dummy row for every element
 
     def run_one(n, _slot):
         i_gyr, i_acc, i_mag, i_rx = inputs.index[n]
         K.kalman_stream(inputs.gyr[i_gyr], inputs.acc[i_acc], inputs.mag[i_mag], inputs.received[i_rx],
                         inputs.q_init[n], inputs.start[n], inputs.init_only, c[0],
-                        tuple(out[n if kept_row[id(out)] else 0] for out in outputs) + no_records)
+                        tuple(out[n if own else 0] for out, own in zip(outputs, per_element, strict=True))
+                        + no_records)
 
     B.in_threads(run_one, n_batch)  # the streams side by side
     out_q, out_bias, _, out_P, acc_used, mag_used = outputs
