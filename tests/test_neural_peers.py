@@ -123,6 +123,23 @@ def test_lost_samples_hold_the_output(arm, masks):
     np.testing.assert_allclose(np.linalg.norm(q, axis=-1), 1.0, atol=1e-12)
 
 
+def test_the_session_runs_on_one_thread_with_the_packages_bits(arm):
+    """Our session runs on one thread (a second one only spins beside the batch-1 network) and gives
+    the same bits as the riann package's own session (onnxruntime's default threads) on a recording."""
+    from wsnlib.orientation.neural_peers import _riann_session
+
+    ours = _riann_session()
+    options = ours.get_session_options()
+    assert options.intra_op_num_threads == options.inter_op_num_threads == 1
+    package = RIANN(str(importlib.resources.files("riann") / "riann.onnx")).session
+    assert package.get_session_options().intra_op_num_threads != 1  # (the default: every core)
+    _, gyr, acc = arm
+    features = np.concatenate((acc[0, 0], gyr[0, 0], np.full((acc.shape[-2], 1), 1.0 / FS)), axis=-1)
+    feeds = {"input": features[None].astype(np.float32), "h0": np.zeros((2, 1, 1, 200), np.float32)}
+    for got, expected in zip(ours.run(None, feeds), package.run(None, feeds), strict=True):
+        np.testing.assert_array_equal(got, expected)
+
+
 def test_batch_matches_elements(arm, masks):
     """(2, 2, T) signals with a (2, 2, T) mask: each element as if run alone."""
     _, gyr, acc = arm

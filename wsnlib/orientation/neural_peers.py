@@ -43,16 +43,23 @@ from wsnlib.orientation.peers import _hold, _prepare
 def _riann_session():
     """The ``onnxruntime`` session of the model in the ``riann`` wheel, loaded once per process.
 
-    The model file is found through ``importlib.resources.files``: ``riann.RIANN()`` without a
-    path looks for it relative to the working directory when its own lookup fails (it does in
-    0.2.0), so it is never called without one.
+    The model file is found through ``importlib.resources.files`` (``riann.RIANN()`` looks for it
+    relative to the working directory when its own lookup fails, as it does in 0.2.0).  The session
+    runs on one thread: a batch-1 recurrent network is a chain of small matrix-vector products, which
+    a second thread does not make faster (the same wall time on two cores) while it spins for work,
+    taking ~40 % more CPU time from whatever else runs (a notebook beside it, a study's other
+    worker); the outputs are the same bits (``tests/test_neural_peers.py``).
     """
     try:  # imported here: onnxruntime is slow to import and only this peer needs it
-        from riann.riann import RIANN
+        import onnxruntime
+        import riann
     except ImportError as exc:
         raise ImportError("riann_orientation needs the packages 'riann' and 'onnxruntime' (pinned in "
                           "environment.lock; rebuild the venv with `make`)") from exc
-    return RIANN(str(importlib.resources.files("riann") / "riann.onnx")).session
+    options = onnxruntime.SessionOptions()
+    options.intra_op_num_threads = options.inter_op_num_threads = 1
+    return onnxruntime.InferenceSession(str(importlib.resources.files(riann) / "riann.onnx"), options,
+                                        providers=["CPUExecutionProvider"])
 
 
 def _riann_one(session, gyr: np.ndarray, acc: np.ndarray, mask: np.ndarray, fs: float) -> np.ndarray:
