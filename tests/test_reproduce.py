@@ -8,6 +8,7 @@ import signal
 import time
 
 import nbformat
+import pandas as pd
 import pytest
 
 from wsnlib import batch_selection, paths, reproduce
@@ -257,6 +258,35 @@ def test_notebooks_side_by_side_each_list_only_what_they_wrote(output_dir, tmp_p
         assert entry["status"] == "ok"
         assert [o["path"] for o in entry["outputs"]] == [f"data/processed/a0{i}_early.csv",
                                                           f"data/processed/a0{i}_late.csv"]
+
+
+def _save_thread_vars(name):
+    return ("import os\nimport pandas as pd\nfrom wsnlib.outputs import save_table\n"
+            f"seen = {{v: [os.environ.get(v, 'unset')] for v in {reproduce.THREAD_VARS!r}}}\n"
+            f"save_table(pd.DataFrame(seen), {name!r})")
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_side_by_side_kernels_share_the_cores_thread_pools(output_dir, tmp_path, monkeypatch, jobs):
+    """With --jobs N each kernel's thread pools get the cores ÷ N (at least 1), except where the user set
+    a size; one job leaves them alone; the runner's own environment is as it was after the batch."""
+    nb_dir = tmp_path / "nbs"
+    for i in (1, 2):
+        _write_notebook(nb_dir / f"0{i}_n.ipynb", _save_thread_vars(f"a0{i}_threads"))
+    monkeypatch.setattr(paths, "NOTEBOOKS", nb_dir)
+    for name in reproduce.THREAD_VARS:
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setenv("MKL_NUM_THREADS", "3")
+    before = dict(os.environ)
+
+    assert reproduce.main(["--quick", "--jobs", str(jobs)]) == 0
+
+    assert dict(os.environ) == before
+    share = str(max(1, reproduce.local_workers(-1) // 2))
+    expected = {name: share if jobs == 2 else "unset" for name in reproduce.THREAD_VARS} | {"MKL_NUM_THREADS": "3"}
+    for i in (1, 2):
+        table = output_dir / "data" / "processed" / f"a0{i}_threads.csv"
+        assert pd.read_csv(table, dtype=str, index_col=0).iloc[0].to_dict() == expected
 
 
 def test_side_by_side_the_longest_stated_notebooks_start_first(tmp_path):

@@ -62,6 +62,13 @@ The kernel runs with two environment variables set for the batch (and only for i
     "running unattended": code that would show interactive widgets (``wsnlib.interactive``)
     draws static figures instead.
 
+With ``--jobs N`` (N > 1) each kernel also gets the machine's cores ÷ N (at least 1) as the size of the
+thread pools it may start, unless the environment sets them already: ``OMP_NUM_THREADS`` (OpenMP, on
+which numba's ``prange`` runs here), ``OPENBLAS_NUM_THREADS``, ``MKL_NUM_THREADS`` and
+``NUMBA_NUM_THREADS`` (:data:`THREAD_VARS`), as joblib does for its worker processes.  N notebooks
+side by side, each with a pool of a thread per core, would make their threads take turns on the cores
+and spin while they wait for work.  No notebook's results depend on these counts.
+
 The kernel talks to the runner over local IPC sockets (in a private temporary folder), not
 TCP, so nothing listens on the network and ipykernel has no unencrypted-TCP warning to print.
 
@@ -104,6 +111,7 @@ from wsnlib.batch_manifest import (
     write_manifest,
 )
 from wsnlib.batch_selection import check_parameters, list_batch, notebook_name, parse_value
+from wsnlib.parallel import local_workers
 from wsnlib.run_times import stated_seconds
 
 #: Default limit (s) on the run time of one cell: generous (the slowest cell of a full,
@@ -112,6 +120,8 @@ DEFAULT_CELL_TIMEOUT_S = 3600.0
 
 #: Environment of the kernel during the batch (see the module docstring).
 BATCH_ENV = {"MPLBACKEND": "module://matplotlib_inline.backend_inline", paths.BATCH_ENV_VAR: "1"}
+#: The thread pools' sizes a kernel of a batch with ``--jobs`` > 1 gets (:func:`thread_limits`).
+THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
 
 _EXIT_FAILED = 1
 #: Exit status when another batch holds the output folder (EX_TEMPFAIL: try again later).
@@ -170,6 +180,15 @@ def _ipc_kernel_manager(folder: Path, env: dict | None = None, started: list | N
     return IPCKernelManager
 
 
+def thread_limits(jobs: int) -> dict[str, str]:
+    """The variables of :data:`THREAD_VARS` that the environment does not set, each the cores ÷ ``jobs``
+    (at least 1; the cores this process may use, :func:`wsnlib.parallel.local_workers`); none for one job."""
+    if jobs == 1:
+        return {}
+    threads = str(max(1, local_workers(-1) // jobs))
+    return {name: threads for name in THREAD_VARS if name not in os.environ}
+
+
 def run(notebooks: list[Path], parameters: dict, quick: bool, kernel: str = paths.KERNEL_NAME,
         cell_timeout: float = DEFAULT_CELL_TIMEOUT_S, jobs: int = 1) -> int:
     """Execute ``notebooks`` (in order; with ``jobs`` > 1, that many at a time) and write the manifest.
@@ -181,8 +200,9 @@ def run(notebooks: list[Path], parameters: dict, quick: bool, kernel: str = path
     jobs = jobs if len(notebooks) > 1 else 1  # one notebook: nothing runs beside it
     socket_folder = Path(tempfile.mkdtemp(prefix="wsnlib-kernel-"))
     try:
-        # BATCH_ENV for the kernels (they inherit it); the previous environment comes back after.
-        with output_lock(), mock.patch.dict(os.environ, BATCH_ENV), _signals_interrupt():
+        # BATCH_ENV and the thread limits for the kernels (they inherit them); the previous environment
+        # comes back after.
+        with output_lock(), mock.patch.dict(os.environ, BATCH_ENV | thread_limits(jobs)), _signals_interrupt():
             return _run(notebooks, parameters, quick, kernel, cell_timeout, socket_folder, jobs)
     finally:
         shutil.rmtree(socket_folder, ignore_errors=True)
