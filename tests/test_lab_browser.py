@@ -33,7 +33,7 @@ import nbformat
 import pytest
 from _chromium import headless_chromium
 
-from wsnlib import batch_selection, paths
+from wsnlib import batch_selection, paths, reproduce
 
 pytestmark = pytest.mark.lab
 
@@ -103,6 +103,8 @@ def lab(tmp_path_factory):
            if key not in ("WSNLIB_BATCH", "MPLBACKEND", "JUPYTER_CONFIG_DIR")}
     env.update({paths.OUTPUT_ENV_VAR: str(root / "output"), "JUPYTERLAB_SETTINGS_DIR": str(settings),
                 "JUPYTERLAB_WORKSPACES_DIR": str(root / "workspaces"), "JUPYTER_RUNTIME_DIR": str(root / "runtime")})
+    # Servers side by side (one per pytest-xdist worker) share the cores as the batch's kernels do.
+    env.update(reproduce.thread_limits(int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))))
     port = _free_port()
     jupyter = Path(sys.executable).parent / "jupyter"
     log = (root / "lab.log").open("w")
