@@ -47,8 +47,8 @@ def _riann_session():
     relative to the working directory when its own lookup fails, as it does in 0.2.0).  The session
     runs on one thread: a batch-1 recurrent network is a chain of small matrix-vector products, which
     a second thread does not make faster (the same wall time on two cores) while it spins for work,
-    taking ~40 % more CPU time from whatever else runs (a notebook beside it, a study's other
-    worker); the outputs are the same bits (``tests/test_neural_peers.py``).
+    taking CPU time from whatever else runs (a notebook beside it, a study's other worker); the
+    outputs are the same bits (``tests/test_neural_peers.py``).
     """
     try:  # imported here: onnxruntime is slow to import and only this peer needs it
         import onnxruntime
