@@ -135,7 +135,8 @@ def test_the_session_runs_on_one_thread_with_the_packages_bits(arm):
     assert package.get_session_options().intra_op_num_threads != 1  # (the default: every core)
     _, gyr, acc = arm
     features = np.concatenate((acc[0, 0], gyr[0, 0], np.full((acc.shape[-2], 1), 1.0 / FS)), axis=-1)
-    feeds = {"input": features[None].astype(np.float32), "h0": np.zeros((2, 1, 1, 200), np.float32)}
+    h0 = np.zeros(tuple(package.get_inputs()[1].shape), np.float32)  # the model's zero hidden state
+    feeds = {"input": features[None].astype(np.float32), "h0": h0}
     for got, expected in zip(ours.run(None, feeds), package.run(None, feeds), strict=True):
         np.testing.assert_array_equal(got, expected)
 
