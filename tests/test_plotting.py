@@ -341,3 +341,36 @@ def test_savefig_restores_the_figure_when_it_refuses(output_dir, monkeypatch):
         plotting.savefig(small, "refused")
     assert small.get_layout_engine() is engine and small.dpi == dpi
     plt.close("all")
+
+
+def test_a_notebook_shows_the_saved_png_instead_of_drawing_the_figure_again(output_dir):
+    """Under the inline backend the cell shows the saved file itself, once, at the width the backend's own
+    drawing would have had; a figure saved as PDF only, or one pyplot does not manage (shown as the
+    cell's value), is drawn by IPython as before, once."""
+    import base64
+
+    import nbclient
+    import nbformat
+
+    from wsnlib import paths
+
+    cells = ["import matplotlib.pyplot as plt\nfrom matplotlib.figure import Figure\nfrom wsnlib import plotting\n"
+             "plotting.use_style()",
+             'fig, ax = plt.subplots(figsize=(4, 3))\nax.plot([0, 1])\nplotting.savefig(fig, "shown");',
+             'fig, ax = plt.subplots()\nax.plot([1, 0])\nplotting.savefig(fig, "pdf_only", formats="pdf");',
+             'static = Figure()\nstatic.add_subplot().plot([0, 1])\nplotting.savefig(static, "unmanaged")\nstatic']
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(source) for source in cells])
+    nbclient.NotebookClient(nb, kernel_name=paths.KERNEL_NAME, timeout=120,
+                            resources={"metadata": {"path": str(output_dir)}}).execute()
+    images = [[output for output in cell.outputs if "image/png" in output.get("data", {})] for cell in nb.cells]
+    assert [len(shown) for shown in images] == [0, 1, 1, 1]
+    saved = (output_dir / "figures" / "shown.png").read_bytes()
+    (shown,) = images[1]
+    assert base64.b64decode(shown["data"]["image/png"]) == saved
+    saved_width_px = int.from_bytes(saved[16:20], "big")  # the PNG header's IHDR width
+    with matplotlib.rc_context():
+        plotting.use_style()  # the dpi the notebook's figures have, and that of their saved PNG
+        dpi_ratio = matplotlib.rcParams["figure.dpi"] / matplotlib.rcParams["savefig.dpi"]
+    assert abs(shown["metadata"]["image/png"]["width"] - saved_width_px * dpi_ratio) <= 1
+    unmanaged = (output_dir / "figures" / "unmanaged.png").read_bytes()
+    assert base64.b64decode(images[3][0]["data"]["image/png"]) != unmanaged  # drawn again, as the cell's value

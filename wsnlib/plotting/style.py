@@ -259,7 +259,8 @@ def savefig(fig: mpl.figure.Figure, name: str, formats: tuple[str, ...] = ("png"
     tight box (``savefig.bbox: tight``, padded by ``savefig.pad_inches``); every file is drawn
     from that layout, once.  Matplotlib's own ``savefig`` lays the figure out and measures its
     tight box anew for each file; the PNG is the same bytes.  ``fig`` keeps its layout engine and
-    dpi.
+    dpi.  In a notebook (the inline backend), the cell shows the saved PNG file rather than a
+    drawing of ``fig`` made again after the cell (:func:`_show_saved_png`).
 
     Returns
     -------
@@ -292,7 +293,32 @@ def savefig(fig: mpl.figure.Figure, name: str, formats: tuple[str, ...] = ("png"
             with atomic_path(path) as tmp:  # a killed batch leaves the old figure or none, never half
                 fig.savefig(tmp, format=fmt, metadata=metadata[fmt], bbox_inches=box)
             written.append(path)
+    if "png" in formats:
+        _show_saved_png(fig, paths.figures() / f"{name}.png", box.width if box is not None else fig.get_figwidth())
     return written
+
+
+def _show_saved_png(fig: mpl.figure.Figure, png: Path, width_in: float) -> None:
+    """In a notebook, show the saved PNG file instead of letting the inline backend draw ``fig`` again.
+
+    The inline backend draws every pyplot figure made in a cell once more after the cell (a PNG at
+    the figure's dpi, ``bbox_inches="tight"``): about as long as drawing the saved PNG.  Here the
+    saved file itself is shown, at the width that drawing would have had (``width_in`` × the
+    figure's dpi, in pixels), and pyplot forgets the figure, so the backend does not draw it.  So a
+    notebook shows exactly what ``figures/`` holds.  Elsewhere (another backend, no IPython, a
+    figure pyplot does not manage, such as :func:`wsnlib.interactive.explore`'s static figure,
+    which its cell shows as its value) nothing changes.
+    """
+    if fig.canvas.manager is None or "backend_inline" not in mpl.get_backend():
+        return
+    from IPython import get_ipython
+    from IPython.display import Image, display
+    from matplotlib import pyplot as plt
+
+    if get_ipython() is None:
+        return
+    display(Image(data=png.read_bytes(), format="png", width=round(width_in * fig.dpi)))
+    plt.close(fig)
 
 
 @contextlib.contextmanager
