@@ -302,7 +302,7 @@ def _show_saved_png(fig: mpl.figure.Figure, png: Path, width_in: float) -> None:
     """In a notebook, show the saved PNG file instead of letting the inline backend draw ``fig`` again.
 
     The inline backend draws every pyplot figure made in a cell once more after the cell (a PNG at
-    the figure's dpi, ``bbox_inches="tight"``): about as long as drawing the saved PNG.  Here the
+    the figure's dpi, ``bbox_inches="tight"``), a whole drawing more.  Here the
     saved file itself is shown, at the width that drawing would have had (``width_in`` × the
     figure's dpi, in pixels), and pyplot forgets the figure, so the backend does not draw it.  So a
     notebook shows exactly what ``figures/`` holds.  Elsewhere (another backend, no IPython, a
