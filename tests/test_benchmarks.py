@@ -2,6 +2,9 @@
 
 import importlib.util
 
+import numpy as np
+import pytest
+
 from wsnlib import paths
 
 
@@ -51,3 +54,26 @@ def test_stream_benchmark_outputs_every_sample_of_every_node_and_meets_deadlines
         assert setting["samples"] == live["samples"], name
     text = bench.report(results)
     assert text.count("PASS") + text.count("MISS") == len(results["targets"]) == 2
+
+
+def test_kalman_benchmark_times_every_call_in_rounds_and_gives_each_target_a_verdict():
+    bench = _load("bench_kalman")
+    results = bench.run(quick=True, repeats=3, log=lambda *args: None)
+    assert 0.05 < results["lost_share"] < 0.15                       # timed under GE 10 %, not lossless
+    assert all(s.shape == (3,) and (s > 0).all() for s in results["seconds"].values())
+    for name, r in results["ratios"].items():
+        assert 0 < r["low"] <= r["high"], name
+    lines = bench.report(results).splitlines()
+    assert sum(line.split()[0] in ("PASS", "MISS", "TIE") for line in lines if line) == len(results["targets"]) == 3
+
+
+def test_kalman_benchmark_ratio_is_of_the_best_rounds_and_its_verdict_reads_the_whole_interval():
+    bench = _load("bench_kalman")
+    # the anchor's best round (0.8 s) over ours (1.0 s), whatever round each came from
+    r = bench.best_ratio_interval([1.0, 2.0, 1.5], [0.9, 0.8, 1.2], np.random.default_rng(0))
+    assert r["ratio"] == 0.8 and r["low"] <= 0.8 <= r["high"]
+    same = bench.best_ratio_interval([2.0] * 4, [1.0] * 4, np.random.default_rng(0))
+    assert same == {"ratio": 0.5, "low": 0.5, "high": 0.5}
+    assert [bench.verdict(lo, hi, 0.8) for lo, hi in [(0.8, 0.9), (0.5, 0.79), (0.7, 0.85)]] == ["PASS", "MISS", "TIE"]
+    with pytest.raises(ValueError, match="low end"):
+        bench.verdict(0.9, 0.8, 0.8)
