@@ -9,20 +9,19 @@ Run from the repository root (BROAD trials in ``$WSNLIB_BROAD_DIR``; ``make`` se
 Data: one BROAD trial (``02_undisturbed_slow_rotation_B``, a development trial of the study),
 resampled to 50 Hz and tiled to about 100,000 samples (a mirrored copy after each copy, so the
 motion is continuous); loss: Gilbert–Elliott 10 %, mean burst 3 packets of 6 samples, one seeded
-draw.  Timed by CPU time (``time.process_time``: every thread of the process, not the time spent waiting for a core on a
-shared machine) in rounds after a warm-up call (compiled code loaded): a round runs each call
-once, in this order: ``vqf.VQF.updateBatch`` without loss (the anchor), ``vqf.offlineVQF`` without
-loss, :func:`wsnlib.orientation.kalman_orientation` without loss and under GE 10 %,
-:func:`wsnlib.orientation.smooth_orientation` under GE 10 %, and Madgwick's filter for scale.
-Printed: samples per second of each (its best round: load on the machine only ever adds time),
-and each ratio to its anchor from their best rounds, with a 90 % interval: the rounds are
-resampled with replacement (a bootstrap, seeded) and the ratio of the best rounds of each
-resample taken.  A target is PASS when the whole interval meets it, MISS when none of it does,
-and TIE when the interval straddles it: on this machine's noise the run cannot tell (more rounds,
-``--repeats``, or an idle machine may).  A load that lasts the whole run is not in the interval (seen
-on the development VM: VQF at 1.4 M samples/s in every round of one run, 1.9–2.0 M in the next two),
-so run it more than once.  Always
-exits 0: this is a measurement, not a test.
+draw.  Timed by CPU time (``time.process_time``: every thread of the process, not the time spent
+waiting for a core on a shared machine) in rounds after a warm-up call (compiled code loaded): a
+round runs each call once, in this order: ``vqf.VQF.updateBatch`` without loss (the anchor),
+``vqf.offlineVQF`` without loss, :func:`wsnlib.orientation.kalman_orientation` without loss and
+under GE 10 %, :func:`wsnlib.orientation.smooth_orientation` under GE 10 %, and Madgwick's filter
+for scale.  Printed: samples per second of each (its best round: load on the machine only ever adds
+time), and each ratio to its anchor from their best rounds, with a 90 % interval: the rounds are
+resampled with replacement (a bootstrap, seeded) and the ratio of the best rounds of each resample
+taken.  A target is PASS when the whole interval meets it, MISS when none of it does, and TIE when
+the interval straddles it: on this machine's noise the run cannot tell (more rounds, ``--repeats``,
+or an idle machine may).  A load that lasts the whole run is not in the interval (seen on the
+development VM: VQF at 1.4 M samples/s in every round of one run, 1.9–2.0 M in the next two), so run
+it more than once.  Always exits 0: this is a measurement, not a test.
 """
 
 from __future__ import annotations
