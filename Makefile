@@ -84,7 +84,7 @@ lab-test: $(STAMP) browser
 # The environment: exact pinned versions with hashes, then wsnlib itself (editable), then a
 # named Jupyter kernel inside the venv (--sys-prefix), which papermill finds by name.
 # uv (pinned, hashed in installer.lock) installs the lock: it downloads, unpacks and byte-compiles on
-# every core, ~30 s on CI's 2 cores where pip took ~2 min.
+# every core (on the 2-core development VM ~30 s, where pip took ~2 min).
 $(STAMP): environment.lock installer.lock pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --require-hashes --no-deps -r installer.lock
